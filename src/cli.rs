@@ -1,0 +1,89 @@
+//! One run of the `fluid` command, from its arguments to its output file: the checks of
+//! SPEC.md section 1 in order, the printed parameters, the simulation and the atomic write.
+
+use crate::error::FluidError;
+use crate::fld::{self, OutputFile};
+use crate::gformat::format_g;
+use crate::progargs::ProgArgs;
+use crate::simulation::Simulation;
+use std::ffi::OsString;
+use std::io::Write;
+
+/// Runs `fluid` with `args` (program name excluded), printing the parameters to `stdout`.
+/// A failure to print is ignored: the output file is the result that counts.
+pub fn run<I>(args: I, stdout: &mut impl Write) -> Result<(), FluidError>
+where
+    I: IntoIterator<Item = OsString>,
+{
+    let args = ProgArgs::parse(args)?;
+    let input = fld::map_input(&args.input)?;
+    let output = OutputFile::create(&args.output)?;
+    let input_name = args.input.display().to_string();
+    let scene = fld::parse(&input, &input_name)?;
+    drop(input);
+    let mut simulation = Simulation::new(scene.ppm.into(), scene.particles).map_err(|e| {
+        FluidError::InvalidInput {
+            file: input_name,
+            reason: format!("particles per meter {}: {e}", format_g(scene.ppm.into())),
+        }
+    })?;
+    let _ = stdout.write_all(parameter_report(&simulation).as_bytes());
+    let _ = stdout.flush();
+    simulation.run(args.steps);
+    output.commit(&fld::encode(scene.ppm, simulation.particles()))
+}
+
+/// The seven lines printed before simulating, numbers in C++ default format.
+pub fn parameter_report(simulation: &Simulation) -> String {
+    let params = simulation.params();
+    let grid = simulation.grid();
+    let [nx, ny, nz] = grid.dims;
+    let [sx, sy, sz] = grid.block_size.to_array().map(format_g);
+    format!(
+        "Number of particles: {}\n\
+         Particles per meter: {}\n\
+         Smoothing length: {}\n\
+         Particle mass: {}\n\
+         Grid size: {nx} x {ny} x {nz}\n\
+         Number of blocks: {}\n\
+         Block size: {sx} x {sy} x {sz}\n",
+        simulation.particles().len(),
+        format_g(params.ppm),
+        format_g(params.h),
+        format_g(params.mass),
+        grid.block_count(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::particles::Particles;
+
+    #[test]
+    fn report_for_the_small_input() {
+        let simulation = Simulation::new(204.0, Particles::zeroed(4800)).unwrap();
+        assert_eq!(
+            parameter_report(&simulation),
+            "Number of particles: 4800\nParticles per meter: 204\nSmoothing length: 0.00830882\n\
+             Particle mass: 0.00011779\nGrid size: 15 x 21 x 15\nNumber of blocks: 4725\n\
+             Block size: 0.00866667 x 0.00857143 x 0.00866667\n"
+        );
+    }
+
+    #[test]
+    fn report_for_the_large_input_uses_scientific_mass() {
+        let simulation = Simulation::new(292.0, Particles::zeroed(15138)).unwrap();
+        let report = parameter_report(&simulation);
+        assert!(report.contains("Particle mass: 4.01653e-05\n"), "{report}");
+        assert!(report.contains("Smoothing length: 0.00580479\n"));
+        assert!(report.contains("Grid size: 22 x 31 x 22\nNumber of blocks: 15004\n"));
+        assert!(report.ends_with("Block size: 0.00590909 x 0.00580645 x 0.00590909\n"));
+    }
+
+    #[test]
+    fn argument_errors_come_before_file_errors() {
+        let args = ["x", "/nonexistent/in.fld", "out.fld"].map(OsString::from);
+        assert_eq!(run(args, &mut Vec::new()), Err(FluidError::StepsNotNumeric));
+    }
+}

@@ -1,0 +1,346 @@
+//! The `.fld` file format (SPEC.md section 2): reading a memory-mapped input and validating
+//! it (sections 1 and 8), and writing an output atomically (temporary file + rename).
+
+use crate::error::FluidError;
+use crate::gformat::format_g;
+use crate::particles::Particles;
+use memmap2::Mmap;
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use tempfile::NamedTempFile;
+
+/// Header size: `ppm` f32 and `np` i32.
+pub const HEADER_BYTES: usize = 8;
+/// Size of one particle record: 9 f32.
+pub const RECORD_BYTES: usize = 36;
+/// The fields of a record, in file order.
+pub const FIELD_NAMES: [&str; 9] = ["px", "py", "pz", "hvx", "hvy", "hvz", "vx", "vy", "vz"];
+
+/// The contents of a valid `.fld` file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// Particles per metre, as stored.
+    pub ppm: f32,
+    /// The particles in file (id) order; density and acceleration are zero.
+    pub particles: Particles,
+}
+
+/// Opens and memory-maps an input file (rule 4: any failure is "cannot open").
+pub fn map_input(path: &Path) -> Result<Mmap, FluidError> {
+    let cannot_open = || FluidError::CannotOpenInput(path.display().to_string());
+    let file = File::open(path).map_err(|_| cannot_open())?;
+    if !file.metadata().map_err(|_| cannot_open())?.is_file() {
+        return Err(cannot_open());
+    }
+    // SAFETY: the map is read-only and dropped right after parsing; as with any memory map,
+    // another process truncating the file meanwhile is outside what we can guard against.
+    unsafe { Mmap::map(&file) }.map_err(|_| cannot_open())
+}
+
+fn read_f32(bytes: &[u8], at: usize) -> f32 {
+    f32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"))
+}
+
+/// Validates and decodes the bytes of an `.fld` file named `file` (for messages).
+/// Checks, in order: header length, np > 0 (rule 6), whole records == np (rule 7),
+/// no partial record, finite ppm > 0, finite fields (section 8).
+pub fn parse(bytes: &[u8], file: &str) -> Result<Scene, FluidError> {
+    let invalid = |reason: String| FluidError::InvalidInput {
+        file: file.to_string(),
+        reason,
+    };
+    if bytes.len() < HEADER_BYTES {
+        let size = bytes.len();
+        return Err(invalid(format!(
+            "it is {size} bytes long, shorter than the {HEADER_BYTES}-byte header"
+        )));
+    }
+    let ppm = read_f32(bytes, 0);
+    let np = i32::from_le_bytes(bytes[4..8].try_into().expect("4 bytes"));
+    if np <= 0 {
+        return Err(FluidError::InvalidParticleCount(np));
+    }
+    let body = &bytes[HEADER_BYTES..];
+    let found = body.len() / RECORD_BYTES;
+    if found != np as usize {
+        return Err(FluidError::ParticleCountMismatch {
+            header: np,
+            found: found as u64,
+        });
+    }
+    let extra = body.len() % RECORD_BYTES;
+    if extra != 0 {
+        return Err(invalid(format!(
+            "{extra} stray bytes after the last of its {np} {RECORD_BYTES}-byte particle records"
+        )));
+    }
+    if !(ppm.is_finite() && ppm > 0.0) {
+        return Err(invalid(format!(
+            "particles per meter is {}, not a finite number > 0",
+            format_g(ppm.into())
+        )));
+    }
+    let mut particles = Particles::zeroed(found);
+    for (id, record) in body.chunks_exact(RECORD_BYTES).enumerate() {
+        let values: [f32; 9] = std::array::from_fn(|field| read_f32(record, 4 * field));
+        if let Some(field) = values.iter().position(|value| !value.is_finite()) {
+            let (name, value) = (FIELD_NAMES[field], values[field]);
+            return Err(invalid(format!(
+                "particle {id} has a non-finite {name} ({value})"
+            )));
+        }
+        for axis in 0..3 {
+            particles.p[axis][id] = values[axis].into();
+            particles.hv[axis][id] = values[3 + axis].into();
+            particles.v[axis][id] = values[6 + axis].into();
+        }
+    }
+    Ok(Scene { ppm, particles })
+}
+
+/// Encodes particles (in any slot order) as an `.fld` file: each particle is written at
+/// the record of its id, every value narrowed to f32 (round to nearest).
+pub fn encode(ppm: f32, particles: &Particles) -> Vec<u8> {
+    let n = particles.len();
+    let mut bytes = vec![0u8; HEADER_BYTES + n * RECORD_BYTES];
+    bytes[0..4].copy_from_slice(&ppm.to_le_bytes());
+    bytes[4..8].copy_from_slice(&(n as i32).to_le_bytes());
+    for slot in 0..n {
+        let start = HEADER_BYTES + particles.id[slot] as usize * RECORD_BYTES;
+        let record = &mut bytes[start..start + RECORD_BYTES];
+        let fields = [&particles.p, &particles.hv, &particles.v]
+            .into_iter()
+            .flat_map(|arrays| arrays.iter().map(move |axis| axis[slot] as f32));
+        for (chunk, value) in record.chunks_exact_mut(4).zip(fields) {
+            chunk.copy_from_slice(&value.to_le_bytes());
+        }
+    }
+    bytes
+}
+
+/// An output file being prepared: a temporary file beside the target, renamed over it
+/// only when the whole content is written, so no half-written output is ever left.
+#[derive(Debug)]
+pub struct OutputFile {
+    target: PathBuf,
+    temp: NamedTempFile,
+}
+
+impl OutputFile {
+    /// Checks that `path` can be written (rule 5) by creating the temporary file beside it;
+    /// an existing target must be a writable regular file. Nothing is created at `path`.
+    pub fn create(path: &Path) -> Result<Self, FluidError> {
+        let cannot_open = || FluidError::CannotOpenOutput(path.display().to_string());
+        let name = path.file_name().ok_or_else(cannot_open)?;
+        if path.exists() {
+            let writable = path.is_file() && OpenOptions::new().write(true).open(path).is_ok();
+            if !writable {
+                return Err(cannot_open());
+            }
+        }
+        let dir = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir,
+            _ => Path::new("."),
+        };
+        let mut prefix = std::ffi::OsString::from(".");
+        prefix.push(name);
+        let temp = tempfile::Builder::new()
+            .prefix(&prefix)
+            .suffix(".tmp")
+            .tempfile_in(dir)
+            .map_err(|_| cannot_open())?;
+        Ok(Self {
+            target: path.to_path_buf(),
+            temp,
+        })
+    }
+
+    /// Writes `bytes` and renames the temporary file to the target (mode 0644 on Unix).
+    /// On failure the temporary file is removed and the target is untouched.
+    pub fn commit(mut self, bytes: &[u8]) -> Result<(), FluidError> {
+        let target = self.target.display().to_string();
+        let failed = |e: std::io::Error| FluidError::CannotWriteOutput {
+            file: target.clone(),
+            reason: e.to_string(),
+        };
+        self.temp.write_all(bytes).map_err(failed)?;
+        self.temp.flush().map_err(failed)?;
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let permissions = std::fs::Permissions::from_mode(0o644);
+            self.temp
+                .as_file()
+                .set_permissions(permissions)
+                .map_err(failed)?;
+        }
+        self.temp
+            .persist(&self.target)
+            .map_err(|e| failed(e.error))?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file_bytes(ppm: f32, np: i32, records: &[[f32; 9]]) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        bytes.extend(ppm.to_le_bytes());
+        bytes.extend(np.to_le_bytes());
+        for value in records.iter().flatten() {
+            bytes.extend(value.to_le_bytes());
+        }
+        bytes
+    }
+
+    fn record(seed: f32) -> [f32; 9] {
+        std::array::from_fn(|i| seed + i as f32 * 0.125)
+    }
+
+    fn reason(result: Result<Scene, FluidError>) -> String {
+        match result {
+            Err(FluidError::InvalidInput { reason, .. }) => reason,
+            other => panic!("expected InvalidInput, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn parses_header_and_records_in_file_order() {
+        let bytes = file_bytes(204.0, 2, &[record(1.0), record(-2.0)]);
+        let scene = parse(&bytes, "f").unwrap();
+        assert_eq!(scene.ppm, 204.0);
+        assert_eq!(scene.particles.id, vec![0, 1]);
+        assert_eq!(scene.particles.p[0], vec![1.0, -2.0]);
+        assert_eq!(scene.particles.hv[2], vec![1.625, -1.375]);
+        assert_eq!(scene.particles.v[2], vec![2.0, -1.0]);
+    }
+
+    #[test]
+    fn encode_round_trips_and_writes_in_id_order() {
+        let bytes = file_bytes(292.0, 3, &[record(1.0), record(2.0), record(3.0)]);
+        let scene = parse(&bytes, "f").unwrap();
+        assert_eq!(encode(scene.ppm, &scene.particles), bytes);
+        let mut shuffled = Particles::default();
+        shuffled.gather_kinematics(&scene.particles, &[2, 0, 1]);
+        assert_eq!(encode(scene.ppm, &shuffled), bytes);
+    }
+
+    #[test]
+    fn encode_rounds_to_nearest_f32() {
+        let mut particles = Particles::zeroed(1);
+        particles.p[0][0] = 0.1;
+        let bytes = encode(1.0, &particles);
+        assert_eq!(read_f32(&bytes, 8), 0.1f32);
+    }
+
+    #[test]
+    fn short_files_are_rejected() {
+        assert!(reason(parse(&[], "f")).contains("0 bytes long"));
+        assert!(
+            reason(parse(&[0; 6], "f")).contains("6 bytes long, shorter than the 8-byte header")
+        );
+    }
+
+    #[test]
+    fn non_positive_particle_counts_are_rule_6() {
+        assert_eq!(
+            parse(&file_bytes(204.0, 0, &[]), "f"),
+            Err(FluidError::InvalidParticleCount(0))
+        );
+        assert_eq!(
+            parse(&file_bytes(204.0, -3, &[record(0.0)]), "f"),
+            Err(FluidError::InvalidParticleCount(-3))
+        );
+    }
+
+    #[test]
+    fn record_count_mismatch_is_rule_7() {
+        let bytes = file_bytes(204.0, 3, &[record(0.0), record(1.0)]);
+        let expected = FluidError::ParticleCountMismatch {
+            header: 3,
+            found: 2,
+        };
+        assert_eq!(parse(&bytes, "f"), Err(expected.clone()));
+        // A partial record is not counted as found.
+        let mut partial = bytes.clone();
+        partial.extend([0u8; 35]);
+        assert_eq!(parse(&partial, "f"), Err(expected));
+    }
+
+    #[test]
+    fn stray_bytes_after_the_records_are_rejected() {
+        let mut bytes = file_bytes(204.0, 1, &[record(0.0)]);
+        bytes.extend([1, 2]);
+        assert!(
+            reason(parse(&bytes, "f")).contains("2 stray bytes after the last of its 1 36-byte")
+        );
+    }
+
+    #[test]
+    fn invalid_ppm_is_rejected() {
+        for ppm in [0.0, -204.0, f32::NAN, f32::INFINITY] {
+            let text = reason(parse(&file_bytes(ppm, 1, &[record(0.0)]), "f"));
+            assert!(text.starts_with("particles per meter is "), "{text}");
+        }
+    }
+
+    #[test]
+    fn non_finite_fields_name_the_particle_and_field() {
+        let mut records = [record(0.0), record(1.0)];
+        records[1][7] = f32::NAN;
+        let text = reason(parse(&file_bytes(204.0, 2, &records), "f"));
+        assert_eq!(text, "particle 1 has a non-finite vy (NaN)");
+        records[1][7] = 0.0;
+        records[0][3] = f32::NEG_INFINITY;
+        let text = reason(parse(&file_bytes(204.0, 2, &records), "f"));
+        assert_eq!(text, "particle 0 has a non-finite hvx (-inf)");
+    }
+
+    #[test]
+    fn output_appears_only_on_commit() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.fld");
+        let output = OutputFile::create(&target).unwrap();
+        assert!(!target.exists());
+        output.commit(b"data").unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"data");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn dropped_output_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        drop(OutputFile::create(&dir.path().join("out.fld")).unwrap());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn unwritable_outputs_are_rule_5() {
+        let dir = tempfile::tempdir().unwrap();
+        for path in [dir.path().to_path_buf(), dir.path().join("missing/out.fld")] {
+            let err = OutputFile::create(&path).unwrap_err();
+            assert_eq!(
+                err,
+                FluidError::CannotOpenOutput(path.display().to_string())
+            );
+        }
+    }
+
+    #[test]
+    fn directories_and_missing_files_cannot_be_read() {
+        let dir = tempfile::tempdir().unwrap();
+        for path in [dir.path().to_path_buf(), dir.path().join("missing.fld")] {
+            let err = map_input(&path).unwrap_err();
+            assert_eq!(err, FluidError::CannotOpenInput(path.display().to_string()));
+        }
+    }
+
+    #[test]
+    fn empty_files_map_to_no_bytes() {
+        let file = tempfile::NamedTempFile::new().unwrap();
+        assert!(map_input(file.path()).unwrap().is_empty());
+    }
+}

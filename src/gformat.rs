@@ -1,0 +1,91 @@
+//! C++ iostream default float formatting (printf `%g` with 6 significant digits).
+
+/// Significant digits of the C++ default stream precision.
+const PRECISION: i32 = 6;
+
+/// Formats `x` as C++ `std::cout << x` does by default (`%g`, precision 6): 6 significant
+/// digits, trailing zeros and point removed, scientific form when the decimal exponent
+/// is below -4 or at least 6.
+pub fn format_g(x: f64) -> String {
+    if x.is_nan() {
+        return if x.is_sign_negative() { "-nan" } else { "nan" }.to_string();
+    }
+    if x.is_infinite() {
+        return if x < 0.0 { "-inf" } else { "inf" }.to_string();
+    }
+    if x == 0.0 {
+        return if x.is_sign_negative() { "-0" } else { "0" }.to_string();
+    }
+    // The exponent after rounding to PRECISION significant digits decides the style.
+    let scientific = format!("{:.*e}", (PRECISION - 1) as usize, x);
+    let (mantissa, exponent) = scientific
+        .split_once('e')
+        .expect("Rust's {:e} output always has an exponent");
+    let exponent: i32 = exponent.parse().expect("exponent is an integer");
+    if (-4..PRECISION).contains(&exponent) {
+        let decimals = (PRECISION - 1 - exponent) as usize;
+        trim_fraction(&format!("{x:.decimals$}")).to_string()
+    } else {
+        let sign = if exponent < 0 { '-' } else { '+' };
+        format!("{}e{sign}{:02}", trim_fraction(mantissa), exponent.abs())
+    }
+}
+
+/// Removes trailing zeros of a fraction, then a trailing decimal point.
+fn trim_fraction(digits: &str) -> &str {
+    if digits.contains('.') {
+        digits.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        digits
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::format_g;
+
+    #[test]
+    fn integers_print_without_a_point() {
+        assert_eq!(format_g(204.0), "204");
+        assert_eq!(format_g(292.0), "292");
+        assert_eq!(format_g(-3.0), "-3");
+        assert_eq!(format_g(100000.0), "100000");
+    }
+
+    #[test]
+    fn six_significant_digits_with_trailing_zeros_removed() {
+        assert_eq!(format_g(1.695 / 204.0), "0.00830882");
+        assert_eq!(format_g(0.13 / 15.0), "0.00866667");
+        assert_eq!(format_g(0.5), "0.5");
+        assert_eq!(format_g(1.25), "1.25");
+        assert_eq!(format_g(123456.4), "123456");
+        assert_eq!(format_g(0.0001), "0.0001");
+        assert_eq!(format_g(2.0 / 3.0), "0.666667");
+    }
+
+    #[test]
+    fn small_and_large_magnitudes_use_scientific_form() {
+        assert_eq!(format_g(1000.0 / 292.0_f64.powi(3)), "4.01653e-05");
+        assert_eq!(format_g(0.00001), "1e-05");
+        assert_eq!(format_g(1234567.0), "1.23457e+06");
+        assert_eq!(format_g(1e100), "1e+100");
+        assert_eq!(format_g(-2.5e-7), "-2.5e-07");
+    }
+
+    #[test]
+    fn rounding_can_move_the_exponent() {
+        // 999999.5 rounds to 1.00000e+06 at 6 digits, so it prints in scientific form.
+        assert_eq!(format_g(999999.5), "1e+06");
+        assert_eq!(format_g(999999.4), "999999");
+        assert_eq!(format_g(0.000099999999), "0.0001");
+    }
+
+    #[test]
+    fn special_values() {
+        assert_eq!(format_g(0.0), "0");
+        assert_eq!(format_g(-0.0), "-0");
+        assert_eq!(format_g(f64::INFINITY), "inf");
+        assert_eq!(format_g(f64::NEG_INFINITY), "-inf");
+        assert_eq!(format_g(f64::NAN), "nan");
+    }
+}

@@ -1,0 +1,21 @@
+//! `fluid`: a sequential smoothed-particle-hydrodynamics simulator of the UC3M course model
+//! (derived from PARSEC fluidanimate). The model is specified in `SPEC.md` of the shared
+//! folder; this crate reproduces its reference outputs byte for byte.
+//!
+//! Modules, one per concept: [`progargs`] (arguments), [`fld`] (file format), [`params`]
+//! (constants and derived values), [`grid`] (blocks), [`block`] (cell ordering),
+//! [`particles`] (structure-of-arrays state), [`stages`] (physics), [`simulation`]
+//! (driver), [`cli`] (the `fluid` command), plus [`gformat`], [`trace`] and [`error`].
+
+pub mod block;
+pub mod cli;
+pub mod error;
+pub mod fld;
+pub mod gformat;
+pub mod grid;
+pub mod params;
+pub mod particles;
+pub mod progargs;
+pub mod simulation;
+pub mod stages;
+pub mod trace;

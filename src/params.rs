@@ -1,0 +1,103 @@
+//! The course model's constants (SPEC.md section 3, with the errata of section 7) and the
+//! values derived from an input's particles per metre.
+
+use glam::DVec3;
+use std::f64::consts::PI;
+
+/// Smoothing-length multiplier r: h = r / ppm.
+pub const RADIUS_MULTIPLIER: f64 = 1.695;
+/// Rest density of the fluid, rho_f (kg/m^3).
+pub const FLUID_DENSITY: f64 = 1e3;
+/// Pressure stiffness p_s.
+pub const PRESSURE_STIFFNESS: f64 = 3.0;
+/// Wall collision stiffness s_c.
+pub const COLLISION_STIFFNESS: f64 = 3e4;
+/// Wall damping d_v.
+pub const DAMPING: f64 = 128.0;
+/// Viscosity mu.
+pub const VISCOSITY: f64 = 0.4;
+/// Particle size d_p used by the wall collisions.
+pub const PARTICLE_SIZE: f64 = 2e-4;
+/// Time step dt (s).
+pub const TIME_STEP: f64 = 1e-3;
+/// Gravity (erratum 2: pointing down).
+pub const GRAVITY: DVec3 = DVec3::new(0.0, -9.8, 0.0);
+/// Lower corner of the box (erratum 1).
+pub const BOX_MIN: DVec3 = DVec3::new(-0.065, -0.08, -0.065);
+/// Upper corner of the box (erratum 1).
+pub const BOX_MAX: DVec3 = DVec3::new(0.065, 0.1, 0.065);
+/// Smallest squared distance used in the acceleration transfer (avoids division by zero).
+pub const MIN_DISTANCE_SQUARED: f64 = 1e-12;
+
+/// Values derived from the particles per metre, computed once per run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Params {
+    /// Particles per metre, as read (widened from f32).
+    pub ppm: f64,
+    /// Smoothing length h.
+    pub h: f64,
+    /// h^2, the squared cut-off distance.
+    pub h2: f64,
+    /// h^6, added to each raw density sum (the particle's own contribution).
+    pub h6: f64,
+    /// Particle mass m = rho_f / ppm^3 (erratum 3).
+    pub mass: f64,
+    /// Density transform factor 315 / (64 pi h^9) * m.
+    pub density_factor: f64,
+    /// Pressure factor 15 / (pi h^6) * (3 m p_s / 2) (erratum 4).
+    pub pressure_factor: f64,
+    /// Viscosity factor 45 / (pi h^6) * mu * m.
+    pub viscosity_factor: f64,
+}
+
+impl Params {
+    /// Derives every parameter from the particles per metre (which must be finite and > 0).
+    pub fn new(ppm: f64) -> Self {
+        let h = RADIUS_MULTIPLIER / ppm;
+        let h2 = h * h;
+        let h6 = h2 * h2 * h2;
+        let mass = FLUID_DENSITY / ppm.powi(3);
+        Self {
+            ppm,
+            h,
+            h2,
+            h6,
+            mass,
+            density_factor: 315.0 / (64.0 * PI * h.powi(9)) * mass,
+            pressure_factor: 15.0 / (PI * h6) * (3.0 * mass * PRESSURE_STIFFNESS / 2.0),
+            viscosity_factor: 45.0 / (PI * h6) * VISCOSITY * mass,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() <= 1e-12 * a.abs().max(b.abs())
+    }
+
+    #[test]
+    fn small_input_parameters() {
+        let p = Params::new(204.0);
+        assert!(close(p.h, 0.008308823529411764));
+        assert!(close(p.mass, 1000.0 / 8_489_664.0));
+        assert!(close(p.h6, p.h.powi(6)));
+    }
+
+    #[test]
+    fn factors_follow_the_corrected_formulas() {
+        let p = Params::new(292.0);
+        let h9 = p.h.powi(9);
+        assert!(close(p.density_factor, 315.0 * p.mass / (64.0 * PI * h9)));
+        assert!(close(
+            p.pressure_factor,
+            45.0 * p.mass * PRESSURE_STIFFNESS / (2.0 * PI * p.h6)
+        ));
+        assert!(close(
+            p.viscosity_factor,
+            45.0 * VISCOSITY * p.mass / (PI * p.h6)
+        ));
+    }
+}
