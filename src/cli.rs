@@ -24,7 +24,10 @@ where
     let mut simulation = Simulation::new(scene.ppm.into(), scene.particles).map_err(|e| {
         FluidError::InvalidInput {
             file: input_name,
-            reason: format!("particles per meter {}: {e}", format_g(scene.ppm.into())),
+            reason: format!(
+                "particles per meter {} gives {e}",
+                format_g(scene.ppm.into())
+            ),
         }
     })?;
     let _ = stdout.write_all(parameter_report(&simulation).as_bytes());

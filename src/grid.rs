@@ -22,7 +22,7 @@ impl fmt::Display for GridSizeError {
         let [x, y, z] = self.blocks_per_axis;
         write!(
             f,
-            "it gives a grid of {x} x {y} x {z} blocks; it needs at least 1 block per axis \
+            "a grid of {x} x {y} x {z} blocks, but a grid needs at least 1 block per axis \
              and at most {MAX_BLOCKS} blocks"
         )
     }
