@@ -119,67 +119,89 @@ pub fn encode(ppm: f32, particles: &Particles) -> Vec<u8> {
     bytes
 }
 
-/// An output file being prepared: a temporary file beside the target, renamed over it
-/// only when the whole content is written, so no half-written output is ever left.
+/// An output file being prepared. A regular file (new or existing) is written to a
+/// temporary file beside it and renamed over it only when complete, so no half-written
+/// output is ever left; an existing special file (`/dev/null`, a pipe) is written directly.
 #[derive(Debug)]
 pub struct OutputFile {
     target: PathBuf,
-    temp: NamedTempFile,
+    sink: Sink,
+}
+
+#[derive(Debug)]
+enum Sink {
+    /// Temporary file beside the regular-file target, renamed over it on commit.
+    Atomic(NamedTempFile),
+    /// An existing non-regular file, opened for writing.
+    Direct(File),
 }
 
 impl OutputFile {
-    /// Checks that `path` can be written (rule 5) by creating the temporary file beside it;
-    /// an existing target must be a writable regular file. Nothing is created at `path`.
+    /// Checks that `path` can be written (rule 5) before anything is simulated: creates
+    /// the temporary file beside it (or opens a special file). Nothing appears at `path`
+    /// until [`OutputFile::commit`]. A symbolic link is written through, not replaced.
     pub fn create(path: &Path) -> Result<Self, FluidError> {
         let cannot_open = || FluidError::CannotOpenOutput(path.display().to_string());
-        let name = path.file_name().ok_or_else(cannot_open)?;
-        if path.exists() {
-            let writable = path.is_file() && OpenOptions::new().write(true).open(path).is_ok();
-            if !writable {
-                return Err(cannot_open());
-            }
-        }
-        let dir = match path.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir,
-            _ => Path::new("."),
+        let target = match std::fs::canonicalize(path) {
+            Ok(existing) => existing,
+            Err(_) => path.to_path_buf(),
         };
-        let mut prefix = std::ffi::OsString::from(".");
-        prefix.push(name);
-        let temp = tempfile::Builder::new()
-            .prefix(&prefix)
-            .suffix(".tmp")
-            .tempfile_in(dir)
-            .map_err(|_| cannot_open())?;
-        Ok(Self {
-            target: path.to_path_buf(),
-            temp,
-        })
+        let sink = match std::fs::metadata(&target) {
+            Ok(meta) if meta.is_dir() => return Err(cannot_open()),
+            Ok(meta) if !meta.is_file() => {
+                let file = OpenOptions::new().write(true).open(&target);
+                Sink::Direct(file.map_err(|_| cannot_open())?)
+            }
+            existing => {
+                if existing.is_ok() && OpenOptions::new().write(true).open(&target).is_err() {
+                    return Err(cannot_open());
+                }
+                Sink::Atomic(temporary_beside(&target).ok_or_else(cannot_open)?)
+            }
+        };
+        Ok(Self { target, sink })
     }
 
-    /// Writes `bytes` and renames the temporary file to the target (mode 0644 on Unix).
-    /// On failure the temporary file is removed and the target is untouched.
-    pub fn commit(mut self, bytes: &[u8]) -> Result<(), FluidError> {
-        let target = self.target.display().to_string();
+    /// Writes `bytes` and, for a regular file, renames the temporary file over the target
+    /// (mode 0644 on Unix). On failure the temporary file is removed, the target untouched.
+    pub fn commit(self, bytes: &[u8]) -> Result<(), FluidError> {
         let failed = |e: std::io::Error| FluidError::CannotWriteOutput {
-            file: target.clone(),
+            file: self.target.display().to_string(),
             reason: e.to_string(),
         };
-        self.temp.write_all(bytes).map_err(failed)?;
-        self.temp.flush().map_err(failed)?;
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            let permissions = std::fs::Permissions::from_mode(0o644);
-            self.temp
-                .as_file()
-                .set_permissions(permissions)
-                .map_err(failed)?;
+        match self.sink {
+            Sink::Direct(mut file) => file.write_all(bytes).map_err(failed),
+            Sink::Atomic(mut temp) => {
+                temp.write_all(bytes).map_err(failed)?;
+                #[cfg(unix)]
+                {
+                    use std::os::unix::fs::PermissionsExt;
+                    let permissions = std::fs::Permissions::from_mode(0o644);
+                    temp.as_file()
+                        .set_permissions(permissions)
+                        .map_err(failed)?;
+                }
+                temp.persist(&self.target).map_err(|e| failed(e.error))?;
+                Ok(())
+            }
         }
-        self.temp
-            .persist(&self.target)
-            .map_err(|e| failed(e.error))?;
-        Ok(())
     }
+}
+
+/// A new hidden temporary file in the target's folder (`.<name>.<random>.tmp`).
+fn temporary_beside(target: &Path) -> Option<NamedTempFile> {
+    let name = target.file_name()?;
+    let dir = match target.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    let mut prefix = std::ffi::OsString::from(".");
+    prefix.push(name);
+    tempfile::Builder::new()
+        .prefix(&prefix)
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .ok()
 }
 
 #[cfg(test)]
@@ -327,6 +349,26 @@ mod tests {
                 FluidError::CannotOpenOutput(path.display().to_string())
             );
         }
+    }
+
+    #[test]
+    fn special_files_are_written_directly() {
+        let output = OutputFile::create(Path::new("/dev/null")).unwrap();
+        assert!(matches!(output.sink, Sink::Direct(_)));
+        output.commit(b"data").unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symbolic_link_is_written_through() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.fld");
+        std::fs::write(&real, b"old").unwrap();
+        let link = dir.path().join("link.fld");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        OutputFile::create(&link).unwrap().commit(b"new").unwrap();
+        assert!(link.symlink_metadata().unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read(&real).unwrap(), b"new");
     }
 
     #[test]

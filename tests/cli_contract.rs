@@ -333,3 +333,18 @@ fn a_failed_run_leaves_an_existing_output_untouched() {
     assert_eq!(std::fs::read(&out).unwrap(), b"keep me");
     assert_eq!(scratch.listing(), vec!["bad.fld", "out.fld"]);
 }
+
+#[cfg(unix)]
+#[test]
+fn dev_null_is_a_valid_output_and_stays_a_device() {
+    use std::os::unix::fs::FileTypeExt;
+    let output = run_fluid(&[
+        "2".as_ref(),
+        input("small").as_os_str(),
+        "/dev/null".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert!(stdout(&output).starts_with("Number of particles: 4800\n"));
+    let kind = std::fs::metadata("/dev/null").unwrap().file_type();
+    assert!(kind.is_char_device(), "/dev/null was replaced");
+}
