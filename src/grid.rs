@@ -99,11 +99,6 @@ impl Grid {
         self.index(self.coords_of(p))
     }
 
-    /// Whether a block touches a wall (coordinate 0 or n_d - 1 on some axis).
-    pub fn is_boundary(&self, coords: BlockCoords) -> bool {
-        (0..3).any(|d| coords[d] == 0 || coords[d] == self.dims[d] - 1)
-    }
-
     /// The neighbours (26-neighbourhood clipped at the grid edges) whose linear index is
     /// larger than `index`: visiting each block with these visits each adjacent pair once.
     pub fn forward_neighbours(&self, index: usize) -> ForwardNeighbours {
@@ -194,15 +189,6 @@ mod tests {
         for index in [0, 1, 17, 4724] {
             assert_eq!(g.index(g.coords(index)), index);
         }
-    }
-
-    #[test]
-    fn boundary_blocks_touch_a_wall() {
-        let g = small_grid();
-        assert!(g.is_boundary([0, 5, 5]));
-        assert!(g.is_boundary([5, 20, 5]));
-        assert!(!g.is_boundary([1, 1, 1]));
-        assert!(!g.is_boundary([13, 19, 13]));
     }
 
     #[test]

@@ -27,7 +27,8 @@ fn zeros(n: usize) -> AxisArrays {
     std::array::from_fn(|_| vec![0.0; n])
 }
 
-fn vector(arrays: &AxisArrays, slot: usize) -> DVec3 {
+/// The vector of one slot of a field stored as per-axis arrays.
+pub fn vector_at(arrays: &AxisArrays, slot: usize) -> DVec3 {
     DVec3::new(arrays[0][slot], arrays[1][slot], arrays[2][slot])
 }
 
@@ -56,22 +57,22 @@ impl Particles {
 
     /// Position of the particle in `slot`.
     pub fn position(&self, slot: usize) -> DVec3 {
-        vector(&self.p, slot)
+        vector_at(&self.p, slot)
     }
 
     /// Half-step velocity of the particle in `slot`.
     pub fn half_velocity(&self, slot: usize) -> DVec3 {
-        vector(&self.hv, slot)
+        vector_at(&self.hv, slot)
     }
 
     /// Velocity of the particle in `slot`.
     pub fn velocity(&self, slot: usize) -> DVec3 {
-        vector(&self.v, slot)
+        vector_at(&self.v, slot)
     }
 
     /// Acceleration of the particle in `slot`.
     pub fn acceleration(&self, slot: usize) -> DVec3 {
-        vector(&self.a, slot)
+        vector_at(&self.a, slot)
     }
 
     /// Makes `self` the particles of `source` in the order `order`: slot k of `self`

@@ -8,8 +8,7 @@ use crate::params::{
     Params, BOX_MAX, BOX_MIN, COLLISION_STIFFNESS, DAMPING, FLUID_DENSITY, GRAVITY,
     MIN_DISTANCE_SQUARED, PARTICLE_SIZE, TIME_STEP,
 };
-use crate::particles::{AxisArrays, Particles};
-use glam::DVec3;
+use crate::particles::{vector_at, Particles};
 use std::ops::Range;
 
 /// The eight stages of a time step, in execution order.
@@ -59,10 +58,6 @@ impl Stage {
             Stage::InteractWithBoundary => "boundint",
         }
     }
-}
-
-fn vector(arrays: &AxisArrays, slot: usize) -> DVec3 {
-    DVec3::new(arrays[0][slot], arrays[1][slot], arrays[2][slot])
 }
 
 /// Calls `visit(i, j)` once for every pair of slots in the same or adjacent blocks:
@@ -133,7 +128,7 @@ pub fn increment_densities(
     let Particles { p, rho, .. } = particles;
     let h2 = params.h2;
     for_each_pair(grid, blocks, |i, j| {
-        let r2 = (vector(p, i) - vector(p, j)).length_squared();
+        let r2 = (vector_at(p, i) - vector_at(p, j)).length_squared();
         if r2 < h2 {
             let q = h2 - r2;
             let t = q * q * q;
@@ -167,13 +162,13 @@ pub fn transfer_accelerations(
         ..
     } = *params;
     for_each_pair(grid, blocks, |i, j| {
-        let offset = vector(p, i) - vector(p, j);
+        let offset = vector_at(p, i) - vector_at(p, j);
         let r2 = offset.length_squared();
         if r2 < h2 {
             let dist = r2.max(MIN_DISTANCE_SQUARED).sqrt();
             let q = h - dist;
             let pressure = pressure_factor * q * q / dist * (rho[i] + rho[j] - 2.0 * FLUID_DENSITY);
-            let viscosity = (vector(v, j) - vector(v, i)) * viscosity_factor;
+            let viscosity = (vector_at(v, j) - vector_at(v, i)) * viscosity_factor;
             let da = (offset * pressure + viscosity) / (rho[i] * rho[j]);
             for (axis, da) in a.iter_mut().zip(da.to_array()) {
                 axis[i] += da;
@@ -255,6 +250,7 @@ pub fn interact_with_boundary(grid: &Grid, blocks: &BlockOrder, particles: &mut 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
 
     /// Two particles in one block of a 3x3x3 grid, `offset` apart along x.
     fn pair(offset: f64) -> (Params, Grid, BlockOrder, Particles) {
