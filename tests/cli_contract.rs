@@ -14,6 +14,16 @@ fn assert_error<S: AsRef<std::ffi::OsStr>>(args: &[S], code: i32, message: &str)
     assert_eq!(stdout(&output), "", "nothing may be printed on failure");
 }
 
+/// Asserts that `fluid steps input out` fails with rule 5 for `out`.
+fn assert_cannot_write(steps: &str, input: &Path, out: &Path) {
+    let message = format!("Error: Cannot open {} for writing", out.display());
+    assert_error(
+        &[steps.as_ref(), input.as_os_str(), out.as_os_str()],
+        252,
+        &message,
+    );
+}
+
 /// A scratch folder with an input file holding `bytes`.
 struct Scratch {
     dir: tempfile::TempDir,
@@ -153,29 +163,8 @@ fn unreadable_inputs_exit_253_with_the_name_as_given() {
 #[test]
 fn unwritable_outputs_exit_252() {
     let scratch = Scratch::new();
-    let into_missing_dir = scratch.path("missing/out.fld");
-    assert_error(
-        &[
-            "1".as_ref(),
-            input("small").as_os_str(),
-            into_missing_dir.as_os_str(),
-        ],
-        252,
-        &format!(
-            "Error: Cannot open {} for writing",
-            into_missing_dir.display()
-        ),
-    );
-    let a_directory = scratch.dir.path();
-    assert_error(
-        &[
-            "1".as_ref(),
-            input("small").as_os_str(),
-            a_directory.as_os_str(),
-        ],
-        252,
-        &format!("Error: Cannot open {} for writing", a_directory.display()),
-    );
+    assert_cannot_write("1", &input("small"), &scratch.path("missing/out.fld"));
+    assert_cannot_write("1", &input("small"), scratch.dir.path());
 }
 
 #[test]
@@ -183,15 +172,7 @@ fn an_unwritable_output_is_reported_before_any_simulation() {
     // With i64::MAX steps the run could only end this fast if nothing was simulated.
     let scratch = Scratch::new();
     let out = scratch.path("missing/out.fld");
-    assert_error(
-        &[
-            "9223372036854775807".as_ref(),
-            input("large").as_os_str(),
-            out.as_os_str(),
-        ],
-        252,
-        &format!("Error: Cannot open {} for writing", out.display()),
-    );
+    assert_cannot_write("9223372036854775807", &input("large"), &out);
 }
 
 #[test]
@@ -210,14 +191,7 @@ fn checks_run_in_the_order_of_the_spec_table() {
         "Error: Cannot open absent.fld for reading",
     );
     // Unwritable output before the contents of the input.
-    assert_error(
-        &["1".as_ref(), empty.as_os_str(), missing_dir_out.as_os_str()],
-        252,
-        &format!(
-            "Error: Cannot open {} for writing",
-            missing_dir_out.display()
-        ),
-    );
+    assert_cannot_write("1", &empty, &missing_dir_out);
 }
 
 #[test]
