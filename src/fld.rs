@@ -124,6 +124,9 @@ pub fn encode(ppm: f32, particles: &Particles) -> Vec<u8> {
 /// output is ever left; an existing special file (`/dev/null`, a pipe) is written directly.
 #[derive(Debug)]
 pub struct OutputFile {
+    /// The output name as given, for messages.
+    name: String,
+    /// The file written: the given path with symbolic links resolved.
     target: PathBuf,
     sink: Sink,
 }
@@ -159,14 +162,18 @@ impl OutputFile {
                 Sink::Atomic(temporary_beside(&target).ok_or_else(cannot_open)?)
             }
         };
-        Ok(Self { target, sink })
+        Ok(Self {
+            name: path.display().to_string(),
+            target,
+            sink,
+        })
     }
 
     /// Writes `bytes` and, for a regular file, renames the temporary file over the target
     /// (mode 0644 on Unix). On failure the temporary file is removed, the target untouched.
     pub fn commit(self, bytes: &[u8]) -> Result<(), FluidError> {
         let failed = |e: std::io::Error| FluidError::CannotWriteOutput {
-            file: self.target.display().to_string(),
+            file: self.name.clone(),
             reason: e.to_string(),
         };
         match self.sink {
@@ -349,6 +356,27 @@ mod tests {
                 FluidError::CannotOpenOutput(path.display().to_string())
             );
         }
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn write_errors_name_the_output_as_given() {
+        let err = OutputFile::create(Path::new("/dev/full"))
+            .unwrap()
+            .commit(b"data")
+            .unwrap_err();
+        assert!(
+            matches!(&err, FluidError::CannotWriteOutput { file, .. } if file == "/dev/full"),
+            "{err:?}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.fld");
+        std::fs::write(&real, b"old").unwrap();
+        let link = dir.path().join("link.fld");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        let output = OutputFile::create(&link).unwrap();
+        assert_eq!(output.name, link.display().to_string());
+        assert_eq!(output.target, std::fs::canonicalize(&real).unwrap());
     }
 
     #[test]
