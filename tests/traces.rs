@@ -50,25 +50,20 @@ fn read_trace(dir: &Path, stage: Stage, step: u32) -> Trace {
     Trace::read(&dir.join(format!("{}-base-{step}.trz", stage.trace_name()))).expect("trace")
 }
 
-fn params_of(size: &str) -> Params {
-    let bytes = std::fs::read(common::input(size)).unwrap();
-    Params::new(fld::parse(&bytes, size).unwrap().ppm.into())
-}
-
+/// The input of `size` in file order, not yet placed: `Simulation::new` would already
+/// run the placement, which here stage 1 must do.
 fn input_simulation(size: &str) -> Simulation {
     let bytes = std::fs::read(common::input(size)).unwrap();
     let scene = fld::parse(&bytes, size).unwrap();
-    // Not `Simulation::new`, which already places the particles: stage 1 must do it here.
     let params = Params::new(scene.ppm.into());
     let grid = Grid::new(params.h).unwrap();
     Simulation::from_cell_order(params, grid, scene.particles, Default::default())
 }
 
-fn trace_simulation(size: &str, trace: Trace) -> Simulation {
-    let params = params_of(size);
-    let grid = Grid::new(params.h).unwrap();
+/// The state of `trace`, with the parameters and grid of the same input.
+fn trace_simulation(input: &Simulation, trace: Trace) -> Simulation {
     let blocks = trace.block_order();
-    Simulation::from_cell_order(params, grid, trace.particles, blocks)
+    Simulation::from_cell_order(*input.params(), *input.grid(), trace.particles, blocks)
 }
 
 /// The fields a stage defines: after repositioning, density and acceleration are not yet
@@ -126,15 +121,16 @@ fn assert_matches(ours: &Simulation, reference: &Trace, stage: Stage, what: &str
 
 fn check_single_stages(size: &str) {
     let Some(dir) = trace_dir(size) else { return };
+    let input = input_simulation(size);
     for step in traced_steps(size) {
         for (k, &stage) in Stage::ALL.iter().enumerate() {
             let mut simulation = match (k, step) {
-                (0, 1) => input_simulation(size),
+                (0, 1) => input.clone(),
                 (0, _) => trace_simulation(
-                    size,
+                    &input,
                     read_trace(&dir, Stage::InteractWithBoundary, step - 1),
                 ),
-                _ => trace_simulation(size, read_trace(&dir, Stage::ALL[k - 1], step)),
+                _ => trace_simulation(&input, read_trace(&dir, Stage::ALL[k - 1], step)),
             };
             simulation.run_stage(stage);
             let expected = read_trace(&dir, stage, step);
