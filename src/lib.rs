@@ -3,16 +3,21 @@
 //! folder; this crate reproduces its reference outputs byte for byte.
 //!
 //! Modules, one per concept: [`progargs`] (arguments), [`fld`] (file format), [`params`]
-//! (constants and derived values), [`grid`] (blocks), [`block`] (cell ordering),
-//! [`particles`] (structure-of-arrays state), [`stages`] (physics), [`simulation`]
-//! (driver), [`cli`] (the `fluid` command), plus [`gformat`], [`trace`] and [`error`].
+//! (constants and derived values), [`method`] (model and kernel), [`grid`] (blocks),
+//! [`cells`] (cell ordering), [`neighbours`] (pair search), [`particles`]
+//! (structure-of-arrays state), [`kernel`] (pair stages), [`stages`] (the other stages),
+//! [`simulation`] (driver), [`cli`] (the `fluid` command), plus [`gformat`], [`trace`]
+//! and [`error`].
 
-pub mod block;
+pub mod cells;
 pub mod cli;
 pub mod error;
 pub mod fld;
 pub mod gformat;
 pub mod grid;
+pub mod kernel;
+pub mod method;
+pub mod neighbours;
 pub mod params;
 pub mod particles;
 pub mod progargs;

@@ -1,12 +1,18 @@
 //! Particle state as a structure of arrays: one contiguous `Vec` per field and axis, so the
 //! physics loops stream through memory and can be vectorised.
 
+use crate::params::GRAVITY;
 use glam::DVec3;
 
 /// Three arrays, one per axis, of one vector field.
 pub type AxisArrays = [Vec<f64>; 3];
 
-/// The state of every particle, stored slot by slot (in block order during a simulation).
+/// Extra elements after the last particle in every `f64` array of a simulation's
+/// particles, so that four-lane loads starting at any particle stay in bounds.
+pub const PADDING: usize = 3;
+
+/// The state of every particle, stored slot by slot (in cell order during a simulation,
+/// with [`PADDING`] zeros after the last particle).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Particles {
     /// Particle id (its record index in the input file) of each slot.
@@ -76,10 +82,10 @@ impl Particles {
     }
 
     /// Makes `self` the particles of `source` in the order `order`: slot k of `self`
-    /// receives slot `order[k]` of `source`. Density and acceleration are not carried
-    /// over (the next stage resets them); `self`'s buffers are reused.
+    /// receives slot `order[k]` of `source`. Density and acceleration start as stage 2
+    /// sets them (0 and gravity), so the reordering also does that stage; every array is
+    /// padded. `self`'s buffers are reused.
     pub fn gather_kinematics(&mut self, source: &Particles, order: &[u32]) {
-        let n = order.len();
         self.id.clear();
         self.id.extend(order.iter().map(|&s| source.id[s as usize]));
         let fields = [
@@ -91,11 +97,51 @@ impl Particles {
             for (t, s) in target.iter_mut().zip(source) {
                 t.clear();
                 t.extend(order.iter().map(|&k| s[k as usize]));
+                t.resize(order.len() + PADDING, 0.0);
             }
         }
+        self.reset_densities_and_accelerations();
+    }
+
+    /// The particles in the order `order` (slot k holds slot `order[k]` of `self`), every
+    /// field kept and every array padded.
+    pub fn permuted(&self, order: &[u32]) -> Particles {
+        let mut out = Particles::default();
+        out.gather_kinematics(self, order);
+        for (target, source) in out
+            .a
+            .iter_mut()
+            .chain([&mut out.rho])
+            .zip(self.a.iter().chain([&self.rho]))
+        {
+            for (t, &k) in target.iter_mut().zip(order) {
+                *t = source[k as usize];
+            }
+        }
+        out
+    }
+
+    /// Stage 2: density 0 and acceleration = gravity for every particle (and padding).
+    pub fn reset_densities_and_accelerations(&mut self) {
+        let n = self.len() + PADDING;
+        self.rho.clear();
         self.rho.resize(n, 0.0);
-        for axis in &mut self.a {
-            axis.resize(n, 0.0);
+        for (axis, g) in self.a.iter_mut().zip(GRAVITY.to_array()) {
+            axis.clear();
+            axis.resize(n, g);
+        }
+    }
+
+    /// Gives every `f64` array exactly [`PADDING`] elements after the last particle (zeros
+    /// where added).
+    pub fn pad(&mut self) {
+        let n = self.len() + PADDING;
+        let arrays = [&mut self.p, &mut self.hv, &mut self.v, &mut self.a]
+            .into_iter()
+            .flatten()
+            .chain([&mut self.rho]);
+        for array in arrays {
+            array.resize(n, 0.0);
         }
     }
 }
@@ -115,11 +161,33 @@ mod tests {
         let mut target = Particles::default();
         target.gather_kinematics(&source, &[2, 0, 1]);
         assert_eq!(target.id, vec![2, 0, 1]);
-        assert_eq!(target.p[0], vec![2.0, 0.0, 1.0]);
-        assert_eq!(target.hv[1], vec![12.0, 10.0, 11.0]);
-        assert_eq!(target.v[2], vec![22.0, 20.0, 21.0]);
+        assert_eq!(target.p[0][..3], [2.0, 0.0, 1.0]);
+        assert_eq!(target.hv[1][..3], [12.0, 10.0, 11.0]);
+        assert_eq!(target.v[2][..3], [22.0, 20.0, 21.0]);
         assert_eq!(target.position(0), DVec3::new(2.0, 0.0, 0.0));
-        assert_eq!(target.rho.len(), 3);
-        assert_eq!(target.a[2].len(), 3);
+        assert_eq!(target.rho, [0.0; 3 + PADDING]);
+        assert_eq!(target.acceleration(2), GRAVITY);
+        assert_eq!(target.p[0].len(), 3 + PADDING);
+    }
+
+    #[test]
+    fn pad_adds_zeros_after_the_last_particle_only_once() {
+        let mut particles = Particles::zeroed(2);
+        particles.v[1][1] = 4.0;
+        particles.pad();
+        particles.pad();
+        assert_eq!(particles.v[1], [0.0, 4.0, 0.0, 0.0, 0.0]);
+        assert_eq!(particles.rho.len(), 2 + PADDING);
+        assert_eq!(particles.len(), 2);
+    }
+
+    #[test]
+    fn reset_sets_zero_density_and_gravity() {
+        let mut particles = Particles::zeroed(2);
+        particles.rho[1] = 5.0;
+        particles.a[1][0] = 3.0;
+        particles.reset_densities_and_accelerations();
+        assert!(particles.rho.iter().all(|&rho| rho == 0.0));
+        assert_eq!(particles.acceleration(1), GRAVITY);
     }
 }

@@ -1,52 +1,83 @@
-//! The simulation driver: owns the particles in cell order, their block order and the
-//! buffers reused from step to step, and runs stages and time steps.
+//! The simulation driver: owns the particles in cell order, the cell order and neighbour
+//! tiles of the current step, and the buffers reused from step to step (no step
+//! allocates once the buffers have grown), and runs stages and time steps.
 
-use crate::block::BlockOrder;
+use crate::cells::CellOrder;
 use crate::grid::{Grid, GridSizeError};
+use crate::kernel;
+use crate::method::Method;
+use crate::neighbours::{self, Tile};
 use crate::params::Params;
 use crate::particles::Particles;
 use crate::stages::{self, Stage};
 
-/// A running simulation of the course model.
+/// A running simulation.
 #[derive(Debug, Clone)]
 pub struct Simulation {
     params: Params,
     grid: Grid,
-    /// The particles, stored block after block (cell order).
+    method: Method,
+    /// The particles, stored cell after cell and padded for four-lane loads.
     particles: Particles,
-    blocks: BlockOrder,
-    /// Buffers reused by the repositioning so no step allocates.
+    cells: CellOrder,
+    tiles: Vec<Tile>,
+    /// The tiles holding a pair closer than h, found by the density increment.
+    close_tiles: Vec<Tile>,
+    /// Whether `close_tiles` belongs to the current tiles.
+    close_tiles_found: bool,
+    /// Buffer reused by the reordering.
     spare: Particles,
-    block_of_slot: Vec<u32>,
-    order: Vec<u32>,
 }
 
 impl Simulation {
-    /// Places `particles` (in file order) into the grid for `ppm` particles per metre.
+    /// The course model on the SIMD kernel, for `particles` (in file order) at `ppm`
+    /// particles per metre, placed by stage 1.
     pub fn new(ppm: f64, particles: Particles) -> Result<Self, GridSizeError> {
+        Self::with_method(ppm, particles, Method::default())
+    }
+
+    /// As [`Self::new`], with a chosen model and kernel.
+    pub fn with_method(
+        ppm: f64,
+        particles: Particles,
+        method: Method,
+    ) -> Result<Self, GridSizeError> {
         let params = Params::new(ppm);
         let grid = Grid::new(params.h)?;
-        let mut simulation = Self::from_cell_order(params, grid, particles, BlockOrder::default());
+        let mut simulation = Self::unplaced(params, grid, method, particles);
         simulation.reposition();
         Ok(simulation)
     }
 
-    /// A simulation whose particles are already in cell order with block ranges `blocks`
-    /// (as in a reference trace).
-    pub fn from_cell_order(
+    /// The state after stage 1 of a step, as a trace records it: `particles` in any order
+    /// with every field kept, and `blocks` the block stage 1 gave each of them (which the
+    /// wall stages use even after the particles have moved).
+    pub fn after_stage_one(
         params: Params,
         grid: Grid,
+        method: Method,
         particles: Particles,
-        blocks: BlockOrder,
+        blocks: &[u32],
     ) -> Self {
+        let mut simulation = Self::unplaced(params, grid, method, Particles::default());
+        simulation.cells.sort_with_blocks(&grid, &particles, blocks);
+        simulation.particles = particles.permuted(simulation.cells.order());
+        simulation.find_tiles();
+        simulation
+    }
+
+    fn unplaced(params: Params, grid: Grid, method: Method, mut particles: Particles) -> Self {
+        particles.pad();
         Self {
             params,
             grid,
+            method,
             particles,
-            blocks,
+            cells: CellOrder::default(),
+            tiles: Vec::new(),
+            close_tiles: Vec::new(),
+            close_tiles_found: false,
             spare: Particles::default(),
-            block_of_slot: Vec::new(),
-            order: Vec::new(),
         }
     }
 
@@ -60,14 +91,24 @@ impl Simulation {
         &self.grid
     }
 
+    /// The model and kernel.
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
     /// The particles in cell order (their `id` field gives the file order).
     pub fn particles(&self) -> &Particles {
         &self.particles
     }
 
-    /// The block ranges of the particles.
-    pub fn blocks(&self) -> &BlockOrder {
-        &self.blocks
+    /// The cell order of the current step (and the walls of each particle's block).
+    pub fn cells(&self) -> &CellOrder {
+        &self.cells
+    }
+
+    /// The tiles of candidate pairs of the current step.
+    pub fn tiles(&self) -> &[Tile] {
+        &self.tiles
     }
 
     /// Runs `steps` time steps.
@@ -77,51 +118,78 @@ impl Simulation {
         }
     }
 
-    /// Runs one time step: all stages in order.
+    /// Runs one time step: all stages in order (stage 2 is part of stage 1's reordering).
     pub fn step(&mut self) {
         for stage in Stage::ALL {
-            self.run_stage(stage);
+            if stage != Stage::InitAccelerations {
+                self.run_stage(stage);
+            }
         }
     }
 
     /// Runs one stage alone (for trace comparisons and stage benchmarks).
     pub fn run_stage(&mut self, stage: Stage) {
-        let (params, grid, blocks) = (&self.params, &self.grid, &self.blocks);
+        let Method { model, kernel } = self.method;
+        let params = &self.params;
+        let n = self.particles.len();
         let particles = &mut self.particles;
+        let walls = self.cells.walls();
         match stage {
             Stage::Reposition => self.reposition(),
-            Stage::InitAccelerations => stages::init_accelerations(particles),
+            Stage::InitAccelerations => particles.reset_densities_and_accelerations(),
             Stage::IncrementDensities => {
-                stages::increment_densities(params, grid, blocks, particles)
+                let (p, rho) = (&particles.p, &mut particles.rho);
+                kernel::increment_densities(
+                    kernel,
+                    params,
+                    &self.tiles,
+                    p,
+                    rho,
+                    &mut self.close_tiles,
+                );
+                self.close_tiles_found = true;
             }
-            Stage::TransformDensities => stages::transform_densities(params, particles),
+            Stage::TransformDensities => {
+                kernel::transform_densities(params, &mut particles.rho[..n])
+            }
             Stage::TransferAccelerations => {
-                stages::transfer_accelerations(params, grid, blocks, particles)
+                let tiles = if self.close_tiles_found {
+                    &self.close_tiles
+                } else {
+                    &self.tiles
+                };
+                let Particles { p, v, rho, a, .. } = particles;
+                kernel::transfer_accelerations(kernel, model, params, tiles, p, v, rho, a);
             }
-            Stage::CollideWithWalls => stages::collide_with_walls(grid, blocks, particles),
+            Stage::CollideWithWalls => stages::collide_with_walls(walls, particles),
             Stage::Move => stages::move_particles(particles),
-            Stage::InteractWithBoundary => stages::interact_with_boundary(grid, blocks, particles),
+            Stage::InteractWithBoundary => stages::interact_with_boundary(walls, particles),
         }
     }
 
-    /// Stage 1: recomputes every particle's block from its position and reorders the
-    /// particles by block with a stable counting sort (old blocks ascending, stored order
-    /// within a block). Density and acceleration are left for stage 2 to reset.
+    /// Stages 1 and 2: sorts the particles by cell (moving them only if the order
+    /// changed), resets densities and accelerations, and finds the step's tiles.
     fn reposition(&mut self) {
-        let (grid, particles) = (&self.grid, &self.particles);
-        self.block_of_slot.clear();
-        self.block_of_slot
-            .extend((0..particles.len()).map(|s| grid.block_of(particles.position(s)) as u32));
-        self.blocks
-            .sort(&self.block_of_slot, grid.block_count(), &mut self.order);
-        self.spare.gather_kinematics(&self.particles, &self.order);
-        std::mem::swap(&mut self.particles, &mut self.spare);
+        if self.cells.sort(&self.grid, &self.particles) {
+            self.spare
+                .gather_kinematics(&self.particles, self.cells.order());
+            std::mem::swap(&mut self.particles, &mut self.spare);
+        } else {
+            self.particles.reset_densities_and_accelerations();
+        }
+        self.find_tiles();
+    }
+
+    fn find_tiles(&mut self) {
+        neighbours::find_tiles(self.cells.keys(), self.cells.layout(), &mut self.tiles);
+        self.close_tiles_found = false;
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::method::{Kernel, Model};
     use crate::params::BOX_MIN;
 
     /// Particles at the given x positions (y, z at the box's lower corner plus a margin).
@@ -134,12 +202,10 @@ mod tests {
     }
 
     #[test]
-    fn new_places_particles_in_block_order() {
+    fn new_places_particles_in_cell_order() {
         let sim = Simulation::new(204.0, along_x(&[0.06, -0.06, 0.0, -0.061])).unwrap();
         assert_eq!(sim.particles().id, vec![1, 3, 2, 0]);
-        let first = sim.grid().block_of(sim.particles().position(0));
-        assert_eq!(sim.blocks().range(first), 0..2);
-        assert_eq!(sim.blocks().occupied().len(), 3);
+        assert!(sim.cells().keys()[..4].is_sorted());
     }
 
     #[test]
@@ -154,13 +220,7 @@ mod tests {
         let mut ids = sim.particles().id.clone();
         ids.sort_unstable();
         assert_eq!(ids, vec![0, 1, 2, 3]);
-        let total: usize = sim
-            .blocks()
-            .occupied()
-            .iter()
-            .map(|&b| sim.blocks().count(b as usize))
-            .sum();
-        assert_eq!(total, 4);
+        assert_eq!(sim.cells().keys().len(), 5);
     }
 
     #[test]
@@ -172,5 +232,37 @@ mod tests {
         let expected = y0 - 9.8 * 3.0 * 1e-6;
         assert!((sim.particles().p[1][0] - expected).abs() < 1e-15);
         assert!((sim.particles().hv[1][0] + 2.0 * 9.8e-3).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_acceleration_transfer_needs_only_the_close_tiles() {
+        let particles = along_x(&[0.0, 0.004, 0.0075, 0.0165, 0.03, 0.06]);
+        let mut sim = Simulation::new(204.0, particles).unwrap();
+        sim.run_stage(Stage::IncrementDensities);
+        sim.run_stage(Stage::TransformDensities);
+        assert!(sim.close_tiles.len() < sim.tiles.len());
+        let mut all_tiles = sim.clone();
+        all_tiles.close_tiles_found = false;
+        sim.run_stage(Stage::TransferAccelerations);
+        all_tiles.run_stage(Stage::TransferAccelerations);
+        assert_eq!(sim.particles().a, all_tiles.particles().a);
+        assert_ne!(sim.particles().a[0][0], 0.0);
+    }
+
+    #[test]
+    fn method_is_kept_and_models_differ() {
+        let run = |model| {
+            let method = Method {
+                model,
+                kernel: Kernel::Scalar,
+            };
+            let mut particles = along_x(&[0.0, 0.004]);
+            particles.v[1][0] = 1.0;
+            let mut sim = Simulation::with_method(204.0, particles, method).unwrap();
+            assert_eq!(sim.method(), method);
+            sim.step();
+            sim.particles().velocity(0)
+        };
+        assert_ne!(run(Model::Course), run(Model::Fluidanimate));
     }
 }

@@ -1,7 +1,6 @@
 //! Reader for the course's per-stage trace files (`.trz`, SPEC.md section 6): the full
 //! double-precision state after one stage, block by block.
 
-use crate::block::BlockOrder;
 use crate::particles::Particles;
 use std::io;
 use std::path::Path;
@@ -64,9 +63,12 @@ impl Trace {
         })
     }
 
-    /// The block ranges of the trace's particles.
-    pub fn block_order(&self) -> BlockOrder {
-        BlockOrder::from_counts(&self.block_counts)
+    /// The block of each particle, in the trace's order.
+    pub fn blocks(&self) -> Vec<u32> {
+        let blocks = self.block_counts.iter().enumerate();
+        blocks
+            .flat_map(|(block, &count)| std::iter::repeat_n(block as u32, count as usize))
+            .collect()
     }
 }
 
@@ -137,7 +139,7 @@ mod tests {
         assert_eq!(p.v[1], vec![7.0, 107.0, 207.0]);
         assert_eq!(p.rho, vec![9.0, 109.0, 209.0]);
         assert_eq!(p.a[2], vec![12.0, 112.0, 212.0]);
-        assert_eq!(trace.block_order().range(2), 1..3);
+        assert_eq!(trace.blocks(), [0, 2, 2]);
     }
 
     #[test]

@@ -1,0 +1,390 @@
+//! Cell order: stage 1 of SPEC.md section 4, computed so that the pair search does only
+//! the work a scene needs.
+//!
+//! A particle's *cell* is its block before clamping: `floor((p - b_min) / s)` per axis,
+//! with the grid's block size `s`. Inside the box a cell is exactly a block; outside, the
+//! cells keep apart the particles that clamping would pile into one boundary block, so a
+//! particle metres outside the box is only compared with particles near it. Every pair
+//! closer than h lies in the same or adjacent cells (s >= h), as it does in blocks.
+//!
+//! Each step the particles are sorted by cell key (z, y, x, x fastest) with a stable
+//! least-significant-digit radix sort, a sequence of counting sorts over digits of at most
+//! 11 bits. Its memory is proportional to the particles, not to the grid or to the space the
+//! particles spread over, and it does no work on empty cells. Particles of one cell are
+//! contiguous, and so are the three cells of any row along x, which the pair search uses.
+//! The clamped block still decides the wall stages: each particle's walls are recorded here.
+
+use crate::grid::Grid;
+use crate::params::BOX_MIN;
+use crate::particles::Particles;
+
+/// Largest cell coordinate magnitude kept; beyond it coordinates saturate (about 9 km
+/// from the box at 204 particles per metre). Saturation keeps adjacent cells adjacent, and
+/// 21 bits per axis keep a key within 63 bits.
+const CELL_LIMIT: f64 = ((1 << 20) - 1) as f64;
+
+/// Largest digit of the radix sort: 2048 counters, which stay in the L1 cache.
+const MAX_DIGIT_BITS: u32 = 11;
+
+/// Integer cell coordinates along x, y and z.
+pub type Cell = [i32; 3];
+
+/// The cell of a position: floor((p - b_min) / s) per axis, as the grid computes a block
+/// but without clamping (saturated at +-(2^20 - 1); NaN gives 0).
+pub fn cell_of(grid: &Grid, p: [f64; 3]) -> Cell {
+    std::array::from_fn(|d| {
+        ((p[d] - BOX_MIN[d]) / grid.block_size[d])
+            .floor()
+            .clamp(-CELL_LIMIT, CELL_LIMIT) as i32
+    })
+}
+
+/// How cells are packed into sort keys: per axis, the offset from the lowest occupied
+/// coordinate, in as many bits as the occupied range needs (z highest, x lowest).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CellLayout {
+    origin: Cell,
+    extent: [u32; 3],
+    shift: [u32; 3],
+}
+
+impl CellLayout {
+    /// The layout covering the cells from `lowest` to `highest` (per axis, inclusive).
+    pub fn covering(lowest: Cell, highest: Cell) -> Self {
+        let extent: [u32; 3] = std::array::from_fn(|d| (highest[d] - lowest[d]) as u32);
+        let bits = extent.map(|e| u32::BITS - e.leading_zeros());
+        Self {
+            origin: lowest,
+            extent,
+            shift: [0, bits[0], bits[0] + bits[1]],
+        }
+    }
+
+    /// Number of bits a key uses.
+    pub fn key_bits(&self) -> u32 {
+        self.shift[2] + (u32::BITS - self.extent[2].leading_zeros())
+    }
+
+    /// Largest offset from the origin on each axis.
+    pub fn extent(&self) -> [u32; 3] {
+        self.extent
+    }
+
+    /// The key of a covered cell.
+    pub fn key(&self, cell: Cell) -> u64 {
+        self.pack(std::array::from_fn(|d| (cell[d] - self.origin[d]) as u32))
+    }
+
+    /// The key of offsets from the origin (each within the extent).
+    pub fn pack(&self, offsets: [u32; 3]) -> u64 {
+        (0..3).fold(0, |key, d| key | (u64::from(offsets[d]) << self.shift[d]))
+    }
+
+    /// The offsets from the origin of a key.
+    pub fn unpack(&self, key: u64) -> [u32; 3] {
+        std::array::from_fn(|d| {
+            let bits = u32::BITS - self.extent[d].leading_zeros();
+            ((key >> self.shift[d]) & ((1 << bits) - 1)) as u32
+        })
+    }
+}
+
+/// Which wall a particle's block touches on one axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Wall {
+    /// Block coordinate 0.
+    Low,
+    /// Block coordinate n - 1 (and not 0).
+    High,
+}
+
+/// The slots of the particles whose block lies on each wall: `[axis][Low, High]`.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct WallSlots {
+    slots: [[Vec<u32>; 2]; 3],
+}
+
+impl WallSlots {
+    /// The slots, ascending, of particles in blocks on `wall` of `axis`.
+    pub fn on(&self, axis: usize, wall: Wall) -> &[u32] {
+        &self.slots[axis][wall as usize]
+    }
+
+    fn clear(&mut self) {
+        self.slots.iter_mut().flatten().for_each(Vec::clear);
+    }
+}
+
+/// Bit 2d (low) or 2d + 1 (high) for each axis d whose block coordinate is on a wall.
+type WallBits = u8;
+
+/// The walls of the block holding a cell (or of a block itself), as SPEC.md stages 6 and 8
+/// pick them: coordinate 0 (after clamping) is the low wall, otherwise n - 1 the high wall.
+fn wall_bits(grid: &Grid, block: [i64; 3]) -> WallBits {
+    (0..3).fold(0, |bits, d| {
+        if block[d] <= 0 {
+            bits | 1 << (2 * d)
+        } else if block[d] >= grid.dims[d] as i64 - 1 {
+            bits | 1 << (2 * d + 1)
+        } else {
+            bits
+        }
+    })
+}
+
+/// The cell order of the particles after stage 1, and the buffers to recompute it.
+#[derive(Debug, Clone, Default)]
+pub struct CellOrder {
+    layout: CellLayout,
+    /// Key of each slot in cell order, then one `u64::MAX` sentinel.
+    keys: Vec<u64>,
+    /// The previous slot of each slot.
+    order: Vec<u32>,
+    walls: WallSlots,
+    // Reused buffers.
+    cells: Vec<Cell>,
+    wall_bits: Vec<WallBits>,
+    spare_keys: Vec<u64>,
+    spare_order: Vec<u32>,
+    counts: Vec<u32>,
+}
+
+impl CellOrder {
+    /// Sorts `particles` (in their current slots) by cell; their walls are those of the
+    /// blocks the grid gives their positions. Returns whether any particle changes slot
+    /// (if not, [`Self::order`] is the identity).
+    pub fn sort(&mut self, grid: &Grid, particles: &Particles) -> bool {
+        self.compute_cells(grid, particles);
+        let walls = self.cells.iter().map(|c| wall_bits(grid, c.map(i64::from)));
+        self.wall_bits.clear();
+        self.wall_bits.extend(walls);
+        self.finish()
+    }
+
+    /// As [`Self::sort`], but the walls come from given blocks (linear indices, one per
+    /// particle in its current slot), as in a trace recorded after stage 1.
+    pub fn sort_with_blocks(&mut self, grid: &Grid, particles: &Particles, blocks: &[u32]) -> bool {
+        self.compute_cells(grid, particles);
+        let walls = blocks
+            .iter()
+            .map(|&b| wall_bits(grid, grid.coords(b as usize).map(|c| c as i64)));
+        self.wall_bits.clear();
+        self.wall_bits.extend(walls);
+        self.finish()
+    }
+
+    fn compute_cells(&mut self, grid: &Grid, particles: &Particles) {
+        let [x, y, z] = &particles.p;
+        self.cells.clear();
+        self.cells
+            .extend((0..particles.len()).map(|s| cell_of(grid, [x[s], y[s], z[s]])));
+    }
+
+    fn finish(&mut self) -> bool {
+        let (lowest, highest) =
+            self.cells
+                .iter()
+                .fold(([i32::MAX; 3], [i32::MIN; 3]), |(lo, hi), c| {
+                    (
+                        std::array::from_fn(|d| lo[d].min(c[d])),
+                        std::array::from_fn(|d| hi[d].max(c[d])),
+                    )
+                });
+        self.layout = if self.cells.is_empty() {
+            CellLayout::default()
+        } else {
+            CellLayout::covering(lowest, highest)
+        };
+        let layout = self.layout;
+        self.keys.clear();
+        self.keys.extend(self.cells.iter().map(|&c| layout.key(c)));
+        self.order.clear();
+        self.order.extend(0..self.cells.len() as u32);
+        let moved = !self.keys.is_sorted();
+        if moved {
+            self.radix_sort();
+        }
+        self.keys.push(u64::MAX);
+        self.walls.clear();
+        for (slot, &old) in self.order.iter().enumerate() {
+            let bits = self.wall_bits[old as usize];
+            for (d, lists) in self.walls.slots.iter_mut().enumerate() {
+                for (side, list) in lists.iter_mut().enumerate() {
+                    if bits & 1 << (2 * d + side) != 0 {
+                        list.push(slot as u32);
+                    }
+                }
+            }
+        }
+        moved
+    }
+
+    /// Stable LSD radix sort of `keys` (carrying `order`) in as few digits as the key
+    /// bits need, skipping digits that are equal for every key.
+    fn radix_sort(&mut self) {
+        let n = self.keys.len();
+        let bits = self.layout.key_bits();
+        let passes = bits.div_ceil(MAX_DIGIT_BITS);
+        let digit_bits = bits.div_ceil(passes);
+        let radix = 1usize << digit_bits;
+        let mask = radix as u64 - 1;
+        self.counts.clear();
+        self.counts.resize(passes as usize * radix, 0);
+        for &key in &self.keys {
+            for pass in 0..passes as usize {
+                let digit = (key >> (pass as u32 * digit_bits)) & mask;
+                self.counts[pass * radix + digit as usize] += 1;
+            }
+        }
+        self.spare_keys.resize(n, 0);
+        self.spare_order.resize(n, 0);
+        for pass in 0..passes as usize {
+            let starts = &mut self.counts[pass * radix..(pass + 1) * radix];
+            if starts.iter().any(|&count| count as usize == n) {
+                continue;
+            }
+            let mut total = 0;
+            for count in starts.iter_mut() {
+                (*count, total) = (total, total + *count);
+            }
+            let shift = pass as u32 * digit_bits;
+            for (&key, &old) in self.keys.iter().zip(&self.order) {
+                let cursor = &mut starts[((key >> shift) & mask) as usize];
+                self.spare_keys[*cursor as usize] = key;
+                self.spare_order[*cursor as usize] = old;
+                *cursor += 1;
+            }
+            std::mem::swap(&mut self.keys, &mut self.spare_keys);
+            std::mem::swap(&mut self.order, &mut self.spare_order);
+        }
+    }
+
+    /// How cells are packed into keys this step.
+    pub fn layout(&self) -> &CellLayout {
+        &self.layout
+    }
+
+    /// The cell key of each slot, ascending, followed by a `u64::MAX` sentinel.
+    pub fn keys(&self) -> &[u64] {
+        &self.keys
+    }
+
+    /// The previous slot of each slot.
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// The particles of each wall.
+    pub fn walls(&self) -> &WallSlots {
+        &self.walls
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::Params;
+
+    fn grid() -> Grid {
+        Grid::new(Params::new(204.0).h).unwrap()
+    }
+
+    fn positions(points: &[[f64; 3]]) -> Particles {
+        let mut particles = Particles::zeroed(points.len());
+        particles.p = std::array::from_fn(|d| points.iter().map(|p| p[d]).collect());
+        particles
+    }
+
+    #[test]
+    fn cells_inside_the_box_are_blocks_and_outside_are_unclamped() {
+        let grid = grid();
+        let inside = [0.01, -0.02, 0.03];
+        let block = grid.coords_of(glam::DVec3::from_array(inside));
+        assert_eq!(cell_of(&grid, inside), block.map(|c| c as i32));
+        let below = cell_of(&grid, [-0.065 - 2.5 * grid.block_size.x, 0.0, 0.0]);
+        assert_eq!(below[0], -3);
+        assert_eq!(
+            cell_of(&grid, [1e300, f64::NAN, -1e300]),
+            [1048575, 0, -1048575]
+        );
+    }
+
+    #[test]
+    fn layout_packs_x_fastest_and_round_trips() {
+        let layout = CellLayout::covering([-2, 0, 5], [3, 1, 5]);
+        assert_eq!(layout.extent(), [5, 1, 0]);
+        assert_eq!(layout.key_bits(), 4);
+        assert_eq!(layout.key([-2, 0, 5]), 0);
+        assert_eq!(layout.key([-1, 0, 5]), 1);
+        assert_eq!(layout.key([-2, 1, 5]), 8);
+        assert_eq!(layout.unpack(layout.key([3, 1, 5])), [5, 1, 0]);
+    }
+
+    #[test]
+    fn widest_layout_fits_in_63_bits() {
+        let limit = CELL_LIMIT as i32;
+        let layout = CellLayout::covering([-limit; 3], [limit; 3]);
+        assert_eq!(layout.key_bits(), 63);
+        assert_eq!(layout.unpack(layout.key([limit; 3])), [2 * limit as u32; 3]);
+    }
+
+    #[test]
+    fn sort_is_stable_and_by_cell() {
+        let grid = grid();
+        let s = grid.block_size.x;
+        // Slots 0 and 2 share a cell far below the box; slot 1 is inside; slot 3 is beyond
+        // the upper x wall.
+        let far = [-0.065 - 100.0 * s, 0.0, 0.0];
+        let points = positions(&[far, [0.0, 0.0, 0.0], far, [1.0, 0.0, 0.0]]);
+        let mut cells = CellOrder::default();
+        assert!(cells.sort(&grid, &points));
+        assert_eq!(cells.order(), [0, 2, 1, 3]);
+        let keys = cells.keys();
+        assert!(keys.is_sorted() && keys[0] == keys[1] && keys[1] < keys[2]);
+        assert_eq!(keys.last(), Some(&u64::MAX));
+        assert_eq!(cells.walls().on(0, Wall::Low), [0, 1]);
+        assert_eq!(cells.walls().on(0, Wall::High), [3]);
+    }
+
+    #[test]
+    fn an_ordered_scene_is_left_in_place() {
+        let grid = grid();
+        let points = positions(&[[0.0, 0.0, 0.0], [0.001, 0.0, 0.0], [0.05, 0.0, 0.0]]);
+        let mut cells = CellOrder::default();
+        assert!(!cells.sort(&grid, &points));
+        assert_eq!(cells.order(), [0, 1, 2]);
+    }
+
+    #[test]
+    fn radix_sort_agrees_with_a_stable_sort_over_many_digits() {
+        let grid = grid();
+        // A deterministic cloud spread over kilometres: keys of about 60 bits.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 4000.0 - 2000.0
+        };
+        let points: Vec<[f64; 3]> = (0..3000).map(|_| [next(), next(), next()]).collect();
+        let mut cells = CellOrder::default();
+        cells.sort(&grid, &positions(&points));
+        assert!(cells.layout().key_bits() > 55);
+        let layout = *cells.layout();
+        let mut expected: Vec<u32> = (0..points.len() as u32).collect();
+        expected.sort_by_key(|&s| layout.key(cell_of(&grid, points[s as usize])));
+        assert_eq!(cells.order(), expected);
+    }
+
+    #[test]
+    fn walls_can_come_from_recorded_blocks() {
+        let grid = grid();
+        let points = positions(&[[0.0, 0.0, 0.0]]);
+        let corner = grid.index([grid.dims[0] - 1, 0, 3]) as u32;
+        let mut cells = CellOrder::default();
+        cells.sort_with_blocks(&grid, &points, &[corner]);
+        assert_eq!(cells.walls().on(0, Wall::High), [0]);
+        assert_eq!(cells.walls().on(1, Wall::Low), [0]);
+        assert!(cells.walls().on(2, Wall::Low).is_empty());
+    }
+}

@@ -1,0 +1,208 @@
+//! The neighbour search: which slots the pair loops compare, as *tiles* of contiguous
+//! slot ranges over the cell order.
+//!
+//! Each occupied cell is compared with itself (later slots only) and with its 13 forward
+//! neighbours (the adjacent cells with a larger key), so every pair of particles in
+//! adjacent cells, and so every pair closer than h, is visited exactly once. Because keys
+//! run x fastest, the three cells x-1..x+1 of a neighbour row are contiguous slots: the 13
+//! neighbours are 5 slot ranges (the cell at x+1, the row at y+1, the three rows at z+1).
+//! They are found by 5 cursors that only move forward through the sorted keys, so the
+//! search costs O(particles + occupied cells) and never touches an empty cell.
+
+use crate::cells::CellLayout;
+
+/// A set of candidate pairs: every slot of `first..first_end` with every slot of
+/// `second..second_end`, or, for a cell with itself (`first == second`), every pair of its
+/// slots once.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Tile {
+    /// First slot of the cell whose particles are the first of each pair.
+    pub first: u32,
+    /// End of that cell's slots.
+    pub first_end: u32,
+    /// First slot of the partner range.
+    pub second: u32,
+    /// End of the partner range.
+    pub second_end: u32,
+}
+
+impl Tile {
+    /// Whether the tile pairs a cell with itself.
+    pub fn is_within_cell(&self) -> bool {
+        self.first == self.second
+    }
+
+    /// The partner slots of the particle in `slot` (one of the first range).
+    pub fn partners(&self, slot: usize) -> std::ops::Range<usize> {
+        let start = if self.is_within_cell() {
+            slot + 1
+        } else {
+            self.second as usize
+        };
+        start..self.second_end as usize
+    }
+
+    /// The slots of the first range.
+    pub fn firsts(&self) -> std::ops::Range<usize> {
+        self.first as usize..self.first_end as usize
+    }
+}
+
+/// The forward neighbour rows of a cell: x offsets (from, to), y offset, z offset.
+const FORWARD_ROWS: [(i64, i64, i64, i64); 5] = [
+    (1, 1, 0, 0),
+    (-1, 1, 1, 0),
+    (-1, 1, -1, 1),
+    (-1, 1, 0, 1),
+    (-1, 1, 1, 1),
+];
+
+/// Fills `tiles` with the tiles of the particles whose sorted cell keys are `keys`
+/// (ascending, ending with a `u64::MAX` sentinel), packed by `layout`.
+pub fn find_tiles(keys: &[u64], layout: &CellLayout, tiles: &mut Vec<Tile>) {
+    tiles.clear();
+    let Some(n) = keys.len().checked_sub(1) else {
+        return;
+    };
+    let extent = layout.extent().map(i64::from);
+    let mut cursors = [0usize; FORWARD_ROWS.len()];
+    let mut start = 0;
+    while start < n {
+        let key = keys[start];
+        let mut end = start + 1;
+        while keys[end] == key {
+            end += 1;
+        }
+        let tile = |second: usize, second_end: usize| Tile {
+            first: start as u32,
+            first_end: end as u32,
+            second: second as u32,
+            second_end: second_end as u32,
+        };
+        if end - start > 1 {
+            tiles.push(tile(start, end));
+        }
+        let [x, y, z] = layout.unpack(key).map(i64::from);
+        for (cursor, &(from, to, dy, dz)) in cursors.iter_mut().zip(&FORWARD_ROWS) {
+            let (ny, nz) = (y + dy, z + dz);
+            let (x0, x1) = ((x + from).max(0), (x + to).min(extent[0]));
+            if ny < 0 || ny > extent[1] || nz > extent[2] || x0 > x1 {
+                continue;
+            }
+            let low = layout.pack([x0 as u32, ny as u32, nz as u32]);
+            let high = layout.pack([x1 as u32, ny as u32, nz as u32]);
+            while keys[*cursor] < low {
+                *cursor += 1;
+            }
+            let mut row_end = *cursor;
+            while keys[row_end] <= high {
+                row_end += 1;
+            }
+            if row_end > *cursor {
+                tiles.push(tile(*cursor, row_end));
+            }
+        }
+        start = end;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cells::{cell_of, CellOrder};
+    use crate::grid::Grid;
+    use crate::params::Params;
+    use crate::particles::Particles;
+    use std::collections::BTreeSet;
+
+    /// Every pair (lower slot first) that the tiles visit, failing on a repeat.
+    fn visited_pairs(tiles: &[Tile]) -> BTreeSet<(usize, usize)> {
+        let mut pairs = BTreeSet::new();
+        for tile in tiles {
+            for i in tile.firsts() {
+                for j in tile.partners(i) {
+                    assert!(
+                        pairs.insert((i.min(j), i.max(j))),
+                        "pair {i},{j} visited twice"
+                    );
+                }
+            }
+        }
+        pairs
+    }
+
+    /// A deterministic cloud: half in the box, half scattered up to `spread` metres out,
+    /// with clusters so that some far particles are within h of each other.
+    fn cloud(n: usize, spread: f64) -> Vec<[f64; 3]> {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut points = Vec::new();
+        while points.len() < n {
+            let scale = if points.len() % 2 == 0 { 0.12 } else { spread };
+            let centre = [next(), next(), next()].map(|u| (u - 0.5) * scale);
+            for _ in 0..4 {
+                points.push([next(), next(), next()].map(|u| (u - 0.5) * 0.01));
+                let last = points.last_mut().unwrap();
+                for d in 0..3 {
+                    last[d] += centre[d];
+                }
+            }
+        }
+        points
+    }
+
+    #[test]
+    fn tiles_visit_every_close_pair_once_and_only_adjacent_cells() {
+        let params = Params::new(204.0);
+        let grid = Grid::new(params.h).unwrap();
+        for spread in [0.12, 5.0, 500.0] {
+            let points = cloud(2000, spread);
+            let mut particles = Particles::zeroed(points.len());
+            particles.p = std::array::from_fn(|d| points.iter().map(|p| p[d]).collect());
+            let mut cells = CellOrder::default();
+            cells.sort(&grid, &particles);
+            let mut tiles = Vec::new();
+            find_tiles(cells.keys(), cells.layout(), &mut tiles);
+            let sorted: Vec<[f64; 3]> = cells.order().iter().map(|&s| points[s as usize]).collect();
+            let visited = visited_pairs(&tiles);
+            let mut close = 0;
+            for i in 0..sorted.len() {
+                for j in i + 1..sorted.len() {
+                    let r2: f64 = (0..3).map(|d| (sorted[i][d] - sorted[j][d]).powi(2)).sum();
+                    let (ci, cj) = (cell_of(&grid, sorted[i]), cell_of(&grid, sorted[j]));
+                    let adjacent = (0..3).all(|d| (ci[d] - cj[d]).abs() <= 1);
+                    assert_eq!(
+                        visited.contains(&(i, j)),
+                        adjacent,
+                        "spread {spread}: {i},{j}"
+                    );
+                    if r2 < params.h2 {
+                        assert!(adjacent, "close pair {i},{j} in cells {ci:?} {cj:?}");
+                        close += 1;
+                    }
+                }
+            }
+            assert!(
+                close > 100,
+                "spread {spread}: only {close} close pairs tested"
+            );
+        }
+    }
+
+    #[test]
+    fn no_particles_give_no_tiles() {
+        let mut tiles = vec![Tile {
+            first: 0,
+            first_end: 1,
+            second: 0,
+            second_end: 1,
+        }];
+        find_tiles(&[u64::MAX], &CellLayout::default(), &mut tiles);
+        assert!(tiles.is_empty());
+    }
+}
