@@ -18,51 +18,91 @@ use crate::grid::Grid;
 use crate::params::BOX_MIN;
 use crate::particles::Particles;
 
-/// Largest cell coordinate magnitude kept; beyond it coordinates saturate (about 9 km
-/// from the box at 204 particles per metre). Saturation keeps adjacent cells adjacent, and
-/// 21 bits per axis keep a key within 63 bits.
-const CELL_LIMIT: f64 = ((1 << 20) - 1) as f64;
+/// Largest cell coordinate magnitude kept; beyond it (about 9,000 km from the box at 204
+/// particles per metre) coordinates saturate, which keeps adjacent cells adjacent.
+const CELL_LIMIT: f64 = ((1 << 30) - 1) as f64;
 
 /// Largest digit of the radix sort: 2048 counters, which stay in the L1 cache.
 const MAX_DIGIT_BITS: u32 = 11;
+
+/// Keys larger than any cell's that end the sorted keys, so that searches through them
+/// can read four keys at a time without a bounds check.
+pub const SENTINELS: usize = 4;
 
 /// Integer cell coordinates along x, y and z.
 pub type Cell = [i32; 3];
 
 /// The cell of a position: floor((p - b_min) / s) per axis, as the grid computes a block
-/// but without clamping (saturated at +-(2^20 - 1); NaN gives 0).
+/// but without clamping (saturated at +-(2^30 - 1); NaN gives 0).
 pub fn cell_of(grid: &Grid, p: [f64; 3]) -> Cell {
-    std::array::from_fn(|d| {
-        ((p[d] - BOX_MIN[d]) / grid.block_size[d])
-            .floor()
-            .clamp(-CELL_LIMIT, CELL_LIMIT) as i32
-    })
+    std::array::from_fn(|d| cell_coordinate(p[d], BOX_MIN[d], grid.block_size[d]))
 }
 
-/// How cells are packed into sort keys: per axis, the offset from the lowest occupied
-/// coordinate, in as many bits as the occupied range needs (z highest, x lowest).
+#[inline(always)]
+fn cell_coordinate(p: f64, min: f64, size: f64) -> i32 {
+    ((p - min) / size).floor().clamp(-CELL_LIMIT, CELL_LIMIT) as i32
+}
+
+/// Merges cells far from the box: coordinates below 2^`exact_bits` in magnitude are kept,
+/// and each further octave [2^e, 2^(e+1)) is mapped onto 2^`exact_bits` coordinates, like
+/// the exponent and leading mantissa bits of a float. The map is monotone and never grows
+/// by more than 1 per cell, so adjacent cells stay the same or adjacent: every pair closer
+/// than h is still in the same or adjacent coarse cells. Far particles share coarse cells
+/// only where they are sparse, and keys need few bits (few radix passes).
+pub fn coarsen(coordinate: i32, exact_bits: u32) -> i32 {
+    let magnitude = coordinate.unsigned_abs();
+    if magnitude >> exact_bits == 0 {
+        return coordinate;
+    }
+    let octave = u32::BITS - 1 - magnitude.leading_zeros();
+    let leading = (magnitude >> (octave - exact_bits)) & ((1 << exact_bits) - 1);
+    let coarse = (((octave - exact_bits + 1) << exact_bits) | leading) as i32;
+    if coordinate < 0 {
+        -coarse
+    } else {
+        coarse
+    }
+}
+
+/// The bits kept exactly by [`coarsen`] on each axis of `grid`.
+fn exact_bits(grid: &Grid) -> [u32; 3] {
+    grid.dims.map(|n| usize::BITS - n.leading_zeros() + 1)
+}
+
+/// A cell with [`coarsen`] applied on each axis, keeping exact every cell within a grid's
+/// width of the box.
+pub fn coarse_cell(grid: &Grid, cell: Cell) -> Cell {
+    let exact = exact_bits(grid);
+    std::array::from_fn(|d| coarsen(cell[d], exact[d]))
+}
+
+/// How coarse cells are packed into sort keys: per axis, the offset from the lowest
+/// occupied coordinate, in as many bits as the occupied range needs (z highest, x lowest).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct CellLayout {
     origin: Cell,
     extent: [u32; 3],
+    bits: [u32; 3],
     shift: [u32; 3],
 }
 
 impl CellLayout {
-    /// The layout covering the cells from `lowest` to `highest` (per axis, inclusive).
+    /// The layout covering the coarse cells from `lowest` to `highest` (per axis,
+    /// inclusive).
     pub fn covering(lowest: Cell, highest: Cell) -> Self {
-        let extent: [u32; 3] = std::array::from_fn(|d| (highest[d] - lowest[d]) as u32);
+        let extent: [u32; 3] = std::array::from_fn(|d| highest[d].abs_diff(lowest[d]));
         let bits = extent.map(|e| u32::BITS - e.leading_zeros());
         Self {
             origin: lowest,
             extent,
+            bits,
             shift: [0, bits[0], bits[0] + bits[1]],
         }
     }
 
     /// Number of bits a key uses.
     pub fn key_bits(&self) -> u32 {
-        self.shift[2] + (u32::BITS - self.extent[2].leading_zeros())
+        self.shift[2] + self.bits[2]
     }
 
     /// Largest offset from the origin on each axis.
@@ -70,9 +110,14 @@ impl CellLayout {
         self.extent
     }
 
-    /// The key of a covered cell.
+    /// Bit position of each axis's offset in a key.
+    pub fn shift(&self) -> [u32; 3] {
+        self.shift
+    }
+
+    /// The key of a covered coarse cell.
     pub fn key(&self, cell: Cell) -> u64 {
-        self.pack(std::array::from_fn(|d| (cell[d] - self.origin[d]) as u32))
+        self.pack(std::array::from_fn(|d| cell[d].abs_diff(self.origin[d])))
     }
 
     /// The key of offsets from the origin (each within the extent).
@@ -82,10 +127,7 @@ impl CellLayout {
 
     /// The offsets from the origin of a key.
     pub fn unpack(&self, key: u64) -> [u32; 3] {
-        std::array::from_fn(|d| {
-            let bits = u32::BITS - self.extent[d].leading_zeros();
-            ((key >> self.shift[d]) & ((1 << bits) - 1)) as u32
-        })
+        std::array::from_fn(|d| ((key >> self.shift[d]) & ((1 << self.bits[d]) - 1)) as u32)
     }
 }
 
@@ -101,17 +143,18 @@ pub enum Wall {
 /// The slots of the particles whose block lies on each wall: `[axis][Low, High]`.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct WallSlots {
-    slots: [[Vec<u32>; 2]; 3],
+    /// Indexed by the bit of [`WallBits`]: 2 * axis + wall.
+    slots: [Vec<u32>; 6],
 }
 
 impl WallSlots {
     /// The slots, ascending, of particles in blocks on `wall` of `axis`.
     pub fn on(&self, axis: usize, wall: Wall) -> &[u32] {
-        &self.slots[axis][wall as usize]
+        &self.slots[2 * axis + wall as usize]
     }
 
     fn clear(&mut self) {
-        self.slots.iter_mut().flatten().for_each(Vec::clear);
+        self.slots.iter_mut().for_each(Vec::clear);
     }
 }
 
@@ -136,7 +179,7 @@ fn wall_bits(grid: &Grid, block: [i64; 3]) -> WallBits {
 #[derive(Debug, Clone, Default)]
 pub struct CellOrder {
     layout: CellLayout,
-    /// Key of each slot in cell order, then one `u64::MAX` sentinel.
+    /// Key of each slot in cell order, then [`SENTINELS`] times `u64::MAX`.
     keys: Vec<u64>,
     /// The previous slot of each slot.
     order: Vec<u32>,
@@ -158,7 +201,7 @@ impl CellOrder {
         let walls = self.cells.iter().map(|c| wall_bits(grid, c.map(i64::from)));
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
-        self.finish()
+        self.finish(grid)
     }
 
     /// As [`Self::sort`], but the walls come from given blocks (linear indices, one per
@@ -170,17 +213,26 @@ impl CellOrder {
             .map(|&b| wall_bits(grid, grid.coords(b as usize).map(|c| c as i64)));
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
-        self.finish()
+        self.finish(grid)
     }
 
     fn compute_cells(&mut self, grid: &Grid, particles: &Particles) {
-        let [x, y, z] = &particles.p;
+        let n = particles.len();
         self.cells.clear();
-        self.cells
-            .extend((0..particles.len()).map(|s| cell_of(grid, [x[s], y[s], z[s]])));
+        self.cells.resize(n, [0; 3]);
+        // One axis at a time, so that the divisions vectorise.
+        for (d, axis) in particles.p.iter().enumerate() {
+            let (min, size) = (BOX_MIN[d], grid.block_size[d]);
+            for (cell, &p) in self.cells.iter_mut().zip(&axis[..n]) {
+                cell[d] = cell_coordinate(p, min, size);
+            }
+        }
     }
 
-    fn finish(&mut self) -> bool {
+    fn finish(&mut self, grid: &Grid) -> bool {
+        for cell in &mut self.cells {
+            *cell = coarse_cell(grid, *cell);
+        }
         let (lowest, highest) =
             self.cells
                 .iter()
@@ -204,16 +256,13 @@ impl CellOrder {
         if moved {
             self.radix_sort();
         }
-        self.keys.push(u64::MAX);
+        self.keys.extend([u64::MAX; SENTINELS]);
         self.walls.clear();
         for (slot, &old) in self.order.iter().enumerate() {
-            let bits = self.wall_bits[old as usize];
-            for (d, lists) in self.walls.slots.iter_mut().enumerate() {
-                for (side, list) in lists.iter_mut().enumerate() {
-                    if bits & 1 << (2 * d + side) != 0 {
-                        list.push(slot as u32);
-                    }
-                }
+            let mut bits = self.wall_bits[old as usize];
+            while bits != 0 {
+                self.walls.slots[bits.trailing_zeros() as usize].push(slot as u32);
+                bits &= bits - 1;
             }
         }
         moved
@@ -264,7 +313,7 @@ impl CellOrder {
         &self.layout
     }
 
-    /// The cell key of each slot, ascending, followed by a `u64::MAX` sentinel.
+    /// The cell key of each slot, ascending, followed by [`SENTINELS`] times `u64::MAX`.
     pub fn keys(&self) -> &[u64] {
         &self.keys
     }
@@ -303,10 +352,29 @@ mod tests {
         assert_eq!(cell_of(&grid, inside), block.map(|c| c as i32));
         let below = cell_of(&grid, [-0.065 - 2.5 * grid.block_size.x, 0.0, 0.0]);
         assert_eq!(below[0], -3);
+        let limit = (1 << 30) - 1;
         assert_eq!(
             cell_of(&grid, [1e300, f64::NAN, -1e300]),
-            [1048575, 0, -1048575]
+            [limit, 0, -limit]
         );
+    }
+
+    #[test]
+    fn coarsening_keeps_the_box_exact_and_adjacent_cells_adjacent() {
+        assert_eq!(exact_bits(&grid()), [5, 6, 5]);
+        for c in -31..=31 {
+            assert_eq!(coarsen(c, 5), c);
+        }
+        assert_eq!(coarsen(32, 5), 32);
+        assert_eq!(coarsen(64, 5), 64);
+        assert_eq!(coarsen(66, 5), 65);
+        assert_eq!(coarsen(-(1 << 30) + 1, 5), -(((30 - 5) << 5) | 31));
+        let mut previous = coarsen(-(1 << 22), 5);
+        for c in -(1 << 22) + 1..1 << 22 {
+            let coarse = coarsen(c, 5);
+            assert!(coarse - previous == 0 || coarse - previous == 1, "at {c}");
+            previous = coarse;
+        }
     }
 
     #[test]
@@ -321,11 +389,21 @@ mod tests {
     }
 
     #[test]
-    fn widest_layout_fits_in_63_bits() {
+    fn keys_of_the_finest_grid_fit_in_48_bits() {
+        // About 2^26 blocks, the most a grid may have.
+        let grid = Grid {
+            dims: [360, 498, 360],
+            block_size: glam::DVec3::splat(0.13 / 360.0),
+        };
         let limit = CELL_LIMIT as i32;
-        let layout = CellLayout::covering([-limit; 3], [limit; 3]);
-        assert_eq!(layout.key_bits(), 63);
-        assert_eq!(layout.unpack(layout.key([limit; 3])), [2 * limit as u32; 3]);
+        let (lowest, highest) = (
+            coarse_cell(&grid, [-limit; 3]),
+            coarse_cell(&grid, [limit; 3]),
+        );
+        let layout = CellLayout::covering(lowest, highest);
+        assert_eq!(layout.key_bits(), 48);
+        let extent = layout.extent();
+        assert_eq!(layout.unpack(layout.key(highest)), extent);
     }
 
     #[test]
@@ -341,7 +419,7 @@ mod tests {
         assert_eq!(cells.order(), [0, 2, 1, 3]);
         let keys = cells.keys();
         assert!(keys.is_sorted() && keys[0] == keys[1] && keys[1] < keys[2]);
-        assert_eq!(keys.last(), Some(&u64::MAX));
+        assert_eq!(keys[4..], [u64::MAX; SENTINELS]);
         assert_eq!(cells.walls().on(0, Wall::Low), [0, 1]);
         assert_eq!(cells.walls().on(0, Wall::High), [3]);
     }
@@ -358,7 +436,7 @@ mod tests {
     #[test]
     fn radix_sort_agrees_with_a_stable_sort_over_many_digits() {
         let grid = grid();
-        // A deterministic cloud spread over kilometres: keys of about 60 bits.
+        // A deterministic cloud spread over kilometres: keys of three radix digits.
         let mut state = 0x2545_f491_4f6c_dd1du64;
         let mut next = || {
             state ^= state << 13;
@@ -369,10 +447,11 @@ mod tests {
         let points: Vec<[f64; 3]> = (0..3000).map(|_| [next(), next(), next()]).collect();
         let mut cells = CellOrder::default();
         cells.sort(&grid, &positions(&points));
-        assert!(cells.layout().key_bits() > 55);
+        assert!(cells.layout().key_bits() > 2 * MAX_DIGIT_BITS);
         let layout = *cells.layout();
         let mut expected: Vec<u32> = (0..points.len() as u32).collect();
-        expected.sort_by_key(|&s| layout.key(cell_of(&grid, points[s as usize])));
+        expected
+            .sort_by_key(|&s| layout.key(coarse_cell(&grid, cell_of(&grid, points[s as usize]))));
         assert_eq!(cells.order(), expected);
     }
 

@@ -7,9 +7,11 @@
 //! run x fastest, the three cells x-1..x+1 of a neighbour row are contiguous slots: the 13
 //! neighbours are 5 slot ranges (the cell at x+1, the row at y+1, the three rows at z+1).
 //! They are found by 5 cursors that only move forward through the sorted keys, so the
-//! search costs O(particles + occupied cells) and never touches an empty cell.
+//! search costs O(particles + occupied cells) and never touches an empty cell. Two cheap
+//! tests per cell (is there any key near it in its plane, in the next plane?) settle the
+//! usual case of a particle far outside the box.
 
-use crate::cells::CellLayout;
+use crate::cells::{CellLayout, SENTINELS};
 
 /// A set of candidate pairs: every slot of `first..first_end` with every slot of
 /// `second..second_end`, or, for a cell with itself (`first == second`), every pair of its
@@ -48,24 +50,41 @@ impl Tile {
     }
 }
 
-/// The forward neighbour rows of a cell: x offsets (from, to), y offset, z offset.
-const FORWARD_ROWS: [(i64, i64, i64, i64); 5] = [
-    (1, 1, 0, 0),
-    (-1, 1, 1, 0),
-    (-1, 1, -1, 1),
-    (-1, 1, 0, 1),
-    (-1, 1, 1, 1),
+/// The forward neighbour rows of a cell: whether the row is only the cell x+1 (else the
+/// cells x-1..x+1), and the row's y and z offsets.
+const FORWARD_ROWS: [(bool, i64, u32); 5] = [
+    (true, 0, 0),
+    (false, 1, 0),
+    (false, -1, 1),
+    (false, 0, 1),
+    (false, 1, 1),
 ];
 
+/// The first index from `from` on whose key is not below `bound` (keys ascending and
+/// ending with [`SENTINELS`] maximal keys). Counts four keys at a time without branching on
+/// each, as the cursors of a sparse scene move by a few keys in no predictable pattern.
+fn first_not_below(keys: &[u64], mut from: usize, bound: u64) -> usize {
+    loop {
+        let group = &keys[from..from + SENTINELS];
+        let below: usize = group.iter().map(|&k| usize::from(k < bound)).sum();
+        from += below;
+        if below < SENTINELS {
+            return from;
+        }
+    }
+}
+
 /// Fills `tiles` with the tiles of the particles whose sorted cell keys are `keys`
-/// (ascending, ending with a `u64::MAX` sentinel), packed by `layout`.
+/// (ascending, ending with [`SENTINELS`] times `u64::MAX`), packed by `layout`.
 pub fn find_tiles(keys: &[u64], layout: &CellLayout, tiles: &mut Vec<Tile>) {
     tiles.clear();
-    let Some(n) = keys.len().checked_sub(1) else {
+    let Some(n) = keys.len().checked_sub(SENTINELS) else {
         return;
     };
-    let extent = layout.extent().map(i64::from);
+    let [ex, ey, ez] = layout.extent();
+    let [_, shift_y, shift_z] = layout.shift();
     let mut cursors = [0usize; FORWARD_ROWS.len()];
+    let mut plane_cursor = 0;
     let mut start = 0;
     while start < n {
         let key = keys[start];
@@ -82,22 +101,41 @@ pub fn find_tiles(keys: &[u64], layout: &CellLayout, tiles: &mut Vec<Tile>) {
         if end - start > 1 {
             tiles.push(tile(start, end));
         }
-        let [x, y, z] = layout.unpack(key).map(i64::from);
-        for (cursor, &(from, to, dy, dz)) in cursors.iter_mut().zip(&FORWARD_ROWS) {
-            let (ny, nz) = (y + dy, z + dz);
-            let (x0, x1) = ((x + from).max(0), (x + to).min(extent[0]));
-            if ny < 0 || ny > extent[1] || nz > extent[2] || x0 > x1 {
+        let [x, y, z] = layout.unpack(key);
+        let (x1, y1) = ((x + 1).min(ex), (y + 1).min(ey));
+        // Cheap tests first: a forward neighbour in plane z has a key up to that of
+        // (x+1, y+1, z), so the next key tells; plane z+1 has one forward-only cursor
+        // over the keys of its rows y-1..y+1.
+        let in_plane = keys[end] <= layout.pack([x1, y1, z]);
+        let in_next_plane = z < ez && {
+            let low = layout.pack([x.saturating_sub(1), y.saturating_sub(1), z + 1]);
+            plane_cursor = first_not_below(keys, plane_cursor, low);
+            keys[plane_cursor] <= layout.pack([x1, y1, z + 1])
+        };
+        for (cursor, &(single, dy, dz)) in cursors.iter_mut().zip(&FORWARD_ROWS) {
+            if !(if dz == 0 { in_plane } else { in_next_plane }) {
                 continue;
             }
-            let low = layout.pack([x0 as u32, ny as u32, nz as u32]);
-            let high = layout.pack([x1 as u32, ny as u32, nz as u32]);
-            while keys[*cursor] < low {
-                *cursor += 1;
+            let Ok(ny) = u32::try_from(i64::from(y) + dy) else {
+                continue;
+            };
+            if ny > ey {
+                continue;
             }
-            let mut row_end = *cursor;
-            while keys[row_end] <= high {
-                row_end += 1;
-            }
+            // The key of cell (x, ny, z + dz).
+            let base = key - (u64::from(y) << shift_y)
+                + (u64::from(ny) << shift_y)
+                + (u64::from(dz) << shift_z);
+            let (low, high) = if single {
+                if x == ex {
+                    continue;
+                }
+                (base + 1, base + 1)
+            } else {
+                (base - u64::from(x > 0), base + u64::from(x < ex))
+            };
+            *cursor = first_not_below(keys, *cursor, low);
+            let row_end = first_not_below(keys, *cursor, high + 1);
             if row_end > *cursor {
                 tiles.push(tile(*cursor, row_end));
             }
@@ -109,7 +147,7 @@ pub fn find_tiles(keys: &[u64], layout: &CellLayout, tiles: &mut Vec<Tile>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cells::{cell_of, CellOrder};
+    use crate::cells::{cell_of, coarse_cell, CellOrder};
     use crate::grid::Grid;
     use crate::params::Params;
     use crate::particles::Particles;
@@ -174,7 +212,8 @@ mod tests {
             for i in 0..sorted.len() {
                 for j in i + 1..sorted.len() {
                     let r2: f64 = (0..3).map(|d| (sorted[i][d] - sorted[j][d]).powi(2)).sum();
-                    let (ci, cj) = (cell_of(&grid, sorted[i]), cell_of(&grid, sorted[j]));
+                    let coarse = |p| coarse_cell(&grid, cell_of(&grid, p));
+                    let (ci, cj) = (coarse(sorted[i]), coarse(sorted[j]));
                     let adjacent = (0..3).all(|d| (ci[d] - cj[d]).abs() <= 1);
                     assert_eq!(
                         visited.contains(&(i, j)),
@@ -202,7 +241,7 @@ mod tests {
             second: 0,
             second_end: 1,
         }];
-        find_tiles(&[u64::MAX], &CellLayout::default(), &mut tiles);
+        find_tiles(&[u64::MAX; SENTINELS], &CellLayout::default(), &mut tiles);
         assert!(tiles.is_empty());
     }
 }

@@ -189,6 +189,7 @@ impl Simulation {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cells::SENTINELS;
     use crate::method::{Kernel, Model};
     use crate::params::BOX_MIN;
 
@@ -220,7 +221,7 @@ mod tests {
         let mut ids = sim.particles().id.clone();
         ids.sort_unstable();
         assert_eq!(ids, vec![0, 1, 2, 3]);
-        assert_eq!(sim.cells().keys().len(), 5);
+        assert_eq!(sim.cells().keys().len(), 4 + SENTINELS);
     }
 
     #[test]
