@@ -1,27 +1,147 @@
-//! Criterion benchmarks of whole time steps on the bundled inputs.
+//! Criterion benchmarks: whole time steps and single stages, on the bundled inputs in their
+//! initial (dense) state and in the blown-up state of the course model after 50 steps, for
+//! both models and both kernels, plus whole steps of generated scenes of 3,000 to 100,000
+//! particles (time per particle-step).
+//!
+//! `cargo bench --bench step -- --profile-time 10 <filter>` also writes a flamegraph of
+//! each selected benchmark to `target/criterion/<benchmark>/profile/flamegraph.svg`.
 
-use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use criterion::profiler::Profiler;
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use fluid::fld;
+use fluid::method::{Kernel, Method, Model};
+use fluid::scene;
 use fluid::simulation::Simulation;
+use fluid::stages::Stage;
+use pprof::ProfilerGuard;
+use std::fs::File;
 use std::path::Path;
 
-fn load(name: &str) -> Simulation {
+/// Samples per second of the flamegraph profiler (the kernel tick here is 250 Hz).
+const SAMPLING_HZ: i32 = 250;
+
+/// Steps after which the course model has blown up (most particles metres away).
+const BLOW_UP_STEPS: u64 = 50;
+
+/// Criterion's hook for `--profile-time`: samples the benchmark with pprof and writes a
+/// flamegraph SVG beside criterion's report.
+struct FlamegraphProfiler {
+    guard: Option<ProfilerGuard<'static>>,
+}
+
+impl Profiler for FlamegraphProfiler {
+    fn start_profiling(&mut self, _benchmark_id: &str, _benchmark_dir: &Path) {
+        self.guard = Some(ProfilerGuard::new(SAMPLING_HZ).expect("start the pprof sampler"));
+    }
+
+    fn stop_profiling(&mut self, benchmark_id: &str, benchmark_dir: &Path) {
+        let Some(guard) = self.guard.take() else {
+            return;
+        };
+        let report = guard.report().build().expect("build the pprof report");
+        std::fs::create_dir_all(benchmark_dir).expect("create the profile folder");
+        let path = benchmark_dir.join("flamegraph.svg");
+        let file = File::create(&path).expect("create the flamegraph file");
+        report.flamegraph(file).expect("write the flamegraph");
+        eprintln!("{benchmark_id}: flamegraph in {}", path.display());
+    }
+}
+
+fn load(name: &str, method: Method) -> Simulation {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("data/in")
         .join(name);
     let bytes = std::fs::read(&path).expect("bundled input");
     let scene = fld::parse(&bytes, name).expect("valid input");
-    Simulation::new(scene.ppm.into(), scene.particles).expect("valid grid")
+    Simulation::with_method(scene.ppm.into(), scene.particles, method).expect("valid grid")
 }
 
-fn step(c: &mut Criterion) {
-    for name in ["small.fld", "large.fld"] {
-        let initial = load(name);
-        c.bench_function(&format!("step/{name}"), |b| {
-            b.iter_batched_ref(|| initial.clone(), Simulation::step, BatchSize::LargeInput)
-        });
+/// The benchmarked states: (label, model, steps run before measuring).
+const STATES: [(&str, Model, u64); 3] = [
+    ("dense", Model::Course, 0),
+    ("dense", Model::Fluidanimate, 0),
+    ("blown-up", Model::Course, BLOW_UP_STEPS),
+];
+
+fn state(input: &str, model: Model, kernel: Kernel, steps: u64) -> Simulation {
+    let mut simulation = load(input, Method { model, kernel });
+    simulation.run(steps);
+    simulation
+}
+
+fn whole_steps(c: &mut Criterion) {
+    for input in ["small.fld", "large.fld"] {
+        for (label, model, steps) in STATES {
+            for kernel in Kernel::ALL {
+                let initial = state(input, model, kernel, steps);
+                let id = format!("step/{input}/{label}/{}/{}", model.name(), kernel.name());
+                c.bench_function(&id, |b| {
+                    b.iter_batched_ref(|| initial.clone(), Simulation::step, BatchSize::LargeInput)
+                });
+            }
+        }
     }
 }
 
-criterion_group!(benches, step);
+/// Each stage alone, from the state in which a step reaches it.
+fn single_stages(c: &mut Criterion) {
+    for input in ["small.fld", "large.fld"] {
+        for (label, model, steps) in STATES {
+            for kernel in Kernel::ALL {
+                let mut before = state(input, model, kernel, steps);
+                for stage in Stage::ALL {
+                    let pair_stage = matches!(
+                        stage,
+                        Stage::IncrementDensities | Stage::TransferAccelerations
+                    );
+                    if pair_stage || kernel == Kernel::Simd {
+                        let id = format!(
+                            "stage/{input}/{label}/{}/{}/{}",
+                            model.name(),
+                            kernel.name(),
+                            stage.trace_name()
+                        );
+                        c.bench_function(&id, |b| {
+                            b.iter_batched_ref(
+                                || before.clone(),
+                                |simulation| simulation.run_stage(stage),
+                                BatchSize::LargeInput,
+                            )
+                        });
+                    }
+                    before.run_stage(stage);
+                }
+            }
+        }
+    }
+}
+
+/// Whole steps of the stable model on a box filled at 400 particles per metre, from 3,000
+/// to 100,000 particles; throughput is in particle-steps.
+fn scaling(c: &mut Criterion) {
+    let mut group = c.benchmark_group("scaling/filled-box-ppm400/fluidanimate/simd");
+    for count in [3_000, 10_000, 30_000, 100_000] {
+        let method = Method {
+            model: Model::Fluidanimate,
+            kernel: Kernel::Simd,
+        };
+        let particles = scene::filled_box(400.0, count);
+        let initial = Simulation::with_method(400.0, particles, method).expect("valid grid");
+        group.throughput(Throughput::Elements(count as u64));
+        group.bench_function(count.to_string(), |b| {
+            b.iter_batched_ref(|| initial.clone(), Simulation::step, BatchSize::LargeInput)
+        });
+    }
+    group.finish();
+}
+
+fn configured() -> Criterion {
+    Criterion::default().with_profiler(FlamegraphProfiler { guard: None })
+}
+
+criterion_group! {
+    name = benches;
+    config = configured();
+    targets = whole_steps, single_stages, scaling
+}
 criterion_main!(benches);

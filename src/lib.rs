@@ -6,8 +6,8 @@
 //! (constants and derived values), [`method`] (model and kernel), [`grid`] (blocks),
 //! [`cells`] (cell ordering), [`neighbours`] (pair search), [`particles`]
 //! (structure-of-arrays state), [`kernel`] (pair stages), [`stages`] (the other stages),
-//! [`simulation`] (driver), [`cli`] (the `fluid` command), plus [`gformat`], [`trace`]
-//! and [`error`].
+//! [`simulation`] (driver), [`cli`] (the `fluid` command), plus [`gformat`], [`trace`],
+//! [`scene`] and [`error`].
 
 pub mod cells;
 pub mod cli;
@@ -21,6 +21,7 @@ pub mod neighbours;
 pub mod params;
 pub mod particles;
 pub mod progargs;
+pub mod scene;
 pub mod simulation;
 pub mod stages;
 pub mod trace;
