@@ -6,7 +6,8 @@
 //! (constants and derived values), [`method`] (model and kernel), [`grid`] (blocks),
 //! [`cells`] (cell ordering), [`neighbours`] (pair search), [`particles`]
 //! (structure-of-arrays state), [`kernel`] (pair stages), [`stages`] (the other stages),
-//! [`simulation`] (driver), [`cli`] (the `fluid` command), plus [`gformat`], [`trace`],
+//! [`simulation`] (driver), [`cli`] (the `fluid` command), [`lab`] (the `fluid-lab`
+//! workbench), plus [`gformat`], [`trace`],
 //! [`scene`] and [`error`].
 
 pub mod cells;
@@ -16,6 +17,7 @@ pub mod fld;
 pub mod gformat;
 pub mod grid;
 pub mod kernel;
+pub mod lab;
 pub mod method;
 pub mod neighbours;
 pub mod params;

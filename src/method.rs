@@ -3,7 +3,7 @@
 //! pair interactions.
 
 /// The physical model.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
 pub enum Model {
     /// The course model of SPEC.md: viscosity `(v_j - v_i) * 45/(pi h^6) * mu * m`.
     /// Unstable (the fluid leaves the box within a few steps); `fluid` always runs it.
@@ -15,7 +15,7 @@ pub enum Model {
 }
 
 /// The implementation of the pair loops (density increment, acceleration transfer).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
 pub enum Kernel {
     /// One pair at a time in plain f64: the reference path.
     Scalar,
@@ -65,9 +65,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn names_follow_the_variants() {
+    fn names_follow_the_variants_and_the_command_line() {
+        use clap::ValueEnum;
         assert_eq!(Model::ALL.map(Model::name), ["course", "fluidanimate"]);
         assert_eq!(Kernel::ALL.map(Kernel::name), ["scalar", "simd"]);
+        for model in Model::ALL {
+            assert_eq!(model.to_possible_value().unwrap().get_name(), model.name());
+        }
+        for kernel in Kernel::ALL {
+            assert_eq!(
+                kernel.to_possible_value().unwrap().get_name(),
+                kernel.name()
+            );
+        }
     }
 
     #[test]

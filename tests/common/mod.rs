@@ -1,5 +1,5 @@
-//! Helpers shared by the functional tests: paths to the bundled data and a runner for the
-//! real `fluid` binary that never hangs a test.
+//! Helpers shared by the functional tests: paths to the bundled data and runners for the
+//! real `fluid` and `fluid-lab` binaries that never hang a test.
 
 #![allow(dead_code)] // each test crate uses its own subset of these helpers
 
@@ -22,27 +22,36 @@ pub fn reference_output(name: &str, steps: u32) -> PathBuf {
     data_dir().join("out").join(format!("{name}-{steps}.fld"))
 }
 
-/// How long one `fluid` run in a test may take before it counts as hung.
+/// How long one run of a binary in a test may take before it counts as hung.
 const TIME_LIMIT: Duration = Duration::from_secs(60);
 
 /// Runs the `fluid` binary with `args`, killing it (and failing) after the time limit.
 pub fn run_fluid<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fluid"))
+    run(env!("CARGO_BIN_EXE_fluid"), args)
+}
+
+/// Runs the `fluid-lab` workbench with `args`, as [`run_fluid`] does.
+pub fn run_lab<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
+    run(env!("CARGO_BIN_EXE_fluid-lab"), args)
+}
+
+fn run<S: AsRef<std::ffi::OsStr>>(program: &str, args: &[S]) -> Output {
+    let mut child = Command::new(program)
         .args(args)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .expect("spawn fluid");
+        .expect("spawn the binary");
     let start = Instant::now();
-    while child.try_wait().expect("wait for fluid").is_none() {
+    while child.try_wait().expect("wait for the binary").is_none() {
         if start.elapsed() > TIME_LIMIT {
             child.kill().ok();
-            panic!("fluid did not finish within {TIME_LIMIT:?}");
+            panic!("{program} did not finish within {TIME_LIMIT:?}");
         }
         std::thread::sleep(Duration::from_millis(5));
     }
-    child.wait_with_output().expect("collect fluid output")
+    child.wait_with_output().expect("collect the output")
 }
 
 /// The exit status as the shell sees it (0-255).
@@ -50,7 +59,7 @@ pub fn exit_code(output: &Output) -> i32 {
     output
         .status
         .code()
-        .expect("fluid exited normally, not by a signal")
+        .expect("the binary exited normally, not by a signal")
 }
 
 /// The process's stdout as text.
