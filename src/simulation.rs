@@ -4,7 +4,7 @@
 
 use crate::cells::CellOrder;
 use crate::grid::{Grid, GridSizeError};
-use crate::kernel;
+use crate::kernel::{self, Candidates, ClosePairs};
 use crate::method::Method;
 use crate::neighbours::{self, Tile};
 use crate::params::Params;
@@ -21,10 +21,10 @@ pub struct Simulation {
     particles: Particles,
     cells: CellOrder,
     tiles: Vec<Tile>,
-    /// The tiles holding a pair closer than h, found by the density increment.
-    close_tiles: Vec<Tile>,
-    /// Whether `close_tiles` belongs to the current tiles.
-    close_tiles_found: bool,
+    /// Where the density increment found pairs closer than h.
+    close: ClosePairs,
+    /// Whether `close` belongs to the current tiles.
+    close_found: bool,
     /// Buffer reused by the reordering.
     spare: Particles,
 }
@@ -75,8 +75,8 @@ impl Simulation {
             particles,
             cells: CellOrder::default(),
             tiles: Vec::new(),
-            close_tiles: Vec::new(),
-            close_tiles_found: false,
+            close: ClosePairs::default(),
+            close_found: false,
             spare: Particles::default(),
         }
     }
@@ -139,27 +139,20 @@ impl Simulation {
             Stage::InitAccelerations => particles.reset_densities_and_accelerations(),
             Stage::IncrementDensities => {
                 let (p, rho) = (&particles.p, &mut particles.rho);
-                kernel::increment_densities(
-                    kernel,
-                    params,
-                    &self.tiles,
-                    p,
-                    rho,
-                    &mut self.close_tiles,
-                );
-                self.close_tiles_found = true;
+                kernel::increment_densities(kernel, params, &self.tiles, p, rho, &mut self.close);
+                self.close_found = true;
             }
             Stage::TransformDensities => {
                 kernel::transform_densities(params, &mut particles.rho[..n])
             }
             Stage::TransferAccelerations => {
-                let tiles = if self.close_tiles_found {
-                    &self.close_tiles
+                let candidates = if self.close_found {
+                    Candidates::Close(&self.close)
                 } else {
-                    &self.tiles
+                    Candidates::All(&self.tiles)
                 };
                 let Particles { p, v, rho, a, .. } = particles;
-                kernel::transfer_accelerations(kernel, model, params, tiles, p, v, rho, a);
+                kernel::transfer_accelerations(kernel, model, params, candidates, p, v, rho, a);
             }
             Stage::CollideWithWalls => stages::collide_with_walls(walls, particles),
             Stage::Move => stages::move_particles(particles),
@@ -182,7 +175,7 @@ impl Simulation {
 
     fn find_tiles(&mut self) {
         neighbours::find_tiles(self.cells.keys(), self.cells.layout(), &mut self.tiles);
-        self.close_tiles_found = false;
+        self.close_found = false;
     }
 }
 
@@ -236,18 +229,27 @@ mod tests {
     }
 
     #[test]
-    fn the_acceleration_transfer_needs_only_the_close_tiles() {
-        let particles = along_x(&[0.0, 0.004, 0.0075, 0.0165, 0.03, 0.06]);
-        let mut sim = Simulation::new(204.0, particles).unwrap();
-        sim.run_stage(Stage::IncrementDensities);
-        sim.run_stage(Stage::TransformDensities);
-        assert!(sim.close_tiles.len() < sim.tiles.len());
-        let mut all_tiles = sim.clone();
-        all_tiles.close_tiles_found = false;
-        sim.run_stage(Stage::TransferAccelerations);
-        all_tiles.run_stage(Stage::TransferAccelerations);
-        assert_eq!(sim.particles().a, all_tiles.particles().a);
-        assert_ne!(sim.particles().a[0][0], 0.0);
+    fn the_acceleration_transfer_needs_only_the_close_pairs() {
+        // Along x: pairs closer than h, pairs in adjacent cells farther than h, and more
+        // than 256 particles in one far cell (groups past the overflow bit).
+        let mut xs = vec![0.0, 0.004, 0.0075, 0.0165, 0.03, 0.06];
+        xs.extend((0..300).map(|k| 50.0 + 1e-6 * k as f64));
+        for kernel in Kernel::ALL {
+            let method = Method {
+                model: Model::Course,
+                kernel,
+            };
+            let mut sim = Simulation::with_method(204.0, along_x(&xs), method).unwrap();
+            sim.run_stage(Stage::IncrementDensities);
+            sim.run_stage(Stage::TransformDensities);
+            assert!(sim.close.tiles.len() < sim.tiles.len());
+            let mut all_tiles = sim.clone();
+            all_tiles.close_found = false;
+            sim.run_stage(Stage::TransferAccelerations);
+            all_tiles.run_stage(Stage::TransferAccelerations);
+            assert_eq!(sim.particles().a, all_tiles.particles().a, "{kernel:?}");
+            assert_ne!(sim.particles().a[0][0], 0.0);
+        }
     }
 
     #[test]

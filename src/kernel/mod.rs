@@ -4,8 +4,9 @@
 //! time in `f64x4` lanes). They differ only in the order in which terms are summed, which
 //! the reference outputs do not depend on (SPEC.md section 5).
 //!
-//! The density loop also returns the tiles that hold at least one pair closer than h; the
-//! acceleration loop, over the same positions, needs only those.
+//! The density loop also records where the pairs closer than h are ([`ClosePairs`]): the
+//! acceleration loop, over the same positions, visits only those tiles and, on the SIMD
+//! kernel, only those groups of four partners, without testing the others again.
 
 mod scalar;
 mod simd;
@@ -15,20 +16,59 @@ use crate::neighbours::Tile;
 use crate::params::Params;
 use crate::particles::AxisArrays;
 
+/// The last group bit of [`ClosePairs::groups`], which stands for every group from it on.
+const OVERFLOW_GROUP: usize = 63;
+
+/// Where the density loop found pairs closer than h.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ClosePairs {
+    /// The tiles holding at least one such pair, in the order the loop visited them.
+    pub tiles: Vec<Tile>,
+    /// On the SIMD kernel (empty on the scalar one): for each first slot of each of those
+    /// tiles in turn, bit k set if partners 4k..4k+4 (of [`Tile::partners`]) hold such a
+    /// pair; bit 63 stands for every group from the 63rd on.
+    pub groups: Vec<u64>,
+}
+
+impl ClosePairs {
+    fn clear(&mut self) {
+        self.tiles.clear();
+        self.groups.clear();
+    }
+}
+
+/// The candidate pairs of the acceleration transfer.
+#[derive(Debug, Clone, Copy)]
+pub enum Candidates<'a> {
+    /// Every pair of these tiles.
+    All(&'a [Tile]),
+    /// Where the density increment over the same positions found close pairs.
+    Close(&'a ClosePairs),
+}
+
+impl Candidates<'_> {
+    fn tiles(&self) -> &[Tile] {
+        match self {
+            Candidates::All(tiles) => tiles,
+            Candidates::Close(close) => &close.tiles,
+        }
+    }
+}
+
 /// Stage 3: adds (h^2 - r^2)^3 to both raw density sums of every pair of `tiles` closer
-/// than h, and collects in `close_tiles` the tiles where that happened.
+/// than h, and records in `close` where such pairs are.
 pub fn increment_densities(
     kernel: Kernel,
     params: &Params,
     tiles: &[Tile],
     p: &AxisArrays,
     rho: &mut [f64],
-    close_tiles: &mut Vec<Tile>,
+    close: &mut ClosePairs,
 ) {
-    close_tiles.clear();
+    close.clear();
     match kernel {
-        Kernel::Scalar => scalar::increment_densities(params, tiles, p, rho, close_tiles),
-        Kernel::Simd => simd::increment_densities(params, tiles, p, rho, close_tiles),
+        Kernel::Scalar => scalar::increment_densities(params, tiles, p, rho, &mut close.tiles),
+        Kernel::Simd => simd::increment_densities(params, tiles, p, rho, close),
     }
 }
 
@@ -39,14 +79,14 @@ pub fn transform_densities(params: &Params, rho: &mut [f64]) {
     }
 }
 
-/// Stage 5: the pressure and viscosity acceleration of every pair of `tiles` closer than
+/// Stage 5: the pressure and viscosity acceleration of every candidate pair closer than
 /// h, added to the first particle and subtracted from the second (SPEC.md erratum 4).
 #[allow(clippy::too_many_arguments)]
 pub fn transfer_accelerations(
     kernel: Kernel,
     model: Model,
     params: &Params,
-    tiles: &[Tile],
+    candidates: Candidates,
     p: &AxisArrays,
     v: &AxisArrays,
     rho: &[f64],
@@ -54,16 +94,16 @@ pub fn transfer_accelerations(
 ) {
     match (kernel, model) {
         (Kernel::Scalar, Model::Course) => {
-            scalar::transfer_accelerations::<false>(params, tiles, p, v, rho, a)
+            scalar::transfer_accelerations::<false>(params, candidates.tiles(), p, v, rho, a)
         }
         (Kernel::Scalar, Model::Fluidanimate) => {
-            scalar::transfer_accelerations::<true>(params, tiles, p, v, rho, a)
+            scalar::transfer_accelerations::<true>(params, candidates.tiles(), p, v, rho, a)
         }
         (Kernel::Simd, Model::Course) => {
-            simd::transfer_accelerations::<false>(params, tiles, p, v, rho, a)
+            simd::transfer_accelerations::<false>(params, candidates, p, v, rho, a)
         }
         (Kernel::Simd, Model::Fluidanimate) => {
-            simd::transfer_accelerations::<true>(params, tiles, p, v, rho, a)
+            simd::transfer_accelerations::<true>(params, candidates, p, v, rho, a)
         }
     }
 }
