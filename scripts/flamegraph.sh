@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Flamegraph of a whole `fluid` run: samples the release binary with Linux perf at 250 Hz
+# (the kernel tick here; software cpu-clock events work without hardware counters) and
+# folds the stacks with inferno (installed into target/tools on first use).
+#
+# Usage: scripts/flamegraph.sh [STEPS] [INPUT] [OUTPUT.svg]
+#        defaults: 1000 data/in/large.fld target/flamegraph-fluid.svg
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+steps="${1:-1000}"
+input="${2:-data/in/large.fld}"
+output="${3:-target/flamegraph-fluid.svg}"
+frequency=250
+
+if ! command -v perf >/dev/null; then
+    echo "flamegraph.sh: perf is not installed (apt-get install linux-perf)" >&2
+    exit 1
+fi
+tools="$root/target/tools"
+if ! command -v inferno-flamegraph >/dev/null && [ ! -x "$tools/bin/inferno-flamegraph" ]; then
+    echo "flamegraph.sh: installing inferno into $tools" >&2
+    cargo install --quiet --locked --root "$tools" inferno
+fi
+export PATH="$tools/bin:$PATH"
+
+cargo build --release --quiet --bin fluid
+scratch="$(mktemp -d)"
+trap 'rm -rf "$scratch"' EXIT
+echo "method: perf record -F $frequency --call-graph dwarf, inferno" >&2
+if ! perf record --quiet -F "$frequency" --call-graph dwarf -o "$scratch/perf.data" \
+    target/release/fluid "$steps" "$input" /dev/null >/dev/null 2>"$scratch/perf.err"; then
+    echo "flamegraph.sh: perf cannot sample here:" >&2
+    cat "$scratch/perf.err" >&2
+    exit 1
+fi
+mkdir -p "$(dirname "$output")"
+perf script -i "$scratch/perf.data" 2>/dev/null | inferno-collapse-perf |
+    inferno-flamegraph --title "fluid $steps $input" >"$output"
+echo "flamegraph: $output"
