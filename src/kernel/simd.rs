@@ -66,6 +66,9 @@ fn all_groups(partners: usize) -> u64 {
     }
 }
 
+/// A mask of all four lanes.
+const ALL_LANES: f64x4 = f64x4::new([f64::from_bits(u64::MAX); LANES]);
+
 /// A mask of the first `count` lanes (all four for `count >= 4`).
 #[inline(always)]
 fn first_lanes(count: usize) -> f64x4 {
@@ -108,20 +111,28 @@ pub(super) fn increment_densities(
             let partners = tile.partners(i);
             // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded checked that
             // every array holds slots_used(tiles) + PADDING elements, so j + 4 <= len.
-            unsafe {
-                let mut j = partners.start;
-                while j < partners.end {
-                    let (dx, dy, dz) = (xi - load(x, j), yi - load(y, j), zi - load(z, j));
-                    let r2 = dx * dx + dy * dy + dz * dz;
-                    let close = r2.simd_lt(h2) & first_lanes(partners.end - j);
-                    let q = h2 - r2;
-                    let t = (q * q * q) & close;
-                    sum += t;
-                    store(rho, j, load(rho, j) + t);
-                    groups |= group_bit & 0u64.wrapping_sub(u64::from(close.to_bitmask() != 0));
-                    group_bit = (group_bit << 1) | (group_bit & OVERFLOW_BIT);
-                    j += LANES;
-                }
+            let mut group = |j: usize, lanes: f64x4| {
+                // SAFETY: see above.
+                let load = |values: &[f64]| unsafe { load(values, j) };
+                let (dx, dy, dz) = (xi - load(x), yi - load(y), zi - load(z));
+                let r2 = dx * dx + dy * dy + dz * dz;
+                let close = r2.simd_lt(h2) & lanes;
+                let q = h2 - r2;
+                let t = (q * q * q) & close;
+                sum += t;
+                let rho_j = load(rho) + t;
+                // SAFETY: see above.
+                unsafe { store(rho, j, rho_j) };
+                groups |= group_bit & 0u64.wrapping_sub(u64::from(close.to_bitmask() != 0));
+                group_bit = (group_bit << 1) | (group_bit & OVERFLOW_BIT);
+            };
+            let mut j = partners.start;
+            while j + LANES <= partners.end {
+                group(j, ALL_LANES);
+                j += LANES;
+            }
+            if j < partners.end {
+                group(j, first_lanes(partners.end - j));
             }
             rho[i] += sum.reduce_add();
             close.groups.push(groups);
@@ -163,11 +174,16 @@ impl<const FLUIDANIMATE: bool> Transfer<'_, FLUIDANIMATE> {
     /// `j + 4` is within every array.
     #[inline(always)]
     unsafe fn group(&self, first: &First, j: usize, end: usize) -> Option<[f64x4; 3]> {
+        let lanes = if j + LANES <= end {
+            ALL_LANES
+        } else {
+            first_lanes(end - j)
+        };
         // SAFETY: guaranteed by the caller.
         let load = |values: &[f64]| unsafe { load(values, j) };
         let d = [0, 1, 2].map(|axis| first.p[axis] - load(self.p[axis]));
         let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        let close = r2.simd_lt(self.h2) & first_lanes(end - j);
+        let close = r2.simd_lt(self.h2) & lanes;
         if !close.any() {
             return None;
         }

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Times whole `fluid` runs of several git revisions side by side, in one hyperfine run
+# (ratios measured together are what a noisy machine can support). Each revision is
+# checked out into target/revisions/<rev> and built there with the current
+# .cargo/config.toml (target-cpu=native).
+#
+# Usage: scripts/compare-revisions.sh "STEPS INPUT" REV [REV ...]
+#   e.g. scripts/compare-revisions.sh "1000 data/in/large.fld" f0edf9e HEAD
+# Prints a markdown table of the median, fastest and slowest of 10 runs per revision
+# (also kept in target/revisions/<STEPS>-<input>.md; hyperfine's CSV beside it).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+if [ $# -lt 2 ]; then
+    echo "usage: $0 \"STEPS INPUT\" REV [REV ...]" >&2
+    exit 2
+fi
+read -r steps input <<<"$1"
+shift
+if ! command -v hyperfine >/dev/null; then
+    echo "compare-revisions.sh: hyperfine is not installed (apt-get install hyperfine)" >&2
+    exit 1
+fi
+mkdir -p target/revisions
+commands=()
+for rev in "$@"; do
+    hash="$(git rev-parse --short "$rev")"
+    tree="target/revisions/$hash"
+    if [ ! -x "$tree/target/release/fluid" ]; then
+        rm -rf "$tree"
+        git worktree add --detach --force "$tree" "$hash" >/dev/null 2>&1
+        mkdir -p "$tree/.cargo"
+        cp .cargo/config.toml "$tree/.cargo/config.toml"
+        (cd "$tree" && cargo build --release --quiet --bin fluid)
+    fi
+    commands+=(-n "$rev ($hash)" "$tree/target/release/fluid $steps $input /dev/null")
+done
+report="target/revisions/$steps-$(basename "$input" .fld)"
+hyperfine -N --warmup 2 --runs 10 --export-csv "$report.csv" "${commands[@]}" >&2
+# CSV columns: command,mean,stddev,median,user,system,min,max (seconds).
+awk -F, -v what="fluid $steps $input" '
+    NR == 1 { next }
+    { name[NR] = $1; median[NR] = $4; low[NR] = $7; high[NR] = $8; last = NR }
+    END {
+        printf "| %s | median [s] | min [s] | max [s] | vs last |\n|:---|---:|---:|---:|---:|\n", what
+        for (i = 2; i <= last; i++)
+            printf "| %s | %.4f | %.4f | %.4f | %.2fx |\n", name[i], median[i], low[i], high[i],
+                median[i] / median[last]
+    }' "$report.csv" | tee "$report.md"
