@@ -116,16 +116,16 @@ fn single_stages(c: &mut Criterion) {
     }
 }
 
-/// Whole steps of the stable model on a box filled at 400 particles per metre, from 3,000
+/// Whole steps of the stable model on a block of fluid at 400 particles per metre, from 3,000
 /// to 100,000 particles; throughput is in particle-steps.
 fn scaling(c: &mut Criterion) {
-    let mut group = c.benchmark_group("scaling/filled-box-ppm400/fluidanimate/simd");
+    let mut group = c.benchmark_group("scaling/corner-block-ppm400/fluidanimate/simd");
     for count in [3_000, 10_000, 30_000, 100_000] {
         let method = Method {
             model: Model::Fluidanimate,
             kernel: Kernel::Simd,
         };
-        let particles = scene::filled_box(400.0, count);
+        let particles = scene::corner_block(400.0, count);
         let initial = Simulation::with_method(400.0, particles, method).expect("valid grid");
         group.throughput(Throughput::Elements(count as u64));
         group.bench_function(count.to_string(), |b| {

@@ -27,7 +27,7 @@ pub struct Lab {
 enum Command {
     /// Run a scene with a chosen model and kernel, timed; optionally write the final state.
     Run(RunArgs),
-    /// Write a generated scene as a .fld input.
+    /// Write a generated scene (a block of fluid in the box's corner) as a .fld input.
     Scene(SceneArgs),
 }
 
@@ -55,7 +55,7 @@ struct SceneArgs {
     /// Particles per metre (also the lattice density).
     #[arg(long, default_value_t = 400.0)]
     ppm: f32,
-    /// Number of particles, filling the box from the floor up.
+    /// Number of particles, as a cube-like block in the low corner.
     #[arg(long)]
     particles: usize,
 }
@@ -103,7 +103,7 @@ fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
 
 fn write_scene(args: SceneArgs) -> Result<(), Box<dyn Error>> {
     let output = OutputFile::create(&args.output)?;
-    let particles = scene::filled_box(args.ppm.into(), args.particles);
+    let particles = scene::corner_block(args.ppm.into(), args.particles);
     output.commit(&fld::encode(args.ppm, &particles))?;
     Ok(())
 }

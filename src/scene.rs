@@ -3,22 +3,25 @@
 use crate::params::{BOX_MAX, BOX_MIN};
 use crate::particles::Particles;
 
-/// `count` particles at rest on a cubic lattice of spacing 1/`ppm`, filling the box from
-/// the floor up (x fastest, then z, then y), half a spacing from the walls: a column of
-/// fluid at the given particles per metre. Panics if the box cannot hold `count`.
-pub fn filled_box(ppm: f64, count: usize) -> Particles {
+/// `count` particles at rest on a cubic lattice of spacing 1/`ppm`, half a spacing from
+/// the walls: a block of fluid in the box's low corner, as close to a cube as the box
+/// allows (x fastest, then z, then y, so the top layer may be partial). Blocks of any size
+/// have the same inner density and shape, which makes them a fair scaling series.
+/// Panics if the box cannot hold `count`.
+pub fn corner_block(ppm: f64, count: usize) -> Particles {
     let spacing = 1.0 / ppm;
     let extent = BOX_MAX - BOX_MIN;
-    let per_axis = (extent / spacing).floor().to_array().map(|n| n as usize);
-    let [nx, ny, nz] = per_axis;
+    let [nx, ny, nz] = (extent / spacing).floor().to_array().map(|n| n as usize);
+    let side = (count as f64).cbrt().ceil() as usize;
+    let (wide, deep) = (side.min(nx), side.min(nz));
     assert!(
-        count <= nx * ny * nz,
-        "a box at {ppm} particles per metre holds at most {} particles",
-        nx * ny * nz
+        count <= wide * deep * ny,
+        "a box at {ppm} particles per metre holds a block of at most {} particles",
+        wide * deep * ny
     );
     let mut particles = Particles::zeroed(count);
     for slot in 0..count {
-        let (x, z, y) = (slot % nx, (slot / nx) % nz, slot / (nx * nz));
+        let (x, z, y) = (slot % wide, (slot / wide) % deep, slot / (wide * deep));
         for (axis, k) in [x, y, z].into_iter().enumerate() {
             particles.p[axis][slot] = BOX_MIN[axis] + (k as f64 + 0.5) * spacing;
         }
@@ -31,23 +34,32 @@ mod tests {
     use super::*;
 
     #[test]
-    fn fills_the_floor_first_on_a_regular_lattice() {
-        let particles = filled_box(100.0, 100);
-        assert_eq!(particles.len(), 100);
-        let lowest = BOX_MIN.y + 0.005;
+    fn builds_a_cube_in_the_corner_on_a_regular_lattice() {
+        let particles = corner_block(100.0, 125);
+        assert_eq!(particles.len(), 125);
         assert!((particles.position(0) - (BOX_MIN + 0.005)).length() < 1e-15);
-        // 13 per row along x at 100 per metre over 0.13 m; the second row is one step in z.
-        assert!((particles.p[0][13] - particles.p[0][0]).abs() < 1e-15);
-        assert!((particles.p[2][13] - particles.p[2][0] - 0.01).abs() < 1e-15);
-        assert!(particles.p[1][..100]
-            .iter()
-            .all(|&y| (y - lowest).abs() < 1e-15));
-        assert!(particles.position(99).cmplt(BOX_MAX).all());
+        // Rows of 5 along x, 5 rows along z, 5 layers: spacing 0.01 m.
+        let last = particles.position(124) - particles.position(0);
+        assert!((last - glam::DVec3::splat(0.04)).length() < 1e-15);
+        assert!((particles.p[2][5] - particles.p[2][0] - 0.01).abs() < 1e-15);
+        assert!((particles.p[1][25] - particles.p[1][0] - 0.01).abs() < 1e-15);
     }
 
     #[test]
-    #[should_panic(expected = "holds at most")]
+    fn a_block_wider_than_the_box_grows_upwards() {
+        // A cube of 3000 would be 15 wide; 13 x 13 fit across the box at 100 per metre, so
+        // the block takes 18 layers, the box's full height.
+        let particles = corner_block(100.0, 3000);
+        let top = particles.p[1][..3000]
+            .iter()
+            .fold(f64::MIN, |m, &y| m.max(y));
+        assert!((top - (BOX_MIN.y + 0.175)).abs() < 1e-15);
+        assert!(particles.position(2999).cmplt(BOX_MAX).all());
+    }
+
+    #[test]
+    #[should_panic(expected = "holds a block of at most")]
     fn refuses_more_than_the_box_holds() {
-        filled_box(20.0, 10_000);
+        corner_block(20.0, 10_000);
     }
 }
