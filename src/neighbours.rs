@@ -75,7 +75,8 @@ fn first_not_below(keys: &[u64], mut from: usize, bound: u64) -> usize {
 }
 
 /// Fills `tiles` with the tiles of the particles whose sorted cell keys are `keys`
-/// (ascending, ending with [`SENTINELS`] times `u64::MAX`), packed by `layout`.
+/// (ascending, ending with [`SENTINELS`] times `u64::MAX`), packed by `layout`. A cell's
+/// tiles are consecutive: its own (if it holds two particles or more), then its rows.
 pub fn find_tiles(keys: &[u64], layout: &CellLayout, tiles: &mut Vec<Tile>) {
     tiles.clear();
     let Some(n) = keys.len().checked_sub(SENTINELS) else {

@@ -24,9 +24,11 @@ const OVERFLOW_GROUP: usize = 63;
 pub struct ClosePairs {
     /// The tiles holding at least one such pair, in the order the loop visited them.
     pub tiles: Vec<Tile>,
-    /// On the SIMD kernel (empty on the scalar one): for each first slot of each of those
-    /// tiles in turn, bit k set if partners 4k..4k+4 (of [`Tile::partners`]) hold such a
-    /// pair; bit 63 stands for every group from the 63rd on.
+    /// On the SIMD kernel (empty on the scalar one), in the order the loop visits them:
+    /// cell by cell (a cell's tiles are consecutive and share their first slots), first
+    /// slot by first slot, tile by tile: bit k set if partners 4k..4k+4 (of
+    /// [`Tile::partners`]) hold such a pair; bit 63 stands for every group from the 63rd
+    /// on. The SIMD kernel keeps all tiles of a cell with any such pair.
     pub groups: Vec<u64>,
 }
 

@@ -1,7 +1,8 @@
 //! The vectorised pair loops: for each particle of a tile, its partners four at a time in
 //! `f64x4` lanes. A lane counts only if it holds a partner (tail mask) closer than h
-//! (cut-off mask); other lanes add exactly +0. The particle's own sums stay in registers
-//! and are added once per tile; the partners' sums are updated lane-wise in memory.
+//! (cut-off mask); other lanes add exactly +0. A particle visits all the tiles of its cell
+//! in one pass, its own sums in registers, added once; the partners' sums are updated
+//! lane-wise in memory.
 //!
 //! Loads of the last, partial group of four read up to three slots past the range: the
 //! particle arrays carry [`PADDING`] extra elements so those reads stay in bounds, and the
@@ -101,47 +102,49 @@ pub(super) fn increment_densities(
     let [x, y, z] = p;
     assert_padded(slots_used(tiles), &[x, y, z, rho]);
     let h2 = f64x4::splat(params.h2);
-    for tile in tiles {
+    for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
         let groups_before = close.groups.len();
-        let mut tile_groups = 0u64;
-        for i in tile.firsts() {
+        let mut cell_groups = 0u64;
+        for i in cell_tiles[0].firsts() {
             let (xi, yi, zi) = (f64x4::splat(x[i]), f64x4::splat(y[i]), f64x4::splat(z[i]));
             let mut sum = f64x4::ZERO;
-            let (mut groups, mut group_bit) = (0u64, 1u64);
-            let partners = tile.partners(i);
-            // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded checked that
-            // every array holds slots_used(tiles) + PADDING elements, so j + 4 <= len.
-            let mut group = |j: usize, lanes: f64x4| {
-                // SAFETY: see above.
-                let load = |values: &[f64]| unsafe { load(values, j) };
-                let (dx, dy, dz) = (xi - load(x), yi - load(y), zi - load(z));
-                let r2 = dx * dx + dy * dy + dz * dz;
-                let close = r2.simd_lt(h2) & lanes;
-                let q = h2 - r2;
-                let t = (q * q * q) & close;
-                sum += t;
-                let rho_j = load(rho) + t;
-                // SAFETY: see above.
-                unsafe { store(rho, j, rho_j) };
-                groups |= group_bit & 0u64.wrapping_sub(u64::from(close.to_bitmask() != 0));
-                group_bit = (group_bit << 1) | (group_bit & OVERFLOW_BIT);
-            };
-            let mut j = partners.start;
-            while j + LANES <= partners.end {
-                group(j, ALL_LANES);
-                j += LANES;
-            }
-            if j < partners.end {
-                group(j, first_lanes(partners.end - j));
+            for tile in cell_tiles {
+                let (mut groups, mut group_bit) = (0u64, 1u64);
+                let partners = tile.partners(i);
+                // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded checked
+                // that every array holds slots_used(tiles) + PADDING elements, so j + 4 <= len.
+                let mut group = |j: usize, lanes: f64x4| {
+                    // SAFETY: see above.
+                    let load = |values: &[f64]| unsafe { load(values, j) };
+                    let (dx, dy, dz) = (xi - load(x), yi - load(y), zi - load(z));
+                    let r2 = dx * dx + dy * dy + dz * dz;
+                    let close = r2.simd_lt(h2) & lanes;
+                    let q = h2 - r2;
+                    let t = (q * q * q) & close;
+                    sum += t;
+                    let rho_j = load(rho) + t;
+                    // SAFETY: see above.
+                    unsafe { store(rho, j, rho_j) };
+                    groups |= group_bit & 0u64.wrapping_sub(u64::from(close.to_bitmask() != 0));
+                    group_bit = (group_bit << 1) | (group_bit & OVERFLOW_BIT);
+                };
+                let mut j = partners.start;
+                while j + LANES <= partners.end {
+                    group(j, ALL_LANES);
+                    j += LANES;
+                }
+                if j < partners.end {
+                    group(j, first_lanes(partners.end - j));
+                }
+                close.groups.push(groups);
+                cell_groups |= groups;
             }
             rho[i] += sum.reduce_add();
-            close.groups.push(groups);
-            tile_groups |= groups;
         }
-        if tile_groups == 0 {
+        if cell_groups == 0 {
             close.groups.truncate(groups_before);
         } else {
-            close.tiles.push(*tile);
+            close.tiles.extend_from_slice(cell_tiles);
         }
     }
 }
@@ -234,43 +237,45 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
         _ => None,
     };
     let a = [ax, ay, az];
-    for tile in tiles {
-        for i in tile.firsts() {
+    for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
+        for i in cell_tiles[0].firsts() {
             let first = First {
                 p: [x[i], y[i], z[i]].map(f64x4::splat),
                 v: [vx[i], vy[i], vz[i]].map(f64x4::splat),
                 rho: f64x4::splat(rho[i]),
             };
             let mut sum = [f64x4::ZERO; 3];
-            let partners = tile.partners(i);
-            let mut visit = |j: usize| {
-                // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded checked
-                // that every array holds slots_used(tiles) + PADDING elements.
-                unsafe {
-                    if let Some(da) = transfer.group(&first, j, partners.end) {
-                        for axis in 0..3 {
-                            sum[axis] += da[axis];
-                            let old = load(a[axis], j);
-                            store(a[axis], j, old - da[axis]);
+            for tile in cell_tiles {
+                let partners = tile.partners(i);
+                let mut visit = |j: usize| {
+                    // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded checked
+                    // that every array holds slots_used(tiles) + PADDING elements.
+                    unsafe {
+                        if let Some(da) = transfer.group(&first, j, partners.end) {
+                            for axis in 0..3 {
+                                sum[axis] += da[axis];
+                                let old = load(a[axis], j);
+                                store(a[axis], j, old - da[axis]);
+                            }
                         }
                     }
-                }
-            };
-            let mut groups = match recorded_groups.as_mut() {
-                Some(groups) => *groups.next().expect("a recorded group set per first slot"),
-                None => all_groups(partners.len()),
-            };
-            while groups != 0 {
-                let group = groups.trailing_zeros() as usize;
-                groups &= groups - 1;
-                let from = partners.start + group * LANES;
-                let to = if group == OVERFLOW_GROUP {
-                    partners.end
-                } else {
-                    from + 1
                 };
-                for j in (from..to.min(partners.end)).step_by(LANES) {
-                    visit(j);
+                let mut groups = match recorded_groups.as_mut() {
+                    Some(groups) => *groups.next().expect("a recorded group set per tile"),
+                    None => all_groups(partners.len()),
+                };
+                while groups != 0 {
+                    let group = groups.trailing_zeros() as usize;
+                    groups &= groups - 1;
+                    let from = partners.start + group * LANES;
+                    let to = if group == OVERFLOW_GROUP {
+                        partners.end
+                    } else {
+                        from + 1
+                    };
+                    for j in (from..to.min(partners.end)).step_by(LANES) {
+                        visit(j);
+                    }
                 }
             }
             for axis in 0..3 {
