@@ -268,13 +268,10 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
                     let group = groups.trailing_zeros() as usize;
                     groups &= groups - 1;
                     let from = partners.start + group * LANES;
-                    let to = if group == OVERFLOW_GROUP {
-                        partners.end
+                    if group < OVERFLOW_GROUP {
+                        visit(from);
                     } else {
-                        from + 1
-                    };
-                    for j in (from..to.min(partners.end)).step_by(LANES) {
-                        visit(j);
+                        (from..partners.end).step_by(LANES).for_each(&mut visit);
                     }
                 }
             }
