@@ -74,74 +74,107 @@ fn first_not_below(keys: &[u64], mut from: usize, bound: u64) -> usize {
     }
 }
 
-/// Fills `tiles` with the tiles of the particles whose sorted cell keys are `keys`
-/// (ascending, ending with [`SENTINELS`] times `u64::MAX`), packed by `layout`. A cell's
-/// tiles are consecutive: its own (if it holds two particles or more), then its rows.
-pub fn find_tiles(keys: &[u64], layout: &CellLayout, tiles: &mut Vec<Tile>) {
-    tiles.clear();
-    let Some(n) = keys.len().checked_sub(SENTINELS) else {
-        return;
-    };
-    let [ex, ey, ez] = layout.extent();
-    let [_, shift_y, shift_z] = layout.shift();
-    let mut cursors = [0usize; FORWARD_ROWS.len()];
-    let mut plane_cursor = 0;
-    let mut start = 0;
-    while start < n {
-        let key = keys[start];
-        let mut end = start + 1;
-        while keys[end] == key {
-            end += 1;
-        }
-        let tile = |second: usize, second_end: usize| Tile {
-            first: start as u32,
-            first_end: end as u32,
-            second: second as u32,
-            second_end: second_end as u32,
-        };
-        if end - start > 1 {
-            tiles.push(tile(start, end));
-        }
-        let [x, y, z] = layout.unpack(key);
-        let (x1, y1) = ((x + 1).min(ex), (y + 1).min(ey));
-        // Cheap tests first: a forward neighbour in plane z has a key up to that of
-        // (x+1, y+1, z), so the next key tells; plane z+1 has one forward-only cursor
-        // over the keys of its rows y-1..y+1.
-        let in_plane = keys[end] <= layout.pack([x1, y1, z]);
-        let in_next_plane = z < ez && {
-            let low = layout.pack([x.saturating_sub(1), y.saturating_sub(1), z + 1]);
-            plane_cursor = first_not_below(keys, plane_cursor, low);
-            keys[plane_cursor] <= layout.pack([x1, y1, z + 1])
-        };
-        for (cursor, &(single, dy, dz)) in cursors.iter_mut().zip(&FORWARD_ROWS) {
-            if !(if dz == 0 { in_plane } else { in_next_plane }) {
-                continue;
-            }
-            let Ok(ny) = u32::try_from(i64::from(y) + dy) else {
-                continue;
+/// The tiles of one step, and the list of occupied cells they are found from (reused
+/// from step to step).
+#[derive(Debug, Clone, Default)]
+pub struct TileSearch {
+    tiles: Vec<Tile>,
+    /// Key of each occupied cell, ascending, then [`SENTINELS`] times `u64::MAX`.
+    cell_keys: Vec<u64>,
+    /// First slot of each occupied cell, then the particle count ([`SENTINELS`] times).
+    cell_starts: Vec<u32>,
+}
+
+impl TileSearch {
+    /// The tiles found last. A cell's tiles are consecutive: its own (if it holds two
+    /// particles or more), then its rows.
+    pub fn tiles(&self) -> &[Tile] {
+        &self.tiles
+    }
+
+    /// Finds the tiles of the particles whose sorted cell keys are `keys` (ascending,
+    /// ending with [`SENTINELS`] times `u64::MAX`), packed by `layout`. The cursors move
+    /// over occupied cells, not particles.
+    pub fn find(&mut self, keys: &[u64], layout: &CellLayout) {
+        self.collect_cells(keys);
+        let Self {
+            tiles,
+            cell_keys,
+            cell_starts,
+        } = self;
+        tiles.clear();
+        let cells = cell_keys.len() - SENTINELS;
+        let [ex, ey, ez] = layout.extent();
+        let [_, shift_y, shift_z] = layout.shift();
+        let mut cursors = [0usize; FORWARD_ROWS.len()];
+        let mut plane_cursor = 0;
+        for cell in 0..cells {
+            let key = cell_keys[cell];
+            let (start, end) = (cell_starts[cell], cell_starts[cell + 1]);
+            let tile = |second: u32, second_end: u32| Tile {
+                first: start,
+                first_end: end,
+                second,
+                second_end,
             };
-            if ny > ey {
-                continue;
+            if end - start > 1 {
+                tiles.push(tile(start, end));
             }
-            // The key of cell (x, ny, z + dz).
-            let base = key - (u64::from(y) << shift_y)
-                + (u64::from(ny) << shift_y)
-                + (u64::from(dz) << shift_z);
-            let (low, high) = if single {
-                if x == ex {
+            let [x, y, z] = layout.unpack(key);
+            let (x1, y1) = ((x + 1).min(ex), (y + 1).min(ey));
+            // Cheap tests first: a forward neighbour in plane z has a key up to that of
+            // (x+1, y+1, z), so the next cell tells; plane z+1 has one forward-only cursor
+            // over the cells of its rows y-1..y+1.
+            let in_plane = cell_keys[cell + 1] <= layout.pack([x1, y1, z]);
+            let in_next_plane = z < ez && {
+                let low = layout.pack([x.saturating_sub(1), y.saturating_sub(1), z + 1]);
+                plane_cursor = first_not_below(cell_keys, plane_cursor, low);
+                cell_keys[plane_cursor] <= layout.pack([x1, y1, z + 1])
+            };
+            for (cursor, &(single, dy, dz)) in cursors.iter_mut().zip(&FORWARD_ROWS) {
+                if !(if dz == 0 { in_plane } else { in_next_plane }) {
                     continue;
                 }
-                (base + 1, base + 1)
-            } else {
-                (base - u64::from(x > 0), base + u64::from(x < ex))
-            };
-            *cursor = first_not_below(keys, *cursor, low);
-            let row_end = first_not_below(keys, *cursor, high + 1);
-            if row_end > *cursor {
-                tiles.push(tile(*cursor, row_end));
+                let Ok(ny) = u32::try_from(i64::from(y) + dy) else {
+                    continue;
+                };
+                if ny > ey {
+                    continue;
+                }
+                // The key of cell (x, ny, z + dz).
+                let base = key - (u64::from(y) << shift_y)
+                    + (u64::from(ny) << shift_y)
+                    + (u64::from(dz) << shift_z);
+                let (low, high) = if single {
+                    if x == ex {
+                        continue;
+                    }
+                    (base + 1, base + 1)
+                } else {
+                    (base - u64::from(x > 0), base + u64::from(x < ex))
+                };
+                *cursor = first_not_below(cell_keys, *cursor, low);
+                let row_end = first_not_below(cell_keys, *cursor, high + 1);
+                if row_end > *cursor {
+                    tiles.push(tile(cell_starts[*cursor], cell_starts[row_end]));
+                }
             }
         }
-        start = end;
+    }
+
+    /// The occupied cells of sorted `keys`: their keys and first slots, plus sentinels.
+    fn collect_cells(&mut self, keys: &[u64]) {
+        let n = keys.len().saturating_sub(SENTINELS);
+        self.cell_keys.clear();
+        self.cell_starts.clear();
+        for (slot, &key) in keys[..n].iter().enumerate() {
+            if slot == 0 || key != keys[slot - 1] {
+                self.cell_keys.push(key);
+                self.cell_starts.push(slot as u32);
+            }
+        }
+        self.cell_keys.extend([u64::MAX; SENTINELS]);
+        self.cell_starts.extend([n as u32; SENTINELS]);
     }
 }
 
@@ -205,10 +238,11 @@ mod tests {
             particles.p = std::array::from_fn(|d| points.iter().map(|p| p[d]).collect());
             let mut cells = CellOrder::default();
             cells.sort(&grid, &particles);
-            let mut tiles = Vec::new();
-            find_tiles(cells.keys(), cells.layout(), &mut tiles);
+            let mut search = TileSearch::default();
+            search.find(cells.keys(), cells.layout());
+            let tiles = search.tiles();
             let sorted: Vec<[f64; 3]> = cells.order().iter().map(|&s| points[s as usize]).collect();
-            let visited = visited_pairs(&tiles);
+            let visited = visited_pairs(tiles);
             let mut close = 0;
             for i in 0..sorted.len() {
                 for j in i + 1..sorted.len() {
@@ -235,14 +269,14 @@ mod tests {
     }
 
     #[test]
-    fn no_particles_give_no_tiles() {
-        let mut tiles = vec![Tile {
-            first: 0,
-            first_end: 1,
-            second: 0,
-            second_end: 1,
-        }];
-        find_tiles(&[u64::MAX; SENTINELS], &CellLayout::default(), &mut tiles);
-        assert!(tiles.is_empty());
+    fn a_search_starts_afresh_and_finds_nothing_without_particles() {
+        let mut search = TileSearch::default();
+        search.find(
+            &[0, 0, 1, u64::MAX, u64::MAX, u64::MAX, u64::MAX],
+            &CellLayout::default(),
+        );
+        assert!(!search.tiles().is_empty());
+        search.find(&[u64::MAX; SENTINELS], &CellLayout::default());
+        assert!(search.tiles().is_empty());
     }
 }

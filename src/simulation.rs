@@ -6,7 +6,7 @@ use crate::cells::CellOrder;
 use crate::grid::{Grid, GridSizeError};
 use crate::kernel::{self, Candidates, ClosePairs};
 use crate::method::Method;
-use crate::neighbours::{self, Tile};
+use crate::neighbours::{Tile, TileSearch};
 use crate::params::Params;
 use crate::particles::Particles;
 use crate::stages::{self, Stage};
@@ -20,7 +20,7 @@ pub struct Simulation {
     /// The particles, stored cell after cell and padded for four-lane loads.
     particles: Particles,
     cells: CellOrder,
-    tiles: Vec<Tile>,
+    search: TileSearch,
     /// Where the density increment found pairs closer than h.
     close: ClosePairs,
     /// Whether `close` belongs to the current tiles.
@@ -74,7 +74,7 @@ impl Simulation {
             method,
             particles,
             cells: CellOrder::default(),
-            tiles: Vec::new(),
+            search: TileSearch::default(),
             close: ClosePairs::default(),
             close_found: false,
             spare: Particles::default(),
@@ -108,7 +108,7 @@ impl Simulation {
 
     /// The tiles of candidate pairs of the current step.
     pub fn tiles(&self) -> &[Tile] {
-        &self.tiles
+        self.search.tiles()
     }
 
     /// Runs `steps` time steps.
@@ -139,7 +139,14 @@ impl Simulation {
             Stage::InitAccelerations => particles.reset_densities_and_accelerations(),
             Stage::IncrementDensities => {
                 let (p, rho) = (&particles.p, &mut particles.rho);
-                kernel::increment_densities(kernel, params, &self.tiles, p, rho, &mut self.close);
+                kernel::increment_densities(
+                    kernel,
+                    params,
+                    self.search.tiles(),
+                    p,
+                    rho,
+                    &mut self.close,
+                );
                 self.close_found = true;
             }
             Stage::TransformDensities => {
@@ -149,7 +156,7 @@ impl Simulation {
                 let candidates = if self.close_found {
                     Candidates::Close(&self.close)
                 } else {
-                    Candidates::All(&self.tiles)
+                    Candidates::All(self.search.tiles())
                 };
                 let Particles { p, v, rho, a, .. } = particles;
                 kernel::transfer_accelerations(kernel, model, params, candidates, p, v, rho, a);
@@ -174,7 +181,7 @@ impl Simulation {
     }
 
     fn find_tiles(&mut self) {
-        neighbours::find_tiles(self.cells.keys(), self.cells.layout(), &mut self.tiles);
+        self.search.find(self.cells.keys(), self.cells.layout());
         self.close_found = false;
     }
 }
@@ -242,7 +249,7 @@ mod tests {
             let mut sim = Simulation::with_method(204.0, along_x(&xs), method).unwrap();
             sim.run_stage(Stage::IncrementDensities);
             sim.run_stage(Stage::TransformDensities);
-            assert!(sim.close.tiles.len() < sim.tiles.len());
+            assert!(sim.close.tiles.len() < sim.tiles().len());
             let mut all_tiles = sim.clone();
             all_tiles.close_found = false;
             sim.run_stage(Stage::TransferAccelerations);
