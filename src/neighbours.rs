@@ -163,16 +163,21 @@ impl TileSearch {
     }
 
     /// The occupied cells of sorted `keys`: their keys and first slots, plus sentinels.
+    /// Branch-free: every slot writes the next free entry, which only a new key keeps.
     fn collect_cells(&mut self, keys: &[u64]) {
         let n = keys.len().saturating_sub(SENTINELS);
-        self.cell_keys.clear();
-        self.cell_starts.clear();
+        self.cell_keys.resize(n + SENTINELS, 0);
+        self.cell_starts.resize(n + SENTINELS, 0);
+        let mut cells = 0;
+        let mut previous = u64::MAX;
         for (slot, &key) in keys[..n].iter().enumerate() {
-            if slot == 0 || key != keys[slot - 1] {
-                self.cell_keys.push(key);
-                self.cell_starts.push(slot as u32);
-            }
+            self.cell_keys[cells] = key;
+            self.cell_starts[cells] = slot as u32;
+            cells += usize::from(key != previous);
+            previous = key;
         }
+        self.cell_keys.truncate(cells);
+        self.cell_starts.truncate(cells);
         self.cell_keys.extend([u64::MAX; SENTINELS]);
         self.cell_starts.extend([n as u32; SENTINELS]);
     }
