@@ -347,9 +347,12 @@ mod tests {
     #[test]
     fn cells_inside_the_box_are_blocks_and_outside_are_unclamped() {
         let grid = grid();
-        let inside = [0.01, -0.02, 0.03];
-        let block = grid.coords_of(glam::DVec3::from_array(inside));
-        assert_eq!(cell_of(&grid, inside), block.map(|c| c as i32));
+        // (0.075, 0.065, 0.095) from the lower corner, in blocks of 0.13 / 15, 0.18 / 21.
+        assert_eq!(cell_of(&grid, [0.01, -0.015, 0.03]), [8, 7, 10]);
+        assert_eq!(
+            cell_of(&grid, [0.065 - 1e-9, 0.1 - 1e-9, -0.065]),
+            [14, 20, 0]
+        );
         let below = cell_of(&grid, [-0.065 - 2.5 * grid.block_size.x, 0.0, 0.0]);
         assert_eq!(below[0], -3);
         let limit = (1 << 30) - 1;

@@ -1,13 +1,14 @@
-//! The grid of blocks that partitions the box (SPEC.md section 3): its size, the block of a
-//! position (clamped, so particles outside the box fall into boundary blocks), linear block
-//! indices and block neighbourhoods.
+//! The grid of blocks that partitions the box (SPEC.md section 3): its size and linear block
+//! indices. The block of a position (clamped into the grid) is its cell of
+//! [`crate::cells`] clamped.
 
 use crate::params::{BOX_MAX, BOX_MIN};
 use glam::DVec3;
 use std::fmt;
 
-/// Largest number of blocks a grid may have: the block order keeps one `u32` per block,
-/// so this bounds that table at 256 MiB.
+/// Largest number of blocks a grid may have (about 49,000 particles per metre): rejects
+/// absurd inputs, and keeps every cell within a grid's width of the box exact in the
+/// 48-bit keys of the cell order (`crate::cells`).
 pub const MAX_BLOCKS: usize = 1 << 26;
 
 /// Why no grid can be built for a smoothing length.
@@ -30,20 +31,6 @@ impl fmt::Display for GridSizeError {
 
 /// A coordinate of a block along each axis.
 pub type BlockCoords = [usize; 3];
-
-/// Up to 13 block indices: the neighbours of a block that have a larger linear index.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct ForwardNeighbours {
-    indices: [u32; 13],
-    len: usize,
-}
-
-impl ForwardNeighbours {
-    /// The neighbour indices, in the order dx outer, dy, dz inner.
-    pub fn as_slice(&self) -> &[u32] {
-        &self.indices[..self.len]
-    }
-}
 
 /// The regular grid of blocks over the box.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -76,13 +63,6 @@ impl Grid {
         self.dims.iter().product()
     }
 
-    /// The block coordinates of a position: floor((p - b_min) / s), clamped into the grid.
-    pub fn coords_of(&self, p: DVec3) -> BlockCoords {
-        let cell = ((p - BOX_MIN) / self.block_size).floor().to_array();
-        // `as usize` maps NaN and negative values to 0 and saturates huge ones.
-        std::array::from_fn(|d| (cell[d].max(0.0) as usize).min(self.dims[d] - 1))
-    }
-
     /// The linear index i + n_x * (j + n_y * k) of block coordinates.
     pub fn index(&self, [i, j, k]: BlockCoords) -> usize {
         i + self.dims[0] * (j + self.dims[1] * k)
@@ -92,41 +72,6 @@ impl Grid {
     pub fn coords(&self, index: usize) -> BlockCoords {
         let [nx, ny, _] = self.dims;
         [index % nx, (index / nx) % ny, index / (nx * ny)]
-    }
-
-    /// The linear index of the block holding position `p`.
-    pub fn block_of(&self, p: DVec3) -> usize {
-        self.index(self.coords_of(p))
-    }
-
-    /// The neighbours (26-neighbourhood clipped at the grid edges) whose linear index is
-    /// larger than `index`: visiting each block with these visits each adjacent pair once.
-    pub fn forward_neighbours(&self, index: usize) -> ForwardNeighbours {
-        let [i, j, k] = self.coords(index);
-        let step =
-            |c: usize, delta: isize, n: usize| c.checked_add_signed(delta).filter(|&c| c < n);
-        let mut out = ForwardNeighbours::default();
-        for dx in -1..=1 {
-            let Some(x) = step(i, dx, self.dims[0]) else {
-                continue;
-            };
-            for dy in -1..=1 {
-                let Some(y) = step(j, dy, self.dims[1]) else {
-                    continue;
-                };
-                for dz in -1..=1 {
-                    let Some(z) = step(k, dz, self.dims[2]) else {
-                        continue;
-                    };
-                    let neighbour = self.index([x, y, z]);
-                    if neighbour > index {
-                        out.indices[out.len] = neighbour as u32;
-                        out.len += 1;
-                    }
-                }
-            }
-        }
-        out
     }
 }
 
@@ -169,18 +114,6 @@ mod tests {
     }
 
     #[test]
-    fn positions_map_to_blocks_and_outside_positions_are_clamped() {
-        let g = small_grid();
-        assert_eq!(g.coords_of(BOX_MIN), [0, 0, 0]);
-        assert_eq!(g.coords_of(BOX_MIN + g.block_size * 1.5), [1, 1, 1]);
-        assert_eq!(g.coords_of(DVec3::splat(-20.0)), [0, 0, 0]);
-        assert_eq!(g.coords_of(DVec3::splat(20.0)), [14, 20, 14]);
-        assert_eq!(g.coords_of(DVec3::new(20.0, -1.0, 0.0)), [14, 0, 7]);
-        assert_eq!(g.coords_of(DVec3::splat(f64::NAN)), [0, 0, 0]);
-        assert_eq!(g.coords_of(DVec3::splat(f64::INFINITY)), [14, 20, 14]);
-    }
-
-    #[test]
     fn linear_index_round_trips() {
         let g = small_grid();
         assert_eq!(g.index([1, 0, 0]), 1);
@@ -189,33 +122,5 @@ mod tests {
         for index in [0, 1, 17, 4724] {
             assert_eq!(g.index(g.coords(index)), index);
         }
-    }
-
-    #[test]
-    fn forward_neighbours_cover_each_adjacent_pair_once() {
-        let g = Grid {
-            dims: [3, 4, 2],
-            block_size: DVec3::ONE,
-        };
-        let mut pairs = std::collections::HashSet::new();
-        for b in 0..g.block_count() {
-            for &n in g.forward_neighbours(b).as_slice() {
-                assert!(pairs.insert((b, n as usize)), "pair {b},{n} twice");
-            }
-        }
-        let adjacent = |a: BlockCoords, b: BlockCoords| (0..3).all(|d| a[d].abs_diff(b[d]) <= 1);
-        let expected = (0..g.block_count())
-            .flat_map(|a| (a + 1..g.block_count()).map(move |b| (a, b)))
-            .filter(|&(a, b)| adjacent(g.coords(a), g.coords(b)))
-            .count();
-        assert_eq!(pairs.len(), expected);
-        let small = small_grid();
-        assert_eq!(
-            small
-                .forward_neighbours(small.index([1, 1, 1]))
-                .as_slice()
-                .len(),
-            13
-        );
     }
 }
