@@ -12,7 +12,7 @@ pub type AxisArrays = [Vec<f64>; 3];
 pub const PADDING: usize = 3;
 
 /// The state of every particle, stored slot by slot (in cell order during a simulation,
-/// with [`PADDING`] zeros after the last particle).
+/// with [`PADDING`] extra elements after the last particle).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Particles {
     /// Particle id (its record index in the input file) of each slot.
