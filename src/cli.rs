@@ -4,6 +4,8 @@
 use crate::error::FluidError;
 use crate::fld::{self, OutputFile};
 use crate::gformat::format_g;
+use crate::method::Method;
+use crate::particles::Particles;
 use crate::progargs::ProgArgs;
 use crate::simulation::Simulation;
 use std::ffi::OsString;
@@ -21,19 +23,25 @@ where
     let input_name = args.input.display().to_string();
     let scene = fld::parse(&input, &input_name)?;
     drop(input);
-    let mut simulation = Simulation::new(scene.ppm.into(), scene.particles).map_err(|e| {
-        FluidError::InvalidInput {
-            file: input_name,
-            reason: format!(
-                "particles per meter {} gives {e}",
-                format_g(scene.ppm.into())
-            ),
-        }
-    })?;
+    let mut simulation = place(scene.ppm, scene.particles, Method::default(), input_name)?;
     let _ = stdout.write_all(parameter_report(&simulation).as_bytes());
     let _ = stdout.flush();
     simulation.run(args.steps);
     output.commit(&fld::encode(scene.ppm, simulation.particles()))
+}
+
+/// The simulation of an input's particles with `method`; an input whose particles per
+/// metre admit no grid is invalid (exit 251), named `file` in the message.
+pub fn place(
+    ppm: f32,
+    particles: Particles,
+    method: Method,
+    file: String,
+) -> Result<Simulation, FluidError> {
+    Simulation::with_method(ppm.into(), particles, method).map_err(|e| FluidError::InvalidInput {
+        file,
+        reason: format!("particles per meter {} gives {e}", format_g(ppm.into())),
+    })
 }
 
 /// The seven lines printed before simulating, numbers in C++ default format.

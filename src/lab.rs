@@ -1,10 +1,10 @@
 //! The workbench (`fluid-lab`): everything `fluid`'s fixed contract leaves out, on the same
 //! library. Each subcommand is a function of its parsed arguments.
 
+use crate::cli;
 use crate::fld::{self, OutputFile};
 use crate::method::{Kernel, Method, Model};
 use crate::scene;
-use crate::simulation::Simulation;
 use clap::{Args, Parser, Subcommand};
 use std::error::Error;
 use std::io::Write;
@@ -79,8 +79,7 @@ fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
         model: args.model,
         kernel: args.kernel,
     };
-    let mut simulation = Simulation::with_method(scene.ppm.into(), scene.particles, method)
-        .map_err(|e| format!("{name}: particles per metre {} gives {e}", scene.ppm))?;
+    let mut simulation = cli::place(scene.ppm, scene.particles, method, name)?;
     let started = Instant::now();
     simulation.run(args.steps);
     let seconds = started.elapsed().as_secs_f64();
