@@ -12,6 +12,7 @@
 
 pub mod cells;
 pub mod cli;
+pub mod energy;
 pub mod error;
 pub mod fld;
 pub mod gformat;
