@@ -1,6 +1,7 @@
 //! The workbench (`fluid-lab`): everything `fluid`'s fixed contract leaves out, on the same
 //! library. Each subcommand is a function of its parsed arguments.
 
+use crate::chart::{self, SweepTable};
 use crate::cli;
 use crate::energy::{EnergyMethod, Sources};
 use crate::fld::{self, OutputFile};
@@ -35,6 +36,8 @@ enum Command {
     Scene(SceneArgs),
     /// Measure `fluid` over iteration counts (time, memory, energy) into a CSV.
     Sweep(SweepArgs),
+    /// Chart a sweep CSV: time, energy and power against iterations, as PNG and SVG.
+    Chart(ChartArgs),
 }
 
 #[derive(Debug, Args)]
@@ -92,6 +95,15 @@ struct SweepArgs {
     perf: PathBuf,
 }
 
+#[derive(Debug, Args)]
+struct ChartArgs {
+    /// The CSV written by `fluid-lab sweep`.
+    csv: PathBuf,
+    /// Folder for time, energy and power .png and .svg [default: the CSV's folder].
+    #[arg(long)]
+    output_dir: Option<PathBuf>,
+}
+
 impl Lab {
     /// Runs the parsed command, writing its report to `stdout`.
     pub fn execute(self, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
@@ -99,6 +111,7 @@ impl Lab {
             Command::Run(args) => run(args, stdout),
             Command::Scene(args) => write_scene(args),
             Command::Sweep(args) => measure_sweep(args, stdout),
+            Command::Chart(args) => draw_charts(args, stdout),
         }
     }
 }
@@ -181,5 +194,22 @@ fn measure_sweep(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         args.output.display(),
         records.len()
     )?;
+    Ok(())
+}
+
+fn draw_charts(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let text = std::fs::read_to_string(&args.csv)
+        .map_err(|error| format!("cannot read {}: {error}", args.csv.display()))?;
+    let table =
+        SweepTable::parse(&text).map_err(|error| format!("{}: {error}", args.csv.display()))?;
+    let folder = match args.output_dir {
+        Some(folder) => folder,
+        None => args.csv.parent().map(PathBuf::from).unwrap_or_default(),
+    };
+    for chart in table.charts() {
+        for path in chart::render(&chart, &folder)? {
+            writeln!(stdout, "wrote {}", path.display())?;
+        }
+    }
     Ok(())
 }

@@ -11,6 +11,7 @@
 //! [`scene`] and [`error`].
 
 pub mod cells;
+pub mod chart;
 pub mod cli;
 pub mod energy;
 pub mod error;

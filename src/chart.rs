@@ -1,0 +1,718 @@
+//! Charts of a sweep CSV (see [`crate::sweep`]): time, energy and power against iterations,
+//! one line per input (and energy domain), each point the median of its repeats with a
+//! min-max bar. Drawn with plotters as PNG and SVG, with an embedded font (DejaVu Sans), so
+//! no system font library and no network are needed.
+
+use crate::energy::Domain;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::collections::BTreeMap;
+use std::error::Error;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+/// Pixel size of the rendered charts.
+pub const SIZE: (u32, u32) = (960, 600);
+
+/// Line colours, in order (the "tab10" colours, distinct on white and in print).
+const COLOURS: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+];
+
+/// One point of a series: the median of its repeats and their spread.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Point {
+    /// The iteration count.
+    pub iterations: u64,
+    /// The median of the repeats.
+    pub median: f64,
+    /// The smallest repeat.
+    pub min: f64,
+    /// The largest repeat.
+    pub max: f64,
+}
+
+impl Point {
+    /// Summarises the repeats of one point (`values` must not be empty).
+    pub fn of(iterations: u64, values: &mut [f64]) -> Point {
+        values.sort_by(f64::total_cmp);
+        let middle = values.len() / 2;
+        let median = if values.len() % 2 == 1 {
+            values[middle]
+        } else {
+            (values[middle - 1] + values[middle]) / 2.0
+        };
+        Point {
+            iterations,
+            median,
+            min: values[0],
+            max: values[values.len() - 1],
+        }
+    }
+}
+
+/// A line of a chart.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Series {
+    /// The legend text, e.g. `large.fld` or `large.fld pkg`.
+    pub label: String,
+    /// The points, by increasing iterations.
+    pub points: Vec<Point>,
+}
+
+/// One chart: what it plots and how it is labelled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Chart {
+    /// The file stem (`time`, `energy`, `power`).
+    pub name: &'static str,
+    /// The title.
+    pub title: String,
+    /// The y axis' description.
+    pub y_label: &'static str,
+    /// The lines.
+    pub series: Vec<Series>,
+    /// Horizontal reference lines (the idle baseline), as (label, value).
+    pub baselines: Vec<(String, f64)>,
+    /// Where nothing was measured, why (written across the plot).
+    pub missing: Option<String>,
+    /// Where the data come from: machine, commit, method.
+    pub footer: String,
+    /// The largest iteration count of the sweep (the x axis covers it even without lines).
+    pub largest_iterations: u64,
+}
+
+impl Chart {
+    /// The x axis: from 0 to past the largest iteration count.
+    pub fn x_range(&self) -> Range<f64> {
+        let largest = self
+            .series
+            .iter()
+            .flat_map(|series| &series.points)
+            .map(|point| point.iterations)
+            .fold(self.largest_iterations, u64::max);
+        0.0..if largest > 0 {
+            largest as f64 * 1.04
+        } else {
+            1.0
+        }
+    }
+
+    /// The y axis: from 0 to past the largest value, spread and baselines included.
+    pub fn y_range(&self) -> Range<f64> {
+        let points = self.series.iter().flat_map(|series| &series.points);
+        let largest = points
+            .map(|point| point.max)
+            .chain(self.baselines.iter().map(|(_, value)| *value))
+            .fold(0.0, f64::max);
+        0.0..if largest > 0.0 { largest * 1.08 } else { 1.0 }
+    }
+}
+
+/// One row of a sweep CSV, as far as the charts need it.
+#[derive(Clone, Debug)]
+struct Row {
+    input: Option<String>,
+    iterations: Option<u64>,
+    wall_s: f64,
+    energy_j: [Option<f64>; 5],
+    power_w: [Option<f64>; 5],
+}
+
+/// A sweep CSV read for charting.
+#[derive(Clone, Debug)]
+pub struct SweepTable {
+    rows: Vec<Row>,
+    energy_detail: String,
+    footer: String,
+}
+
+impl SweepTable {
+    /// Reads the CSV text that `fluid-lab sweep` writes.
+    pub fn parse(text: &str) -> Result<SweepTable, Box<dyn Error>> {
+        let mut reader = csv::Reader::from_reader(text.as_bytes());
+        let headers = reader.headers()?.clone();
+        let column = |name: &str| {
+            headers
+                .iter()
+                .position(|header| header == name)
+                .ok_or_else(|| format!("the sweep CSV has no column {name}"))
+        };
+        let kind = column("kind")?;
+        let input = column("input")?;
+        let iterations = column("iterations")?;
+        let wall = column("wall_s")?;
+        let energy: Vec<usize> = Domain::ALL
+            .iter()
+            .map(|domain| column(&format!("energy_{}_j", domain.name())))
+            .collect::<Result<_, _>>()?;
+        let power: Vec<usize> = Domain::ALL
+            .iter()
+            .map(|domain| column(&format!("power_{}_w", domain.name())))
+            .collect::<Result<_, _>>()?;
+        let [detail, cpu, cpus, kernel, commit, method] = [
+            "energy_detail",
+            "cpu_model",
+            "cpus",
+            "kernel",
+            "commit",
+            "energy_method",
+        ]
+        .map(column);
+        let mut rows = Vec::new();
+        let mut footer = String::new();
+        let mut energy_detail = String::new();
+        for (line, record) in reader.records().enumerate() {
+            let record = record?;
+            let bad = |what: &str| format!("row {}: {what}", line + 2);
+            let number = |index: usize| -> Result<Option<f64>, String> {
+                match &record[index] {
+                    "" => Ok(None),
+                    text => text
+                        .parse()
+                        .map(Some)
+                        .map_err(|_| bad(&format!("{text:?} is not a number"))),
+                }
+            };
+            let is_run = match &record[kind] {
+                "run" => true,
+                "idle" => false,
+                other => return Err(bad(&format!("unknown kind {other:?}")).into()),
+            };
+            let iterations = match &record[iterations] {
+                "" if !is_run => None,
+                text => Some(text.parse().map_err(|_| bad("iterations is not a count"))?),
+            };
+            let mut energy_j = [None; 5];
+            let mut power_w = [None; 5];
+            for (slot, &index) in energy_j.iter_mut().zip(&energy) {
+                *slot = number(index)?;
+            }
+            for (slot, &index) in power_w.iter_mut().zip(&power) {
+                *slot = number(index)?;
+            }
+            if footer.is_empty() {
+                let field = |index: &Result<usize, String>| {
+                    index
+                        .as_ref()
+                        .map_or("?", |&index| &record[index])
+                        .to_string()
+                };
+                energy_detail = field(&detail);
+                footer = format!(
+                    "{} ({} CPUs), Linux {}, commit {}; energy: {}",
+                    field(&cpu),
+                    field(&cpus),
+                    field(&kernel),
+                    field(&commit),
+                    field(&method)
+                );
+            }
+            rows.push(Row {
+                input: is_run.then(|| record[input].to_string()),
+                iterations,
+                wall_s: number(wall)?.ok_or_else(|| bad("wall_s is empty"))?,
+                energy_j,
+                power_w,
+            });
+        }
+        if !rows.iter().any(|row| row.input.is_some()) {
+            return Err("the sweep CSV holds no runs".into());
+        }
+        Ok(SweepTable {
+            rows,
+            energy_detail,
+            footer,
+        })
+    }
+
+    /// The three charts: time, energy and power against iterations.
+    pub fn charts(&self) -> [Chart; 3] {
+        let repeats = self.most_repeats();
+        let footer = format!("{}; median and min-max of {repeats} runs", self.footer);
+        let measured: Vec<Domain> = Domain::ALL
+            .into_iter()
+            .filter(|domain| {
+                self.rows
+                    .iter()
+                    .any(|row| row.energy_j[*domain as usize].is_some())
+            })
+            .collect();
+        let missing = measured.is_empty().then(|| {
+            format!(
+                "energy not measured on this machine\n{}",
+                self.energy_detail
+            )
+        });
+        let largest_iterations = self
+            .rows
+            .iter()
+            .filter_map(|row| row.iterations)
+            .max()
+            .unwrap_or(0);
+        let time = Chart {
+            name: "time",
+            title: "Wall time against iterations".into(),
+            y_label: "wall time (s)",
+            series: self.series(|row| Some(row.wall_s), None),
+            baselines: Vec::new(),
+            missing: None,
+            footer: footer.clone(),
+            largest_iterations,
+        };
+        let energy = Chart {
+            name: "energy",
+            title: "Energy against iterations".into(),
+            y_label: "energy (J)",
+            series: measured
+                .iter()
+                .flat_map(|&domain| self.series(|row| row.energy_j[domain as usize], Some(domain)))
+                .collect(),
+            baselines: Vec::new(),
+            missing: missing.clone(),
+            footer: footer.clone(),
+            largest_iterations,
+        };
+        let power = Chart {
+            name: "power",
+            title: "Average power against iterations".into(),
+            y_label: "power (W)",
+            series: measured
+                .iter()
+                .flat_map(|&domain| self.series(|row| row.power_w[domain as usize], Some(domain)))
+                .collect(),
+            baselines: measured
+                .iter()
+                .filter_map(|&domain| {
+                    let mut idle: Vec<f64> = self
+                        .rows
+                        .iter()
+                        .filter(|row| row.input.is_none())
+                        .filter_map(|row| row.power_w[domain as usize])
+                        .collect();
+                    (!idle.is_empty()).then(|| {
+                        let label = format!("idle {}", domain.name());
+                        (label, Point::of(0, &mut idle).median)
+                    })
+                })
+                .collect(),
+            missing,
+            footer,
+            largest_iterations,
+        };
+        [time, energy, power]
+    }
+
+    /// One series per input (in order of first appearance) of the value `of` each run.
+    fn series(&self, of: impl Fn(&Row) -> Option<f64>, domain: Option<Domain>) -> Vec<Series> {
+        let mut inputs: Vec<&str> = Vec::new();
+        for input in self.rows.iter().filter_map(|row| row.input.as_deref()) {
+            if !inputs.contains(&input) {
+                inputs.push(input);
+            }
+        }
+        inputs
+            .into_iter()
+            .filter_map(|input| {
+                let mut by_iterations: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
+                for row in self.rows.iter() {
+                    if let (Some(true), Some(iterations), Some(value)) = (
+                        row.input.as_deref().map(|i| i == input),
+                        row.iterations,
+                        of(row),
+                    ) {
+                        by_iterations.entry(iterations).or_default().push(value);
+                    }
+                }
+                let points: Vec<Point> = by_iterations
+                    .into_iter()
+                    .map(|(iterations, mut values)| Point::of(iterations, &mut values))
+                    .collect();
+                let label = match domain {
+                    Some(domain) => format!("{input} {}", domain.name()),
+                    None => input.to_string(),
+                };
+                (!points.is_empty()).then_some(Series { label, points })
+            })
+            .collect()
+    }
+
+    /// The largest number of runs of any point.
+    fn most_repeats(&self) -> usize {
+        let mut counts: BTreeMap<(&str, u64), usize> = BTreeMap::new();
+        for row in &self.rows {
+            if let (Some(input), Some(iterations)) = (row.input.as_deref(), row.iterations) {
+                *counts.entry((input, iterations)).or_default() += 1;
+            }
+        }
+        counts.into_values().max().unwrap_or(0)
+    }
+}
+
+/// Writes `chart` as `DIR/NAME.png` and `DIR/NAME.svg`; returns both paths.
+pub fn render(chart: &Chart, folder: &Path) -> Result<[PathBuf; 2], Box<dyn Error>> {
+    register_font()?;
+    let png = folder.join(format!("{}.png", chart.name));
+    let svg = folder.join(format!("{}.svg", chart.name));
+    draw(BitMapBackend::new(&png, SIZE).into_drawing_area(), chart)?;
+    draw(SVGBackend::new(&svg, SIZE).into_drawing_area(), chart)?;
+    Ok([png, svg])
+}
+
+/// Registers DejaVu Sans, from the binary itself, as plotters' `sans-serif`.
+fn register_font() -> Result<(), Box<dyn Error>> {
+    static REGISTER: Once = Once::new();
+    let mut result = Ok(());
+    REGISTER.call_once(|| {
+        result = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        )
+        .map_err(|_| "the embedded font does not load");
+    });
+    Ok(result?)
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    chart: &Chart,
+) -> Result<(), Box<dyn Error>>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let (_, height) = root.dim_in_pixel();
+    let (plot, footer) = root.split_vertically(height - 28);
+    let (x, y) = (chart.x_range(), chart.y_range());
+    let mut context = ChartBuilder::on(&plot)
+        .caption(&chart.title, ("sans-serif", 24))
+        .margin(16)
+        .x_label_area_size(44)
+        .y_label_area_size(72)
+        .build_cartesian_2d(x.clone(), y.clone())?;
+    context
+        .configure_mesh()
+        .x_desc("iterations")
+        .y_desc(chart.y_label)
+        .x_label_formatter(&|iterations| format!("{iterations:.0}"))
+        .y_labels(if chart.missing.is_some() { 0 } else { 10 })
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()?;
+    for (index, series) in chart.series.iter().enumerate() {
+        let color = COLOURS[index % COLOURS.len()];
+        let points = &series.points;
+        context
+            .draw_series(LineSeries::new(
+                points.iter().map(|p| (p.iterations as f64, p.median)),
+                color.stroke_width(2),
+            ))?
+            .label(&series.label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+        // Each bar spans min to max, with a circle at the median.
+        context.draw_series(points.iter().map(|p| {
+            ErrorBar::new_vertical(p.iterations as f64, p.min, p.median, p.max, color, 8)
+        }))?;
+    }
+    for (index, (label, value)) in chart.baselines.iter().enumerate() {
+        let color = BLACK.mix(0.6 - 0.2 * index as f64);
+        let line = [(x.start, *value), (x.end, *value)];
+        context
+            .draw_series(DashedLineSeries::new(line, 8, 6, color.stroke_width(2)))?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    if let Some(missing) = &chart.missing {
+        let centre = ((x.start + x.end) / 2.0, (y.start + y.end) / 2.0);
+        let anchor = Pos::new(HPos::Center, VPos::Center);
+        let style = ("sans-serif", 18).into_text_style(&plot).pos(anchor);
+        let lines = wrap(missing, 80);
+        let (cx, cy) = context.backend_coord(&centre);
+        for (index, line) in lines.iter().enumerate() {
+            let offset = (index as i32 * 2 - lines.len() as i32 + 1) * 12;
+            plot.draw(&Text::new(line.as_str(), (cx, cy + offset), style.clone()))?;
+        }
+    }
+    if !chart.series.is_empty() || !chart.baselines.is_empty() {
+        context
+            .configure_series_labels()
+            .label_font(("sans-serif", 14))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()?;
+    }
+    footer.draw(&Text::new(
+        chart.footer.as_str(),
+        (16, 4),
+        ("sans-serif", 12).into_font().color(&BLACK.mix(0.7)),
+    ))?;
+    root.present()?;
+    Ok(())
+}
+
+/// Splits `text` into lines of at most about `width` characters, at spaces and newlines.
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    for paragraph in text.lines() {
+        let mut line = String::new();
+        for word in paragraph.split_whitespace() {
+            if !line.is_empty() && line.len() + 1 + word.len() > width {
+                lines.push(std::mem::take(&mut line));
+            }
+            if !line.is_empty() {
+                line.push(' ');
+            }
+            line.push_str(word);
+        }
+        lines.push(line);
+    }
+    lines
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::{Energy, EnergyMethod};
+    use crate::machine::Machine;
+    use crate::sweep::{Plan, Record, Sweep, Usage};
+    use std::time::Duration;
+
+    /// A sweep CSV as `fluid-lab sweep` writes it: two inputs, iterations 0, 10 and 100,
+    /// three repeats, two idle windows; with energy (pkg and ram) or without.
+    fn sweep_csv(with_energy: bool) -> String {
+        let energy_method = if with_energy {
+            EnergyMethod::Perf {
+                program: "perf".into(),
+                events: vec!["power/energy-pkg/".into(), "power/energy-ram/".into()],
+            }
+        } else {
+            EnergyMethod::Unavailable {
+                reason: "no RAPL here".into(),
+            }
+        };
+        let energy = |wall: f64, watts: f64| {
+            let mut energy = Energy::default();
+            if with_energy {
+                energy.add(Domain::Pkg, watts * wall);
+                energy.add(Domain::Ram, 2.0 * wall);
+            }
+            energy
+        };
+        let mut records = Vec::new();
+        for repeat in 1..=2 {
+            records.push(Record {
+                input: None,
+                particles: None,
+                iterations: None,
+                repeat,
+                wall: Duration::from_secs(1),
+                usage: None,
+                energy: energy(1.0, 10.0 + repeat as f64),
+            });
+        }
+        for repeat in 1..=3 {
+            for (input, per_step) in [("small.fld", 0.2e-3), ("large.fld", 0.65e-3)] {
+                for iterations in [0u64, 10, 100] {
+                    let wall = 0.002 + per_step * iterations as f64 * (1.0 + 0.01 * repeat as f64);
+                    let duration = Duration::from_secs_f64(wall);
+                    records.push(Record {
+                        input: Some(input.into()),
+                        particles: Some(4800),
+                        iterations: Some(iterations),
+                        repeat,
+                        wall: duration,
+                        usage: Some(Usage {
+                            wall: duration,
+                            user: duration,
+                            system: Duration::ZERO,
+                            max_rss_kib: 6000,
+                        }),
+                        energy: energy(wall, 30.0),
+                    });
+                }
+            }
+        }
+        let sweep = Sweep {
+            plan: Plan {
+                program: "fluid".into(),
+                inputs: Vec::new(),
+                iterations: Vec::new(),
+                repeats: 3,
+                idle: Duration::from_secs(1),
+            },
+            energy: energy_method,
+            machine: Machine {
+                host: "h".into(),
+                cpu_model: "Test CPU".into(),
+                cpus: 2,
+                kernel: "6.1".into(),
+                commit: "abc".into(),
+            },
+        };
+        String::from_utf8(sweep.csv(&records).unwrap()).unwrap()
+    }
+
+    fn covers(chart: &Chart) {
+        let (x, y) = (chart.x_range(), chart.y_range());
+        for point in chart.series.iter().flat_map(|series| &series.points) {
+            assert!(x.contains(&(point.iterations as f64)), "{point:?} {x:?}");
+            assert!(y.start <= point.min && point.max < y.end, "{point:?} {y:?}");
+        }
+        for (_, value) in &chart.baselines {
+            assert!(y.contains(value), "{value} {y:?}");
+        }
+    }
+
+    #[test]
+    fn a_point_is_the_median_and_range_of_its_repeats() {
+        assert_eq!(
+            Point::of(5, &mut [3.0, 1.0, 9.0]),
+            Point {
+                iterations: 5,
+                median: 3.0,
+                min: 1.0,
+                max: 9.0
+            }
+        );
+        assert_eq!(Point::of(5, &mut [4.0, 1.0, 2.0, 9.0]).median, 3.0);
+        assert_eq!(Point::of(5, &mut [7.0]).median, 7.0);
+    }
+
+    #[test]
+    fn measured_energy_gives_a_line_per_input_and_domain_and_an_idle_baseline() {
+        let table = SweepTable::parse(&sweep_csv(true)).unwrap();
+        let [time, energy, power] = table.charts();
+        let labels = |chart: &Chart| -> Vec<String> {
+            chart.series.iter().map(|s| s.label.clone()).collect()
+        };
+        assert_eq!(labels(&time), ["small.fld", "large.fld"]);
+        assert_eq!(
+            labels(&energy),
+            [
+                "small.fld pkg",
+                "large.fld pkg",
+                "small.fld ram",
+                "large.fld ram"
+            ]
+        );
+        assert_eq!(labels(&power), labels(&energy));
+        let large = &time.series[1].points;
+        assert_eq!(large.len(), 3);
+        assert_eq!(large[2].iterations, 100);
+        assert!((large[2].median - (0.002 + 0.065 * 1.02)).abs() < 1e-6);
+        assert!((large[2].min - (0.002 + 0.065 * 1.01)).abs() < 1e-6);
+        assert!((large[2].max - (0.002 + 0.065 * 1.03)).abs() < 1e-6);
+        assert!((power.series[0].points[1].median - 30.0).abs() < 1e-3);
+        assert_eq!(power.baselines.len(), 2);
+        assert_eq!(power.baselines[0].0, "idle pkg");
+        assert!((power.baselines[0].1 - 11.5).abs() < 1e-6);
+        assert!((power.baselines[1].1 - 2.0).abs() < 1e-6);
+        for chart in [&time, &energy, &power] {
+            assert_eq!(chart.missing, None);
+            assert!(chart
+                .footer
+                .starts_with("Test CPU (2 CPUs), Linux 6.1, commit abc"));
+            assert!(chart.footer.ends_with("median and min-max of 3 runs"));
+            covers(chart);
+        }
+        assert!(time.x_range().end >= 100.0);
+    }
+
+    #[test]
+    fn without_energy_the_energy_charts_say_so_and_draw_no_lines() {
+        let table = SweepTable::parse(&sweep_csv(false)).unwrap();
+        let [time, energy, power] = table.charts();
+        assert_eq!(time.series.len(), 2);
+        assert_eq!(time.missing, None);
+        for chart in [&energy, &power] {
+            assert!(chart.series.is_empty() && chart.baselines.is_empty());
+            assert_eq!(
+                chart.missing.as_deref(),
+                Some("energy not measured on this machine\nnot available (no RAPL here)")
+            );
+            assert!(chart.x_range().end >= 100.0);
+        }
+    }
+
+    #[test]
+    fn a_csv_that_is_not_a_sweep_is_refused_with_the_reason() {
+        let error = SweepTable::parse("kind,input\nrun,x\n").unwrap_err();
+        assert_eq!(error.to_string(), "the sweep CSV has no column iterations");
+        let text = sweep_csv(false);
+        let header = text.lines().next().unwrap();
+        let idle_only: String = text.lines().take(3).collect::<Vec<_>>().join("\n");
+        assert_eq!(
+            SweepTable::parse(&idle_only).unwrap_err().to_string(),
+            "the sweep CSV holds no runs"
+        );
+        let bad = format!(
+            "{header}\n{}",
+            text.lines().nth(3).unwrap().replace(",0.0", ",x.0")
+        );
+        assert!(SweepTable::parse(&bad)
+            .unwrap_err()
+            .to_string()
+            .starts_with("row 2: "));
+    }
+
+    #[test]
+    fn rendered_charts_are_valid_png_and_svg_with_their_labels() {
+        let folder = tempfile::tempdir().unwrap();
+        let table = SweepTable::parse(&sweep_csv(true)).unwrap();
+        for chart in table.charts() {
+            let [png, svg] = render(&chart, folder.path()).unwrap();
+            let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
+            let mut reader = decoder.read_info().unwrap();
+            let mut pixels = vec![0; reader.output_buffer_size()];
+            let frame = reader.next_frame(&mut pixels).unwrap();
+            assert_eq!((frame.width, frame.height), SIZE);
+            let inked = pixels[..frame.buffer_size()]
+                .chunks(3)
+                .filter(|rgb| rgb.iter().any(|&c| c < 128))
+                .count();
+            assert!(inked > 2000, "{}: only {inked} dark pixels", png.display());
+
+            let text = std::fs::read_to_string(&svg).unwrap();
+            let document = roxmltree::Document::parse(&text).unwrap();
+            let root = document.root_element();
+            assert_eq!(root.tag_name().name(), "svg");
+            assert_eq!(root.attribute("width"), Some("960"));
+            let texts: Vec<&str> = document
+                .descendants()
+                .filter(|node| node.is_text())
+                .filter_map(|node| node.text())
+                .map(str::trim)
+                .filter(|text| !text.is_empty())
+                .collect();
+            assert!(texts.contains(&"iterations"), "{texts:?}");
+            assert!(texts.contains(&chart.title.as_str()), "{texts:?}");
+            for series in &chart.series {
+                assert!(texts.contains(&series.label.as_str()), "{texts:?}");
+            }
+            let markers = document
+                .descendants()
+                .filter(|node| node.has_tag_name("circle"))
+                .count();
+            let points: usize = chart.series.iter().map(|s| s.points.len()).sum();
+            assert_eq!(markers, points, "{}", svg.display());
+        }
+    }
+
+    #[test]
+    fn long_reasons_wrap_at_spaces_and_newlines() {
+        assert_eq!(
+            wrap("first line\naa bb cc dd", 5),
+            ["first", "line", "aa bb", "cc dd"]
+        );
+    }
+}
