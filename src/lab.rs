@@ -35,6 +35,7 @@ enum Command {
     /// Write a generated scene (a block of fluid in the box's corner) as a .fld input.
     Scene(SceneArgs),
     /// Measure `fluid` over iteration counts (time, memory, energy) into a CSV.
+    #[command(args_override_self = true)]
     Sweep(SweepArgs),
     /// Chart a sweep CSV: time, energy and power against iterations, as PNG and SVG.
     Chart(ChartArgs),
