@@ -7,7 +7,7 @@ use crate::machine::Machine;
 use std::error::Error;
 use std::io::{self, Read, Seek, Write};
 use std::os::unix::process::ExitStatusExt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
@@ -200,7 +200,7 @@ impl Sweep {
     }
 
     /// Runs the program once; a failed run is an error naming the command and its stderr.
-    fn run_once(&self, input: &PathBuf, iterations: u64) -> Result<Usage, Box<dyn Error>> {
+    fn run_once(&self, input: &Path, iterations: u64) -> Result<Usage, Box<dyn Error>> {
         let program = &self.plan.program;
         let mut stderr = tempfile::tempfile()?;
         let mut command = Command::new(program);
@@ -285,7 +285,7 @@ impl Sweep {
     }
 }
 
-fn file_name(path: &std::path::Path) -> String {
+fn file_name(path: &Path) -> String {
     path.file_name()
         .unwrap_or(path.as_os_str())
         .to_string_lossy()
@@ -293,7 +293,7 @@ fn file_name(path: &std::path::Path) -> String {
 }
 
 /// The number of particles in a `.fld` input (which also checks that it is one).
-fn particle_count(path: &std::path::Path) -> Result<usize, Box<dyn Error>> {
+fn particle_count(path: &Path) -> Result<usize, Box<dyn Error>> {
     let name = path.display().to_string();
     let input = crate::fld::map_input(path)?;
     Ok(crate::fld::parse(&input, &name)?.particles.len())
