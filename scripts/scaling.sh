@@ -15,7 +15,7 @@ mkdir -p target/scenes
 echo "particles ns_per_particle_step (median of 3; $steps steps, fluidanimate, $kernel)"
 for count in 3000 10000 30000 100000; do
     scene="target/scenes/block-400-$count.fld"
-    [ -f "$scene" ] || "$lab" scene --ppm 400 --particles "$count" "$scene"
+    [ -f "$scene" ] || "$lab" scene corner-block --ppm 400 --particles "$count" "$scene"
     for _ in 1 2 3; do
         "$lab" run --model fluidanimate --kernel "$kernel" --steps "$steps" "$scene" |
             sed -n 's/.*ns_per_particle_step=\([0-9.]*\).*/\1/p'

@@ -7,7 +7,7 @@ use crate::energy::{EnergyMethod, Sources};
 use crate::fld::{self, OutputFile};
 use crate::machine::Machine;
 use crate::method::{Kernel, Method, Model};
-use crate::scene;
+use crate::scene::{self, SceneKind};
 use crate::sweep::{self, Plan, Sweep};
 use clap::builder::RangedU64ValueParser;
 use clap::{Args, Parser, Subcommand};
@@ -32,7 +32,8 @@ pub struct Lab {
 enum Command {
     /// Run a scene with a chosen model and kernel, timed; optionally write the final state.
     Run(RunArgs),
-    /// Write a generated scene (a block of fluid in the box's corner) as a .fld input.
+    /// Write a generated scene (dam break, drop, filled box, random cloud, corner block) as
+    /// a .fld input.
     Scene(SceneArgs),
     /// Measure `fluid` over iteration counts (time, memory, energy) into a CSV.
     #[command(args_override_self = true)]
@@ -60,14 +61,20 @@ struct RunArgs {
 
 #[derive(Debug, Args)]
 struct SceneArgs {
+    /// The scene.
+    #[arg(value_enum)]
+    kind: SceneKind,
     /// Output .fld file.
     output: PathBuf,
-    /// Particles per metre (also the lattice density).
+    /// Particles per metre: the lattice spacing is 1/ppm.
     #[arg(long, default_value_t = 400.0)]
     ppm: f32,
-    /// Number of particles, as a cube-like block in the low corner.
+    /// Seed of the lattice jitter and of the random cloud.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Number of particles (random-cloud and corner-block only).
     #[arg(long)]
-    particles: usize,
+    particles: Option<usize>,
 }
 
 #[derive(Debug, Args)]
@@ -149,7 +156,7 @@ fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
 
 fn write_scene(args: SceneArgs) -> Result<(), Box<dyn Error>> {
     let output = OutputFile::create(&args.output)?;
-    let particles = scene::corner_block(args.ppm.into(), args.particles);
+    let particles = scene::generate(args.kind, args.ppm.into(), args.seed, args.particles)?;
     output.commit(&fld::encode(args.ppm, &particles))?;
     Ok(())
 }

@@ -1,7 +1,156 @@
-//! Generated scenes, for benchmarks and tests beyond the two course inputs.
+//! Generated scenes, for benchmarks and tests beyond the two course inputs: named scenes
+//! of fluid at rest on a cubic lattice of spacing 1/ppm (the spacing at which the particle
+//! mass gives the rest density), or a random cloud, at a chosen ppm and seed.
 
-use crate::params::{BOX_MAX, BOX_MIN};
+use crate::grid::Grid;
+use crate::params::{Params, BOX_MAX, BOX_MIN};
 use crate::particles::Particles;
+use glam::DVec3;
+
+/// The largest scene written: an `.fld` header counts particles in an `i32`, and a scene
+/// this large already takes 1.8 GB.
+pub const MAX_PARTICLES: usize = 50_000_000;
+
+/// How far lattice scenes move each particle off its lattice point, at most, per axis, as
+/// a fraction of the spacing: enough to break the lattice's exact symmetry.
+pub const JITTER: f64 = 0.05;
+
+/// A named scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneKind {
+    /// A column of fluid against the low-x wall (40% of the width, 70% of the height),
+    /// about to collapse.
+    DamBreak,
+    /// A sphere of fluid (radius 2.5 cm) above a shallow pool (15% of the height).
+    Drop,
+    /// The box filled to half its height: a resting column.
+    FilledBox,
+    /// Particles uniformly at random in the whole box (default: as many as would fill 30%
+    /// of it).
+    RandomCloud,
+    /// A cube-like block in the low corner, of `--particles` particles, on the exact
+    /// lattice (no jitter): the scaling series.
+    CornerBlock,
+}
+
+impl SceneKind {
+    /// The scene's command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SceneKind::DamBreak => "dam-break",
+            SceneKind::Drop => "drop",
+            SceneKind::FilledBox => "filled-box",
+            SceneKind::RandomCloud => "random-cloud",
+            SceneKind::CornerBlock => "corner-block",
+        }
+    }
+}
+
+/// Generates `kind` at `ppm` particles per metre; `seed` drives the jitter and the random
+/// cloud, `particles` the size of the random cloud and the corner block.
+pub fn generate(
+    kind: SceneKind,
+    ppm: f64,
+    seed: u64,
+    particles: Option<usize>,
+) -> Result<Particles, String> {
+    if !(ppm.is_finite() && Grid::new(Params::new(ppm).h).is_ok()) {
+        return Err(format!(
+            "particles per metre {ppm} gives no grid over the box"
+        ));
+    }
+    let needs_count = matches!(kind, SceneKind::RandomCloud | SceneKind::CornerBlock);
+    if particles.is_some() && !needs_count {
+        return Err(format!(
+            "--particles sets the size of random-cloud and corner-block only; {} follows from ppm",
+            kind.name()
+        ));
+    }
+    let extent = BOX_MAX - BOX_MIN;
+    let lattice_count = (extent * ppm).floor();
+    let count = match (kind, particles) {
+        (SceneKind::RandomCloud, None) => {
+            (0.3 * lattice_count.x * lattice_count.y * lattice_count.z) as usize
+        }
+        (SceneKind::CornerBlock, None) => return Err("corner-block needs --particles".to_string()),
+        (_, Some(count)) => count,
+        _ => (lattice_count.x * lattice_count.y * lattice_count.z) as usize,
+    };
+    if count > MAX_PARTICLES {
+        return Err(format!(
+            "{} at {ppm} particles per metre would hold up to {count} particles; the limit is {MAX_PARTICLES}",
+            kind.name()
+        ));
+    }
+    let height = |fraction: f64| BOX_MIN.y + fraction * extent.y;
+    let scene = match kind {
+        SceneKind::DamBreak => lattice(ppm, seed, |p| {
+            p.x < BOX_MIN.x + 0.4 * extent.x && p.y < height(0.7)
+        }),
+        SceneKind::Drop => {
+            let centre = DVec3::new(0.0, height(0.65), 0.0);
+            lattice(ppm, seed, |p| {
+                p.y < height(0.15) || p.distance(centre) < 0.025
+            })
+        }
+        SceneKind::FilledBox => lattice(ppm, seed, |p| p.y < height(0.5)),
+        SceneKind::RandomCloud => random_cloud(count, seed),
+        SceneKind::CornerBlock => corner_block(ppm, count),
+    };
+    if scene.is_empty() {
+        return Err(format!(
+            "{} at {ppm} particles per metre holds no particle",
+            kind.name()
+        ));
+    }
+    Ok(scene)
+}
+
+/// The lattice points (spacing 1/`ppm`, half a spacing from the walls, x fastest, then z,
+/// then y) for which `inside` holds, each jittered by up to [`JITTER`] spacings per axis.
+fn lattice(ppm: f64, seed: u64, inside: impl Fn(DVec3) -> bool) -> Particles {
+    let spacing = 1.0 / ppm;
+    let [nx, ny, nz] = ((BOX_MAX - BOX_MIN) * ppm)
+        .floor()
+        .to_array()
+        .map(|n| n as usize);
+    let mut random = fastrand::Rng::with_seed(seed);
+    let mut points = Vec::new();
+    for y in 0..ny {
+        for z in 0..nz {
+            for x in 0..nx {
+                let k = DVec3::new(x as f64, y as f64, z as f64);
+                let point = BOX_MIN + (k + 0.5) * spacing;
+                if inside(point) {
+                    let jitter = DVec3::new(random.f64(), random.f64(), random.f64());
+                    points.push(point + (jitter * 2.0 - 1.0) * (JITTER * spacing));
+                }
+            }
+        }
+    }
+    at_rest(&points)
+}
+
+/// `count` particles uniformly at random in the box.
+fn random_cloud(count: usize, seed: u64) -> Particles {
+    let mut random = fastrand::Rng::with_seed(seed);
+    let extent = BOX_MAX - BOX_MIN;
+    let points: Vec<DVec3> = (0..count)
+        .map(|_| BOX_MIN + DVec3::new(random.f64(), random.f64(), random.f64()) * extent)
+        .collect();
+    at_rest(&points)
+}
+
+/// Particles at `points`, at rest.
+fn at_rest(points: &[DVec3]) -> Particles {
+    let mut particles = Particles::zeroed(points.len());
+    for (slot, point) in points.iter().enumerate() {
+        for axis in 0..3 {
+            particles.p[axis][slot] = point[axis];
+        }
+    }
+    particles
+}
 
 /// `count` particles at rest on a cubic lattice of spacing 1/`ppm`, half a spacing from
 /// the walls: a block of fluid in the box's low corner, as close to a cube as the box
@@ -32,6 +181,93 @@ pub fn corner_block(ppm: f64, count: usize) -> Particles {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn positions(particles: &Particles) -> Vec<DVec3> {
+        (0..particles.len())
+            .map(|i| particles.position(i))
+            .collect()
+    }
+
+    #[test]
+    fn lattice_scenes_fill_their_regions_at_the_lattice_density() {
+        let ppm = 200.0;
+        let spacing = 1.0 / ppm;
+        let extent = BOX_MAX - BOX_MIN;
+        for kind in [SceneKind::DamBreak, SceneKind::Drop, SceneKind::FilledBox] {
+            let scene = generate(kind, ppm, 7, None).unwrap();
+            let points = positions(&scene);
+            assert!(points
+                .iter()
+                .all(|p| p.cmpgt(BOX_MIN).all() && p.cmplt(BOX_MAX).all()));
+            assert!(scene.v.iter().chain(&scene.hv).flatten().all(|&v| v == 0.0));
+            // Every particle is within the jitter of its lattice point.
+            for p in &points {
+                let offset = (*p - BOX_MIN) / spacing - 0.5;
+                let off_lattice = (offset - offset.round()).abs().max_element();
+                assert!(off_lattice <= JITTER + 1e-9, "{kind:?} {p}");
+            }
+            let expected = match kind {
+                // 26 x 36 x 26 lattice points: 10 of 26 columns below 0.4 width, 25 of 36
+                // rows below 0.7 height.
+                SceneKind::DamBreak => 10 * 25 * 26,
+                SceneKind::FilledBox => 26 * 18 * 26,
+                _ => 0,
+            };
+            if expected > 0 {
+                assert_eq!(scene.len(), expected, "{kind:?}");
+            }
+        }
+        let drop = positions(&generate(SceneKind::Drop, ppm, 7, None).unwrap());
+        let pool_top = BOX_MIN.y + 0.15 * extent.y;
+        let (pool, sphere): (Vec<DVec3>, Vec<DVec3>) = drop.iter().partition(|p| p.y < pool_top);
+        assert_eq!(pool.len(), 26 * 5 * 26);
+        // A sphere of radius 2.5 cm holds about 4/3 pi r^3 ppm^3 lattice points.
+        let expected = 4.0 / 3.0 * std::f64::consts::PI * 0.025f64.powi(3) * ppm.powi(3);
+        assert!(
+            (sphere.len() as f64 / expected - 1.0).abs() < 0.05,
+            "{}",
+            sphere.len()
+        );
+        assert!(sphere.iter().all(|p| p.y > pool_top + 0.05));
+    }
+
+    #[test]
+    fn the_seed_moves_the_jitter_and_the_cloud_only() {
+        for kind in [SceneKind::DamBreak, SceneKind::RandomCloud] {
+            let a = generate(kind, 150.0, 1, None).unwrap();
+            assert_eq!(a, generate(kind, 150.0, 1, None).unwrap(), "{kind:?}");
+            assert_ne!(a.p, generate(kind, 150.0, 2, None).unwrap().p, "{kind:?}");
+        }
+    }
+
+    #[test]
+    fn a_random_cloud_spreads_over_the_whole_box() {
+        let cloud = generate(SceneKind::RandomCloud, 150.0, 3, Some(20_000)).unwrap();
+        assert_eq!(cloud.len(), 20_000);
+        let points = positions(&cloud);
+        let mean = points.iter().sum::<DVec3>() / points.len() as f64;
+        let centre = (BOX_MIN + BOX_MAX) / 2.0;
+        assert!((mean - centre).abs().max_element() < 0.003, "{mean}");
+        let low = points.iter().fold(DVec3::INFINITY, |m, p| m.min(*p));
+        let high = points.iter().fold(DVec3::NEG_INFINITY, |m, p| m.max(*p));
+        assert!((low - BOX_MIN).max_element() < 0.002 && (BOX_MAX - high).max_element() < 0.002);
+        let default = generate(SceneKind::RandomCloud, 150.0, 3, None).unwrap();
+        assert_eq!(default.len(), (0.3 * 19.0 * 27.0 * 19.0) as usize);
+    }
+
+    #[test]
+    fn impossible_requests_are_errors() {
+        let error = generate(SceneKind::DamBreak, 200.0, 0, Some(10)).unwrap_err();
+        assert!(error.starts_with("--particles sets the size of"), "{error}");
+        assert_eq!(
+            generate(SceneKind::CornerBlock, 200.0, 0, None).unwrap_err(),
+            "corner-block needs --particles"
+        );
+        let error = generate(SceneKind::FilledBox, 10.0, 0, None).unwrap_err();
+        assert_eq!(error, "particles per metre 10 gives no grid over the box");
+        let error = generate(SceneKind::FilledBox, 3000.0, 0, None).unwrap_err();
+        assert!(error.contains("the limit is 50000000"), "{error}");
+    }
 
     #[test]
     fn builds_a_cube_in_the_corner_on_a_regular_lattice() {

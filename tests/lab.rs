@@ -52,21 +52,50 @@ fn a_run_reports_its_method_and_timing() {
 }
 
 #[test]
-fn a_generated_scene_reads_back() {
+fn every_generated_scene_reads_back_through_the_fld_reader() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("box.fld");
-    let output = run_lab(&[
-        "scene".as_ref(),
-        "--ppm".as_ref(),
-        "400".as_ref(),
-        "--particles".as_ref(),
-        "5000".as_ref(),
-        out.as_os_str(),
-    ]);
-    assert_eq!(exit_code(&output), 0, "stderr: {}", stderr(&output));
-    let bytes = std::fs::read(&out).unwrap();
-    let scene = fld::parse(&bytes, "box.fld").unwrap();
-    assert_eq!((scene.ppm, scene.particles.len()), (400.0, 5000));
+    for (kind, extra, count) in [
+        ("dam-break", None, 10 * 25 * 26),
+        ("filled-box", None, 26 * 18 * 26),
+        ("drop", None, 0),
+        ("random-cloud", Some("3000"), 3000),
+        ("corner-block", Some("5000"), 5000),
+    ] {
+        let out = dir.path().join(format!("{kind}.fld"));
+        let mut args = vec![
+            "scene",
+            kind,
+            out.to_str().unwrap(),
+            "--ppm",
+            "200",
+            "--seed",
+            "4",
+        ];
+        if let Some(particles) = extra {
+            args.extend(["--particles", particles]);
+        }
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 0, "{kind}: {}", stderr(&output));
+        let bytes = std::fs::read(&out).unwrap();
+        let scene = fld::parse(&bytes, kind).unwrap();
+        assert_eq!(scene.ppm, 200.0, "{kind}");
+        if count > 0 {
+            assert_eq!(scene.particles.len(), count, "{kind}");
+        }
+        let expected = fluid::scene::generate(
+            clap::ValueEnum::from_str(kind, false).unwrap(),
+            200.0,
+            4,
+            extra.map(|n| n.parse().unwrap()),
+        )
+        .unwrap();
+        // The file holds the generated particles, rounded to f32.
+        for axis in 0..3 {
+            for (read, generated) in scene.particles.p[axis].iter().zip(&expected.p[axis]) {
+                assert_eq!(*read, *generated as f32 as f64, "{kind}");
+            }
+        }
+    }
 }
 
 #[test]
