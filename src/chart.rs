@@ -368,7 +368,7 @@ pub fn render(chart: &Chart, folder: &Path) -> Result<[PathBuf; 2], Box<dyn Erro
 }
 
 /// Registers DejaVu Sans, from the binary itself, as plotters' `sans-serif`.
-fn register_font() -> Result<(), Box<dyn Error>> {
+pub(crate) fn register_font() -> Result<(), Box<dyn Error>> {
     static REGISTER: Once = Once::new();
     let mut result = Ok(());
     REGISTER.call_once(|| {

@@ -4,15 +4,19 @@
 use crate::chart::{self, SweepTable};
 use crate::cli;
 use crate::energy::{EnergyMethod, Sources};
+use crate::export::Snapshot;
 use crate::fld::{self, OutputFile};
 use crate::machine::Machine;
 use crate::method::{Kernel, Method, Model};
+use crate::render::{self, Animation, Colouring};
 use crate::scene::{self, SceneKind};
+use crate::simulation::Simulation;
 use crate::sweep::{self, Plan, Sweep};
 use clap::builder::RangedU64ValueParser;
 use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::error::Error;
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -32,6 +36,10 @@ pub struct Lab {
 enum Command {
     /// Run a scene with a chosen model and kernel, timed; optionally write the final state.
     Run(RunArgs),
+    /// Export a state, or a run every k steps, as VTK (ParaView) or CSV files.
+    Export(ExportArgs),
+    /// Render a state as a PNG, or a run as an animated GIF or PNG series.
+    Render(RenderArgs),
     /// Write a generated scene (dam break, drop, filled box, random cloud, corner block) as
     /// a .fld input.
     Scene(SceneArgs),
@@ -42,12 +50,11 @@ enum Command {
     Chart(ChartArgs),
 }
 
+/// A simulation to run: input, steps, model and kernel.
 #[derive(Debug, Args)]
-struct RunArgs {
+struct SimulationArgs {
     /// Input .fld file.
     input: PathBuf,
-    /// Output .fld file for the final state.
-    output: Option<PathBuf>,
     /// Time steps to run.
     #[arg(long, default_value_t = 1)]
     steps: u64,
@@ -57,6 +64,58 @@ struct RunArgs {
     /// Pair-loop implementation.
     #[arg(long, value_enum, default_value_t = Kernel::Simd)]
     kernel: Kernel,
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
+    #[command(flatten)]
+    simulation: SimulationArgs,
+    /// Output .fld file for the final state.
+    output: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+struct ExportArgs {
+    #[command(flatten)]
+    simulation: SimulationArgs,
+    /// Folder for the files, named INPUT-STEM_STEP.vtk (or .csv).
+    output_dir: PathBuf,
+    /// Also export every this many steps (and step 0) [default: the final state only].
+    #[arg(long, value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
+    every: Option<u64>,
+    /// File format.
+    #[arg(long, value_enum, default_value_t = ExportFormat::Vtk)]
+    format: ExportFormat,
+}
+
+/// The format of exported states.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ExportFormat {
+    /// Legacy VTK polydata, which ParaView opens (a numbered series as a time series).
+    Vtk,
+    /// One row per particle.
+    Csv,
+}
+
+#[derive(Debug, Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    simulation: SimulationArgs,
+    /// Output: .png for the final state (a numbered series with --every), .gif for an
+    /// animation of the run.
+    output: PathBuf,
+    /// Draw every this many steps (and step 0) [default for .gif: steps / 50].
+    #[arg(long, value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
+    every: Option<u64>,
+    /// What the colours show.
+    #[arg(long, value_enum, default_value_t = Colouring::Speed)]
+    colour: Colouring,
+    /// Colour range LOW,HIGH [default: each frame's own].
+    #[arg(long, value_parser = parse_range)]
+    range: Option<(f64, f64)>,
+    /// Milliseconds per GIF frame.
+    #[arg(long, default_value_t = 80)]
+    delay_ms: u32,
 }
 
 #[derive(Debug, Args)]
@@ -117,6 +176,8 @@ impl Lab {
     pub fn execute(self, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
         match self.command {
             Command::Run(args) => run(args, stdout),
+            Command::Export(args) => export(args, stdout),
+            Command::Render(args) => render(args, stdout),
             Command::Scene(args) => write_scene(args),
             Command::Sweep(args) => measure_sweep(args, stdout),
             Command::Chart(args) => draw_charts(args, stdout),
@@ -124,32 +185,184 @@ impl Lab {
     }
 }
 
-fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+/// An input placed for simulation.
+struct Loaded {
+    /// The input's file stem, for output names.
+    stem: String,
+    /// The input's name as given.
+    name: String,
+    ppm: f32,
+    simulation: Simulation,
+}
+
+fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     let name = args.input.display().to_string();
     let input = fld::map_input(&args.input)?;
     let scene = fld::parse(&input, &name)?;
-    let output = args.output.as_deref().map(OutputFile::create).transpose()?;
     let method = Method {
         model: args.model,
         kernel: args.kernel,
     };
-    let mut simulation = cli::place(scene.ppm, scene.particles, method, name)?;
+    let stem = args.input.file_stem().unwrap_or_default();
+    Ok(Loaded {
+        stem: stem.to_string_lossy().into_owned(),
+        simulation: cli::place(scene.ppm, scene.particles, method, name.clone())?,
+        name,
+        ppm: scene.ppm,
+    })
+}
+
+/// A progress bar over `steps` on stderr, with steps per second, if stderr is a terminal;
+/// hidden otherwise.
+fn progress_bar(steps: u64) -> ProgressBar {
+    if steps == 0 || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let style = ProgressStyle::with_template("{bar:30} {pos}/{len} steps  {per_sec}  eta {eta}")
+        .expect("a valid template");
+    ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::stderr()).with_style(style)
+}
+
+/// Runs `steps` steps, calling `visit` at step 0 and every `every` steps (if given), and
+/// at the last step.
+fn run_visiting(
+    simulation: &mut Simulation,
+    steps: u64,
+    every: Option<u64>,
+    mut visit: impl FnMut(&Simulation, u64) -> Result<(), Box<dyn Error>>,
+) -> Result<(), Box<dyn Error>> {
+    let progress = progress_bar(steps);
+    for step in 0..=steps {
+        if step > 0 {
+            simulation.step();
+            progress.inc(1);
+        }
+        if step == steps || every.is_some_and(|every| step % every == 0) {
+            visit(simulation, step)?;
+        }
+    }
+    progress.finish_and_clear();
+    Ok(())
+}
+
+fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let steps = args.simulation.steps;
+    let output = args.output.as_deref().map(OutputFile::create).transpose()?;
+    let Loaded {
+        ppm,
+        mut simulation,
+        ..
+    } = load(&args.simulation)?;
+    let progress = progress_bar(steps);
     let started = Instant::now();
-    simulation.run(args.steps);
+    for _ in 0..steps {
+        simulation.step();
+        progress.inc(1);
+    }
     let seconds = started.elapsed().as_secs_f64();
+    progress.finish_and_clear();
     let particles = simulation.particles().len();
-    let per_particle_step = seconds / (args.steps.max(1) as f64 * particles as f64);
+    let per_particle_step = seconds / (steps.max(1) as f64 * particles as f64);
     writeln!(
         stdout,
-        "model={} kernel={} particles={particles} steps={} seconds={seconds:.6} \
+        "model={} kernel={} particles={particles} steps={steps} seconds={seconds:.6} \
          ns_per_particle_step={:.3}",
-        args.model.name(),
-        args.kernel.name(),
-        args.steps,
+        args.simulation.model.name(),
+        args.simulation.kernel.name(),
         per_particle_step * 1e9
     )?;
     if let Some(output) = output {
-        output.commit(&fld::encode(scene.ppm, simulation.particles()))?;
+        output.commit(&fld::encode(ppm, simulation.particles()))?;
+    }
+    Ok(())
+}
+
+/// Parses `LOW,HIGH` into a non-empty range.
+fn parse_range(text: &str) -> Result<(f64, f64), String> {
+    let numbers = text
+        .split_once(',')
+        .and_then(|(low, high)| Some((low.trim().parse().ok()?, high.trim().parse().ok()?)));
+    match numbers {
+        Some((low, high)) if low < high => Ok((low, high)),
+        Some(_) => Err(format!("{text} is empty")),
+        None => Err(format!("{text} is not LOW,HIGH")),
+    }
+}
+
+fn export(args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let Loaded {
+        stem,
+        name,
+        mut simulation,
+        ..
+    } = load(&args.simulation)?;
+    std::fs::create_dir_all(&args.output_dir)
+        .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
+    let steps = args.simulation.steps;
+    run_visiting(&mut simulation, steps, args.every, |simulation, step| {
+        let snapshot = Snapshot::of(simulation, step);
+        let (text, extension) = match args.format {
+            ExportFormat::Vtk => (
+                snapshot.to_vtk(&format!("fluid: {name}, step {step}")),
+                "vtk",
+            ),
+            ExportFormat::Csv => (snapshot.to_csv(), "csv"),
+        };
+        let path = args
+            .output_dir
+            .join(format!("{stem}_{step:06}.{extension}"));
+        OutputFile::create(&path)?.commit(text.as_bytes())?;
+        writeln!(stdout, "wrote {}", path.display())?;
+        Ok(())
+    })
+}
+
+fn render(args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let Loaded {
+        name,
+        ppm,
+        mut simulation,
+        ..
+    } = load(&args.simulation)?;
+    let steps = args.simulation.steps;
+    let range = args.range;
+    let style = render::Style {
+        title: name.clone(),
+        ppm: ppm.into(),
+        colouring: args.colour,
+        range,
+    };
+    let output = &args.output;
+    match output.extension().and_then(|e| e.to_str()) {
+        Some("gif") => {
+            let every = args.every.unwrap_or((steps / 50).max(1));
+            let mut animation = Animation::create(output, args.delay_ms)?;
+            let mut frames = 0;
+            run_visiting(&mut simulation, steps, Some(every), |simulation, step| {
+                animation.push(&Snapshot::of(simulation, step), &style)?;
+                frames += 1;
+                Ok(())
+            })?;
+            drop(animation);
+            writeln!(stdout, "wrote {} ({frames} frames)", output.display())?;
+        }
+        Some("png") => {
+            run_visiting(&mut simulation, steps, args.every, |simulation, step| {
+                let path = match args.every {
+                    Some(_) => {
+                        let stem = output.file_stem().unwrap_or_default().to_string_lossy();
+                        output.with_file_name(format!("{stem}_{step:06}.png"))
+                    }
+                    None => output.clone(),
+                };
+                render::render_png(&Snapshot::of(simulation, step), &style, &path)?;
+                writeln!(stdout, "wrote {}", path.display())?;
+                Ok(())
+            })?;
+        }
+        _ => {
+            return Err(format!("{}: the output must end in .png or .gif", output.display()).into())
+        }
     }
     Ok(())
 }

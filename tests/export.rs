@@ -1,0 +1,275 @@
+//! `fluid-lab export` and `fluid-lab render` on the real binary: VTK and CSV files parsed
+//! back and compared with the reference outputs, rendered PNG series and GIF animations,
+//! and no progress bar when stderr is not a terminal.
+
+mod common;
+
+use common::{exit_code, input, reference_output, run_lab, stderr, stdout};
+use fluid::fld;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// A legacy VTK polydata file read back: its points and its point-data arrays.
+struct Vtk {
+    points: Vec<[f64; 3]>,
+    arrays: HashMap<String, Vec<f64>>,
+}
+
+/// Parses the ASCII legacy VTK that `fluid-lab export` writes, checking its structure.
+fn parse_vtk(text: &str) -> Vtk {
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("# vtk DataFile Version 3.0"));
+    lines.next().expect("a title line");
+    assert_eq!(lines.next(), Some("ASCII"));
+    assert_eq!(lines.next(), Some("DATASET POLYDATA"));
+    let header: Vec<&str> = lines.next().unwrap().split(' ').collect();
+    assert_eq!((header[0], header[2]), ("POINTS", "float"));
+    let n: usize = header[1].parse().unwrap();
+    // Floats as written (f32, the precision of .fld files), doubles and ints as f64.
+    let numbers = |line: &str, float: bool| -> Vec<f64> {
+        line.split(' ')
+            .map(|v| match float {
+                true => v.parse::<f32>().unwrap() as f64,
+                false => v.parse().unwrap(),
+            })
+            .collect()
+    };
+    let points: Vec<[f64; 3]> = (0..n)
+        .map(|_| numbers(lines.next().unwrap(), true).try_into().unwrap())
+        .collect();
+    assert_eq!(
+        lines.next(),
+        Some(format!("VERTICES {n} {}", 2 * n).as_str())
+    );
+    for i in 0..n {
+        assert_eq!(lines.next(), Some(format!("1 {i}").as_str()));
+    }
+    assert_eq!(lines.next(), Some(format!("POINT_DATA {n}").as_str()));
+    let mut arrays = HashMap::new();
+    while let Some(line) = lines.next() {
+        let words: Vec<&str> = line.split(' ').collect();
+        let (name, width) = match words[0] {
+            "VECTORS" => (words[1], 3),
+            "SCALARS" => {
+                assert_eq!(lines.next(), Some("LOOKUP_TABLE default"));
+                (words[1], 1)
+            }
+            other => panic!("unexpected section {other}"),
+        };
+        let float = words[2] == "float";
+        let values: Vec<f64> = (0..n)
+            .flat_map(|_| numbers(lines.next().unwrap(), float))
+            .collect();
+        assert_eq!(values.len(), n * width, "{name}");
+        arrays.insert(name.to_string(), values);
+    }
+    Vtk { points, arrays }
+}
+
+fn export(args: &[&str]) -> std::process::Output {
+    let output = run_lab(args);
+    assert_eq!(exit_code(&output), 0, "stderr: {}", stderr(&output));
+    // Not a terminal: no progress bar, nothing on stderr.
+    assert_eq!(stderr(&output), "");
+    output
+}
+
+#[test]
+fn vtk_exports_of_a_run_match_the_input_and_the_reference_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let small = input("small");
+    let output = export(&[
+        "export",
+        small.to_str().unwrap(),
+        out,
+        "--steps",
+        "2",
+        "--every",
+        "1",
+    ]);
+    let names: Vec<String> = (0..=2).map(|step| format!("small_{step:06}.vtk")).collect();
+    let expected: String = names
+        .iter()
+        .map(|name| format!("wrote {out}/{name}\n"))
+        .collect();
+    assert_eq!(stdout(&output), expected);
+
+    for (step, name) in names.iter().enumerate().take(2) {
+        let vtk = parse_vtk(&std::fs::read_to_string(dir.path().join(name)).unwrap());
+        let truth = match step {
+            0 => std::fs::read(&small).unwrap(),
+            _ => std::fs::read(reference_output("small", step as u32)).unwrap(),
+        };
+        let truth = fld::parse(&truth, name).unwrap().particles;
+        assert_eq!(vtk.points.len(), 4800);
+        for i in 0..4800 {
+            for axis in 0..3 {
+                assert_eq!(vtk.points[i][axis], truth.p[axis][i], "{name} particle {i}");
+                assert_eq!(vtk.arrays["velocity"][3 * i + axis], truth.v[axis][i]);
+                assert_eq!(vtk.arrays["half_velocity"][3 * i + axis], truth.hv[axis][i]);
+            }
+        }
+        let ids: Vec<f64> = (0..4800).map(f64::from).collect();
+        assert_eq!(vtk.arrays["id"], ids);
+        // Densities near the rest density (1000) in the bulk; blocks within the grid
+        // (small.fld: 15 x 21 x 15 blocks).
+        let density = &vtk.arrays["density"];
+        let mut sorted = density.clone();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted[2400];
+        assert!(
+            sorted[0] > 0.0 && (500.0..2000.0).contains(&median),
+            "{median}"
+        );
+        assert!(vtk.arrays["block"]
+            .iter()
+            .all(|&b| b >= 0.0 && b < (15 * 21 * 15) as f64));
+    }
+}
+
+#[test]
+fn csv_exports_hold_the_final_state_only_by_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let large = input("large");
+    let output = export(&[
+        "export",
+        large.to_str().unwrap(),
+        out,
+        "--steps",
+        "3",
+        "--format",
+        "csv",
+    ]);
+    assert_eq!(stdout(&output), format!("wrote {out}/large_000003.csv\n"));
+    let truth = std::fs::read(reference_output("large", 3)).unwrap();
+    let truth = fld::parse(&truth, "large-3.fld").unwrap().particles;
+    let text = std::fs::read_to_string(dir.path().join("large_000003.csv")).unwrap();
+    let mut rows = text.lines();
+    assert_eq!(
+        rows.next(),
+        Some("id,px,py,pz,hvx,hvy,hvz,vx,vy,vz,density,block")
+    );
+    let mut count = 0;
+    for (i, row) in rows.enumerate() {
+        let fields: Vec<f64> = row
+            .split(',')
+            .map(|v| v.parse::<f32>().unwrap() as f64)
+            .collect();
+        assert_eq!(fields.len(), 12);
+        assert_eq!(fields[0], i as f64);
+        for axis in 0..3 {
+            assert_eq!(fields[1 + axis], truth.p[axis][i]);
+            assert_eq!(fields[4 + axis], truth.hv[axis][i]);
+            assert_eq!(fields[7 + axis], truth.v[axis][i]);
+        }
+        count += 1;
+    }
+    assert_eq!(count, 15138);
+}
+
+fn png_size(path: &Path) -> (u32, u32) {
+    let decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
+    let info = decoder.read_info().unwrap();
+    (info.info().width, info.info().height)
+}
+
+#[test]
+fn renders_write_png_series_and_gif_animations() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let png = dir.path().join("small.png");
+    let output = export(&[
+        "render",
+        small.to_str().unwrap(),
+        png.to_str().unwrap(),
+        "--steps",
+        "2",
+        "--every",
+        "2",
+    ]);
+    let series: Vec<_> = [0, 2]
+        .iter()
+        .map(|step| dir.path().join(format!("small_{step:06}.png")))
+        .collect();
+    let expected: String = series
+        .iter()
+        .map(|path| format!("wrote {}\n", path.display()))
+        .collect();
+    assert_eq!(stdout(&output), expected);
+    for path in &series {
+        assert_eq!(png_size(path), fluid::render::SIZE);
+    }
+
+    let gif = dir.path().join("small.gif");
+    let output = export(&[
+        "render",
+        small.to_str().unwrap(),
+        gif.to_str().unwrap(),
+        "--steps",
+        "4",
+        "--every",
+        "2",
+        "--colour",
+        "density",
+        "--range",
+        "0,2000",
+    ]);
+    assert_eq!(
+        stdout(&output),
+        format!("wrote {} (3 frames)\n", gif.display())
+    );
+    assert!(std::fs::read(&gif).unwrap().starts_with(b"GIF89a"));
+}
+
+#[test]
+fn render_refuses_unknown_outputs_and_empty_ranges() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let jpeg = dir.path().join("x.jpg");
+    let output = run_lab(&["render", small.to_str().unwrap(), jpeg.to_str().unwrap()]);
+    assert_eq!(exit_code(&output), 1);
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: {}: the output must end in .png or .gif\n",
+            jpeg.display()
+        )
+    );
+    let png = dir.path().join("x.png");
+    let output = run_lab(&[
+        "render",
+        small.to_str().unwrap(),
+        png.to_str().unwrap(),
+        "--range",
+        "5,1",
+    ]);
+    assert_eq!(exit_code(&output), 2);
+    assert!(
+        stderr(&output)
+            .starts_with("error: invalid value '5,1' for '--range <RANGE>': 5,1 is empty"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!png.exists());
+}
+
+#[test]
+fn a_terminal_gets_a_progress_bar_with_steps_per_second() {
+    // `script` (util-linux) runs the workbench on a pseudo-terminal.
+    let command = format!(
+        "{} run --steps 200 {}",
+        env!("CARGO_BIN_EXE_fluid-lab"),
+        input("large").display()
+    );
+    let output = std::process::Command::new("script")
+        .args(["-q", "-e", "-c", &command, "/dev/null"])
+        .output()
+        .expect("script (util-linux) runs");
+    assert!(output.status.success());
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(text.contains("/200 steps"), "{text}");
+    assert!(text.contains("/s"), "{text}");
+    assert!(text.contains("model=course kernel=simd particles=15138 steps=200"));
+}
