@@ -48,6 +48,8 @@ pub struct Params {
     pub pressure_factor: f64,
     /// Viscosity factor 45 / (pi h^6) * mu * m.
     pub viscosity_factor: f64,
+    /// Time step dt ([`TIME_STEP`] in the course model; the workbench can change it).
+    pub dt: f64,
 }
 
 impl Params {
@@ -66,7 +68,13 @@ impl Params {
             density_factor: 315.0 / (64.0 * PI * h.powi(9)) * mass,
             pressure_factor: 15.0 / (PI * h6) * (3.0 * mass * PRESSURE_STIFFNESS / 2.0),
             viscosity_factor: 45.0 / (PI * h6) * VISCOSITY * mass,
+            dt: TIME_STEP,
         }
+    }
+
+    /// The same parameters with time step `dt`.
+    pub fn with_time_step(self, dt: f64) -> Self {
+        Self { dt, ..self }
     }
 }
 

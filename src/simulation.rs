@@ -42,7 +42,15 @@ impl Simulation {
         particles: Particles,
         method: Method,
     ) -> Result<Self, GridSizeError> {
-        let params = Params::new(ppm);
+        Self::with_params(Params::new(ppm), particles, method)
+    }
+
+    /// As [`Self::with_method`], with parameters of one's own (e.g. another time step).
+    pub fn with_params(
+        params: Params,
+        particles: Particles,
+        method: Method,
+    ) -> Result<Self, GridSizeError> {
         let grid = Grid::new(params.h)?;
         let mut simulation = Self::unplaced(params, grid, method, particles);
         simulation.reposition();
@@ -161,8 +169,8 @@ impl Simulation {
                 let Particles { p, v, rho, a, .. } = particles;
                 kernel::transfer_accelerations(kernel, model, params, candidates, p, v, rho, a);
             }
-            Stage::CollideWithWalls => stages::collide_with_walls(walls, particles),
-            Stage::Move => stages::move_particles(particles),
+            Stage::CollideWithWalls => stages::collide_with_walls(walls, params.dt, particles),
+            Stage::Move => stages::move_particles(params.dt, particles),
             Stage::InteractWithBoundary => stages::interact_with_boundary(walls, particles),
         }
     }

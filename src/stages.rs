@@ -4,7 +4,7 @@
 //! are the [`crate::kernel`].
 
 use crate::cells::{Wall, WallSlots};
-use crate::params::{BOX_MAX, BOX_MIN, COLLISION_STIFFNESS, DAMPING, PARTICLE_SIZE, TIME_STEP};
+use crate::params::{BOX_MAX, BOX_MIN, COLLISION_STIFFNESS, DAMPING, PARTICLE_SIZE};
 use crate::particles::Particles;
 
 /// The eight stages of a time step, in execution order.
@@ -67,13 +67,13 @@ fn for_each_wall(walls: &WallSlots, mut visit: impl FnMut(usize, Wall, &[u32])) 
 
 /// Stage 6: wall repulsion and damping for particles of boundary blocks, judged by where
 /// the particle would be after dt at its half-step velocity (SPEC.md erratum 5).
-pub fn collide_with_walls(walls: &WallSlots, particles: &mut Particles) {
+pub fn collide_with_walls(walls: &WallSlots, dt: f64, particles: &mut Particles) {
     let Particles { p, hv, v, a, .. } = particles;
     for_each_wall(walls, |axis, wall, slots| {
         let (p, hv, v, a) = (&p[axis], &hv[axis], &v[axis], &mut a[axis]);
         for &s in slots {
             let s = s as usize;
-            let x = p[s] + hv[s] * TIME_STEP;
+            let x = p[s] + hv[s] * dt;
             match wall {
                 Wall::Low => {
                     let depth = PARTICLE_SIZE - (x - BOX_MIN[axis]);
@@ -93,7 +93,7 @@ pub fn collide_with_walls(walls: &WallSlots, particles: &mut Particles) {
 }
 
 /// Stage 7: p += hv dt + a dt^2; v = hv + a dt / 2; hv += a dt (old hv on the right).
-pub fn move_particles(particles: &mut Particles) {
+pub fn move_particles(dt: f64, particles: &mut Particles) {
     let n = particles.len();
     let Particles { p, hv, v, a, .. } = particles;
     for axis in 0..3 {
@@ -103,9 +103,9 @@ pub fn move_particles(particles: &mut Particles) {
             .zip(&mut v[axis][..n])
             .zip(&a[axis][..n]);
         for (((p, hv), v), &a) in slots {
-            *p += *hv * TIME_STEP + a * (TIME_STEP * TIME_STEP);
-            *v = *hv + a * TIME_STEP / 2.0;
-            *hv += a * TIME_STEP;
+            *p += *hv * dt + a * (dt * dt);
+            *v = *hv + a * dt / 2.0;
+            *hv += a * dt;
         }
     }
 }
@@ -142,6 +142,7 @@ mod tests {
     use super::*;
     use crate::cells::CellOrder;
     use crate::grid::Grid;
+    use crate::params::TIME_STEP;
     use glam::DVec3;
 
     #[test]
@@ -184,7 +185,7 @@ mod tests {
         let p = DVec3::new(BOX_MIN.x + 0.0001, 0.0, 0.0);
         let (walls, mut particles) =
             wall_particle([0, 1, 1], p, DVec3::ZERO, DVec3::new(-0.2, 0.0, 0.0));
-        collide_with_walls(&walls, &mut particles);
+        collide_with_walls(&walls, TIME_STEP, &mut particles);
         let expected = COLLISION_STIFFNESS * (PARTICLE_SIZE - 0.0001) + DAMPING * 0.2;
         assert!((particles.a[0][0] - expected).abs() < 1e-9);
         assert_eq!(particles.a[1][0], 0.0);
@@ -195,7 +196,7 @@ mod tests {
         let p = DVec3::new(0.0, BOX_MAX.y - 0.0001, 0.0);
         let (walls, mut particles) =
             wall_particle([1, 2, 1], p, DVec3::ZERO, DVec3::new(0.0, 0.3, 0.0));
-        collide_with_walls(&walls, &mut particles);
+        collide_with_walls(&walls, TIME_STEP, &mut particles);
         let expected = -(COLLISION_STIFFNESS * (PARTICLE_SIZE - 0.0001) + DAMPING * 0.3);
         assert!((particles.a[1][0] - expected).abs() < 1e-9);
     }
@@ -204,7 +205,7 @@ mod tests {
     fn walls_only_act_within_the_particle_size() {
         let p = DVec3::new(BOX_MIN.x + 0.001, 0.0, 0.0);
         let (walls, mut particles) = wall_particle([0, 1, 1], p, DVec3::ZERO, DVec3::X);
-        collide_with_walls(&walls, &mut particles);
+        collide_with_walls(&walls, TIME_STEP, &mut particles);
         assert_eq!(particles.acceleration(0), DVec3::ZERO);
     }
 
@@ -213,7 +214,7 @@ mod tests {
         // The block comes from stage 1, so a particle in an interior block is left alone.
         let p = DVec3::new(BOX_MIN.x - 1.0, 0.0, 0.0);
         let (walls, mut particles) = wall_particle([1, 1, 1], p, DVec3::ZERO, DVec3::X);
-        collide_with_walls(&walls, &mut particles);
+        collide_with_walls(&walls, TIME_STEP, &mut particles);
         interact_with_boundary(&walls, &mut particles);
         assert_eq!(particles.acceleration(0), DVec3::ZERO);
         assert_eq!(particles.position(0), p);
@@ -225,7 +226,7 @@ mod tests {
         particles.p[0][0] = 1.0;
         particles.hv[0][0] = 2.0;
         particles.a[0][0] = 1000.0;
-        move_particles(&mut particles);
+        move_particles(TIME_STEP, &mut particles);
         assert!((particles.p[0][0] - (1.0 + 2e-3 + 1e-3)).abs() < 1e-15);
         assert!((particles.v[0][0] - 2.5).abs() < 1e-15);
         assert!((particles.hv[0][0] - 3.0).abs() < 1e-15);
