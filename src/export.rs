@@ -5,7 +5,6 @@
 use crate::cells::cell_of;
 use crate::particles::vector_at;
 use crate::simulation::Simulation;
-use crate::stages::Stage;
 use glam::DVec3;
 use std::fmt::Write;
 
@@ -30,14 +29,7 @@ impl Snapshot {
     /// The state of `simulation` after `step` steps. Densities are computed afresh for the
     /// current positions, on a copy, so the simulation itself is not disturbed.
     pub fn of(simulation: &Simulation, step: u64) -> Snapshot {
-        let mut copy = simulation.clone();
-        for stage in [
-            Stage::Reposition,
-            Stage::IncrementDensities,
-            Stage::TransformDensities,
-        ] {
-            copy.run_stage(stage);
-        }
+        let copy = simulation.with_fresh_densities();
         let particles = copy.particles();
         let grid = copy.grid();
         let n = particles.len();

@@ -3,11 +3,13 @@
 
 use crate::chart::{self, SweepTable};
 use crate::cli;
+use crate::diagnostics::{self, Diagnostics};
 use crate::energy::{EnergyMethod, Sources};
 use crate::export::Snapshot;
 use crate::fld::{self, OutputFile};
 use crate::machine::Machine;
 use crate::method::{Kernel, Method, Model};
+use crate::params::TIME_STEP;
 use crate::render::{self, Animation, Colouring};
 use crate::scene::{self, SceneKind};
 use crate::simulation::Simulation;
@@ -64,6 +66,9 @@ struct SimulationArgs {
     /// Pair-loop implementation.
     #[arg(long, value_enum, default_value_t = Kernel::Simd)]
     kernel: Kernel,
+    /// Time step in seconds.
+    #[arg(long, default_value_t = TIME_STEP, value_parser = parse_time_step)]
+    dt: f64,
 }
 
 #[derive(Debug, Args)]
@@ -72,6 +77,13 @@ struct RunArgs {
     simulation: SimulationArgs,
     /// Output .fld file for the final state.
     output: Option<PathBuf>,
+    /// Write per-step diagnostics (speed, particles outside, energy, density error, pairs)
+    /// to this CSV file.
+    #[arg(long)]
+    diagnostics: Option<PathBuf>,
+    /// Diagnose every this many steps (and step 0 and the last).
+    #[arg(long, default_value_t = 1, value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
+    every: u64,
 }
 
 #[derive(Debug, Args)]
@@ -204,9 +216,11 @@ fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
         kernel: args.kernel,
     };
     let stem = args.input.file_stem().unwrap_or_default();
+    let mut simulation = cli::place(scene.ppm, scene.particles, method, name.clone())?;
+    simulation.set_time_step(args.dt);
     Ok(Loaded {
         stem: stem.to_string_lossy().into_owned(),
-        simulation: cli::place(scene.ppm, scene.particles, method, name.clone())?,
+        simulation,
         name,
         ppm: scene.ppm,
     })
@@ -248,18 +262,45 @@ fn run_visiting(
 fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let steps = args.simulation.steps;
     let output = args.output.as_deref().map(OutputFile::create).transpose()?;
+    let diagnostics_file = args
+        .diagnostics
+        .as_deref()
+        .map(OutputFile::create)
+        .transpose()?;
     let Loaded {
         ppm,
         mut simulation,
         ..
     } = load(&args.simulation)?;
-    let progress = progress_bar(steps);
-    let started = Instant::now();
-    for _ in 0..steps {
-        simulation.step();
-        progress.inc(1);
+    let mut rows = String::from(diagnostics::CSV_HEADER);
+    rows.push('\n');
+    let mut diagnose = |simulation: &Simulation, step: u64| {
+        let state = Diagnostics::of(simulation, step);
+        rows.push_str(&state.csv_row());
+        rows.push('\n');
+    };
+    if diagnostics_file.is_some() {
+        diagnose(&simulation, 0);
     }
-    let seconds = started.elapsed().as_secs_f64();
+    let progress = progress_bar(steps);
+    let mut seconds = 0.0;
+    for step in 1..=steps {
+        let started = Instant::now();
+        simulation.step();
+        seconds += started.elapsed().as_secs_f64();
+        progress.inc(1);
+        // A run that produced NaN or infinities fails here, naming the step, instead of
+        // writing them out.
+        if let Some(id) = first_non_finite(&simulation) {
+            progress.finish_and_clear();
+            return Err(
+                format!("the run failed at step {step}: particle {id} is not finite").into(),
+            );
+        }
+        if diagnostics_file.is_some() && (step % args.every == 0 || step == steps) {
+            diagnose(&simulation, step);
+        }
+    }
     progress.finish_and_clear();
     let particles = simulation.particles().len();
     let per_particle_step = seconds / (steps.max(1) as f64 * particles as f64);
@@ -271,10 +312,32 @@ fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
         args.simulation.kernel.name(),
         per_particle_step * 1e9
     )?;
+    if let Some(file) = diagnostics_file {
+        file.commit(rows.as_bytes())?;
+    }
     if let Some(output) = output {
         output.commit(&fld::encode(ppm, simulation.particles()))?;
     }
     Ok(())
+}
+
+/// The id of the first particle (in slot order) with a non-finite position or velocity.
+fn first_non_finite(simulation: &Simulation) -> Option<u32> {
+    let particles = simulation.particles();
+    let n = particles.len();
+    let finite =
+        |arrays: &[Vec<f64>; 3], slot: usize| (0..3).all(|axis| arrays[axis][slot].is_finite());
+    (0..n)
+        .find(|&slot| !(finite(&particles.p, slot) && finite(&particles.v, slot)))
+        .map(|slot| particles.id[slot])
+}
+
+/// Parses a positive, finite time step.
+fn parse_time_step(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(dt) if dt.is_finite() && dt > 0.0 => Ok(dt),
+        _ => Err(format!("{text} is not a positive time step")),
+    }
 }
 
 /// Parses `LOW,HIGH` into a non-empty range.

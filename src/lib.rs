@@ -13,6 +13,7 @@
 pub mod cells;
 pub mod chart;
 pub mod cli;
+pub mod diagnostics;
 pub mod energy;
 pub mod error;
 pub mod export;

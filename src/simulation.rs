@@ -119,6 +119,26 @@ impl Simulation {
         self.search.tiles()
     }
 
+    /// Changes the time step of the following steps.
+    pub fn set_time_step(&mut self, dt: f64) {
+        self.params.dt = dt;
+    }
+
+    /// A copy whose densities are those of the current positions (stages 1, 3 and 4 run on
+    /// the copy), with the copy's cell order and tiles: for looking at a state without
+    /// disturbing the run.
+    pub fn with_fresh_densities(&self) -> Simulation {
+        let mut copy = self.clone();
+        for stage in [
+            Stage::Reposition,
+            Stage::IncrementDensities,
+            Stage::TransformDensities,
+        ] {
+            copy.run_stage(stage);
+        }
+        copy
+    }
+
     /// Runs `steps` time steps.
     pub fn run(&mut self, steps: u64) {
         for _ in 0..steps {

@@ -120,3 +120,55 @@ fn bad_input_and_unknown_choices_fail_clearly() {
         stderr(&unknown)
     );
 }
+
+#[test]
+fn diagnostics_follow_the_run_and_a_failing_run_names_its_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("diagnostics.csv");
+    let small = input("small");
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--steps".as_ref(),
+        "4".as_ref(),
+        "--every".as_ref(),
+        "2".as_ref(),
+        "--diagnostics".as_ref(),
+        csv.as_os_str(),
+        small.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "stderr: {}", stderr(&output));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<Vec<&str>> = text.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows[0].join(","), fluid::diagnostics::CSV_HEADER);
+    let steps: Vec<&str> = rows[1..].iter().map(|row| row[0]).collect();
+    assert_eq!(steps, ["0", "2", "4"]);
+    // The course model: speeds and energy explode, particles leave the box.
+    let number = |row: usize, column: usize| rows[row][column].parse::<f64>().unwrap();
+    assert!(number(3, 2) > 100.0 * number(1, 2), "max speed {text}");
+    assert!(number(3, 6) > 100.0 * number(1, 6), "total energy {text}");
+    assert_eq!(number(1, 3), 0.0);
+    assert!(number(3, 3) > 2000.0, "outside {text}");
+
+    // Time step 0.1 s: the course model overflows; no output is written.
+    let out = dir.path().join("garbage.fld");
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--dt".as_ref(),
+        "0.1".as_ref(),
+        "--steps".as_ref(),
+        "200".as_ref(),
+        small.as_os_str(),
+        out.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).starts_with("fluid-lab: error: the run failed at step "),
+        "{}",
+        stderr(&output)
+    );
+    assert!(stderr(&output).trim_end().ends_with("is not finite"));
+    assert!(!out.exists());
+    let output = run_lab(&["run", "--dt=-1", small.to_str().unwrap()]);
+    assert_eq!(exit_code(&output), 2);
+    assert!(stderr(&output).contains("-1 is not a positive time step"));
+}

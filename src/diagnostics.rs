@@ -1,0 +1,256 @@
+//! What a state says about the run: top speed, particles that left the box, kinetic and
+//! potential energy, density error against the rest density and pairs closer than h; and
+//! the checks that call a run failed (non-finite values, energy growing past a bound,
+//! particles leaving the box).
+
+use crate::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
+use crate::particles::vector_at;
+use crate::simulation::Simulation;
+use std::fmt;
+
+/// The CSV header of [`Diagnostics::csv_row`].
+pub const CSV_HEADER: &str = "step,time_s,max_speed_m_s,outside,kinetic_j,potential_j,\
+                              total_j,mean_density_error,max_density_error,pairs_within_h";
+
+/// Diagnostics of one state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Diagnostics {
+    /// Steps run.
+    pub step: u64,
+    /// Simulated time, steps times dt.
+    pub time: f64,
+    /// Largest |v|.
+    pub max_speed: f64,
+    /// Particles more than h outside the box.
+    pub outside: usize,
+    /// Kinetic energy, sum of m |v|^2 / 2.
+    pub kinetic: f64,
+    /// Potential energy above the box's floor, sum of m g (y - y_min).
+    pub potential: f64,
+    /// Mean of |rho - rho_0| / rho_0.
+    pub mean_density_error: f64,
+    /// Largest |rho - rho_0| / rho_0.
+    pub max_density_error: f64,
+    /// Pairs of particles closer than h.
+    pub pairs: u64,
+    /// The first particle (by id) with a non-finite position, velocity or density.
+    pub non_finite: Option<u32>,
+}
+
+impl Diagnostics {
+    /// Measures the state of `simulation` after `step` steps; densities and pairs are those
+    /// of the current positions (computed on a copy).
+    pub fn of(simulation: &Simulation, step: u64) -> Diagnostics {
+        let copy = simulation.with_fresh_densities();
+        let params = copy.params();
+        let particles = copy.particles();
+        let n = particles.len();
+        let mass = params.mass;
+        let mut diagnostics = Diagnostics {
+            step,
+            time: step as f64 * params.dt,
+            max_speed: 0.0,
+            outside: 0,
+            kinetic: 0.0,
+            potential: 0.0,
+            mean_density_error: 0.0,
+            max_density_error: 0.0,
+            pairs: 0,
+            non_finite: None,
+        };
+        let (low, high) = (BOX_MIN - params.h, BOX_MAX + params.h);
+        for slot in 0..n {
+            let position = vector_at(&particles.p, slot);
+            let velocity = vector_at(&particles.v, slot);
+            let density = particles.rho[slot];
+            if !(position.is_finite() && velocity.is_finite() && density.is_finite()) {
+                let id = particles.id[slot];
+                diagnostics.non_finite = Some(diagnostics.non_finite.map_or(id, |k| k.min(id)));
+                continue;
+            }
+            let speed = velocity.length();
+            diagnostics.max_speed = diagnostics.max_speed.max(speed);
+            if !(position.cmpge(low).all() && position.cmple(high).all()) {
+                diagnostics.outside += 1;
+            }
+            diagnostics.kinetic += 0.5 * mass * speed * speed;
+            diagnostics.potential += mass * -GRAVITY.y * (position.y - BOX_MIN.y);
+            let error = (density - FLUID_DENSITY).abs() / FLUID_DENSITY;
+            diagnostics.mean_density_error += error / n as f64;
+            diagnostics.max_density_error = diagnostics.max_density_error.max(error);
+        }
+        for tile in copy.tiles() {
+            for i in tile.firsts() {
+                for j in tile.partners(i) {
+                    let r2 =
+                        (vector_at(&particles.p, i) - vector_at(&particles.p, j)).length_squared();
+                    diagnostics.pairs += u64::from(r2 < params.h2);
+                }
+            }
+        }
+        diagnostics
+    }
+
+    /// Kinetic plus potential energy.
+    pub fn total_energy(&self) -> f64 {
+        self.kinetic + self.potential
+    }
+
+    /// One CSV row, in the order of [`CSV_HEADER`].
+    pub fn csv_row(&self) -> String {
+        format!(
+            "{},{:.6},{},{},{},{},{},{},{},{}",
+            self.step,
+            self.time,
+            self.max_speed,
+            self.outside,
+            self.kinetic,
+            self.potential,
+            self.total_energy(),
+            self.mean_density_error,
+            self.max_density_error,
+            self.pairs
+        )
+    }
+}
+
+/// Why a run is called failed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Failure {
+    /// A position, velocity or density is NaN or infinite (particle id).
+    NonFinite(u32),
+    /// Particles ended more than h outside the box.
+    LeftBox(usize),
+    /// Kinetic plus potential energy grew past the bound, as a multiple of the first.
+    EnergyGrew(f64),
+}
+
+impl fmt::Display for Failure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Failure::NonFinite(id) => write!(f, "particle {id} is not finite"),
+            Failure::LeftBox(count) => write!(f, "{count} particles left the box"),
+            Failure::EnergyGrew(factor) => write!(f, "the energy grew {factor:.3e} times"),
+        }
+    }
+}
+
+impl Failure {
+    /// A short name for CSV files: `non-finite`, `left-box`, `energy-grew`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Failure::NonFinite(_) => "non-finite",
+            Failure::LeftBox(_) => "left-box",
+            Failure::EnergyGrew(_) => "energy-grew",
+        }
+    }
+}
+
+/// The checks of a stable run, against its first state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Checks {
+    /// Total energy of the first state.
+    pub initial_energy: f64,
+    /// Largest allowed growth of the total energy, as a multiple of the first.
+    pub energy_factor: f64,
+}
+
+impl Checks {
+    /// How the energy may grow at most by default: 1.5 times the first state's.
+    pub const ENERGY_FACTOR: f64 = 1.5;
+
+    /// Checks against `first`, the state the run starts from.
+    pub fn from(first: &Diagnostics) -> Checks {
+        Checks {
+            initial_energy: first.total_energy(),
+            energy_factor: Self::ENERGY_FACTOR,
+        }
+    }
+
+    /// The first failure `state` shows: non-finite values, then particles out of the box,
+    /// then energy growth.
+    pub fn failure(&self, state: &Diagnostics) -> Option<Failure> {
+        if let Some(id) = state.non_finite {
+            return Some(Failure::NonFinite(id));
+        }
+        if state.outside > 0 {
+            return Some(Failure::LeftBox(state.outside));
+        }
+        let factor = state.total_energy() / self.initial_energy;
+        (factor > self.energy_factor).then_some(Failure::EnergyGrew(factor))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::particles::Particles;
+    use glam::DVec3;
+
+    fn simulation(points: &[(DVec3, DVec3)]) -> Simulation {
+        let mut particles = Particles::zeroed(points.len());
+        for (slot, (p, v)) in points.iter().enumerate() {
+            for axis in 0..3 {
+                particles.p[axis][slot] = p[axis];
+                particles.v[axis][slot] = v[axis];
+            }
+        }
+        Simulation::new(200.0, particles).unwrap()
+    }
+
+    #[test]
+    fn energies_speeds_pairs_and_outsiders_of_a_small_state() {
+        let floor = BOX_MIN + DVec3::new(0.01, 0.0, 0.01);
+        let up = DVec3::Y;
+        let state = simulation(&[
+            (floor + up * 0.1, DVec3::new(3.0, 4.0, 0.0)),
+            (floor + up * 0.1 + DVec3::X * 0.004, DVec3::ZERO),
+            (floor + up * 0.05, DVec3::ZERO),
+            (BOX_MAX + 0.5, DVec3::ZERO),
+        ]);
+        let diagnostics = Diagnostics::of(&state, 7);
+        let params = state.params();
+        let m = params.mass;
+        assert_eq!(diagnostics.step, 7);
+        assert_eq!(diagnostics.time, 7.0 * 1e-3);
+        assert_eq!(diagnostics.max_speed, 5.0);
+        assert_eq!(diagnostics.outside, 1);
+        assert!((diagnostics.kinetic - 0.5 * m * 25.0).abs() < 1e-15);
+        let heights = 0.1 + 0.1 + 0.05 + (BOX_MAX.y + 0.5 - BOX_MIN.y);
+        assert!((diagnostics.potential - m * 9.8 * heights).abs() < 1e-12);
+        assert_eq!(
+            diagnostics.pairs, 1,
+            "only the two 4 mm apart are closer than h"
+        );
+        assert_eq!(diagnostics.non_finite, None);
+        // The lone particles' densities are h^6 * factor, far below the rest density.
+        let alone = params.h6 * params.density_factor;
+        let error = (FLUID_DENSITY - alone) / FLUID_DENSITY;
+        assert!((diagnostics.max_density_error - error).abs() < 1e-12);
+        assert!(diagnostics.csv_row().starts_with("7,0.007000,5,1,"));
+        assert_eq!(
+            CSV_HEADER.split(',').count(),
+            diagnostics.csv_row().split(',').count()
+        );
+    }
+
+    #[test]
+    fn checks_name_the_first_failure() {
+        let still = simulation(&[(BOX_MIN + 0.05, DVec3::ZERO)]);
+        let first = Diagnostics::of(&still, 0);
+        let checks = Checks::from(&first);
+        assert_eq!(checks.failure(&first), None);
+        let fast = simulation(&[(BOX_MIN + 0.05, DVec3::splat(10.0))]);
+        let grown = Diagnostics::of(&fast, 1);
+        assert!(matches!(checks.failure(&grown), Some(Failure::EnergyGrew(f)) if f > 1.5));
+        let gone = Diagnostics::of(&simulation(&[(BOX_MAX + 1.0, DVec3::ZERO)]), 2);
+        assert_eq!(checks.failure(&gone), Some(Failure::LeftBox(1)));
+        let broken = Diagnostics::of(&simulation(&[(BOX_MIN + 0.05, DVec3::NAN)]), 3);
+        assert_eq!(checks.failure(&broken), Some(Failure::NonFinite(0)));
+        assert_eq!(
+            Failure::NonFinite(0).to_string(),
+            "particle 0 is not finite"
+        );
+        assert_eq!(Failure::LeftBox(3).to_string(), "3 particles left the box");
+    }
+}
