@@ -72,7 +72,7 @@ fn state(input: &str, model: Model, kernel: Kernel, steps: u64) -> Simulation {
 fn whole_steps(c: &mut Criterion) {
     for input in ["small.fld", "large.fld"] {
         for (label, model, steps) in STATES {
-            for kernel in Kernel::ALL {
+            for kernel in Kernel::FAST {
                 let initial = state(input, model, kernel, steps);
                 let id = format!("step/{input}/{label}/{}/{}", model.name(), kernel.name());
                 c.bench_function(&id, |b| {
@@ -87,7 +87,7 @@ fn whole_steps(c: &mut Criterion) {
 fn single_stages(c: &mut Criterion) {
     for input in ["small.fld", "large.fld"] {
         for (label, model, steps) in STATES {
-            for kernel in Kernel::ALL {
+            for kernel in Kernel::FAST {
                 let mut before = state(input, model, kernel, steps);
                 for stage in Stage::ALL {
                     let pair_stage = matches!(

@@ -1,6 +1,6 @@
 //! How a simulation is computed: which model (the course model or the stable
-//! fluidanimate variant) and which kernel (plain scalar loops or `f64x4` lanes) runs the
-//! pair interactions.
+//! fluidanimate variant) and which kernel (plain scalar loops, `f64x4` lanes, or the
+//! compensated reference) runs the pair interactions.
 
 /// The physical model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
@@ -23,6 +23,9 @@ pub enum Kernel {
     /// tail lanes.
     #[default]
     Simd,
+    /// Each particle's sums on their own, over its partners in id order, with compensated
+    /// (Neumaier) summation: the reference trajectory for accuracy measurements (slow).
+    Reference,
 }
 
 /// A model and a kernel.
@@ -49,13 +52,17 @@ impl Model {
 
 impl Kernel {
     /// Every kernel, in a fixed order.
-    pub const ALL: [Kernel; 2] = [Kernel::Scalar, Kernel::Simd];
+    pub const ALL: [Kernel; 3] = [Kernel::Scalar, Kernel::Simd, Kernel::Reference];
+
+    /// The kernels meant for speed (the reference is meant for accuracy).
+    pub const FAST: [Kernel; 2] = [Kernel::Scalar, Kernel::Simd];
 
     /// The kernel's name in benchmark labels, command lines and CSV files.
     pub fn name(self) -> &'static str {
         match self {
             Kernel::Scalar => "scalar",
             Kernel::Simd => "simd",
+            Kernel::Reference => "reference",
         }
     }
 }
@@ -68,7 +75,10 @@ mod tests {
     fn names_follow_the_variants_and_the_command_line() {
         use clap::ValueEnum;
         assert_eq!(Model::ALL.map(Model::name), ["course", "fluidanimate"]);
-        assert_eq!(Kernel::ALL.map(Kernel::name), ["scalar", "simd"]);
+        assert_eq!(
+            Kernel::ALL.map(Kernel::name),
+            ["scalar", "simd", "reference"]
+        );
         for model in Model::ALL {
             assert_eq!(model.to_possible_value().unwrap().get_name(), model.name());
         }

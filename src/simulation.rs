@@ -166,13 +166,14 @@ impl Simulation {
             Stage::Reposition => self.reposition(),
             Stage::InitAccelerations => particles.reset_densities_and_accelerations(),
             Stage::IncrementDensities => {
-                let (p, rho) = (&particles.p, &mut particles.rho);
+                let (p, rho, id) = (&particles.p, &mut particles.rho, &particles.id);
                 kernel::increment_densities(
                     kernel,
                     params,
                     self.search.tiles(),
                     p,
                     rho,
+                    id,
                     &mut self.close,
                 );
                 self.close_found = true;
@@ -186,8 +187,10 @@ impl Simulation {
                 } else {
                     Candidates::All(self.search.tiles())
                 };
-                let Particles { p, v, rho, a, .. } = particles;
-                kernel::transfer_accelerations(kernel, model, params, candidates, p, v, rho, a);
+                let Particles {
+                    id, p, v, rho, a, ..
+                } = particles;
+                kernel::transfer_accelerations(kernel, model, params, candidates, p, v, rho, id, a);
             }
             Stage::CollideWithWalls => stages::collide_with_walls(walls, params.dt, particles),
             Stage::Move => stages::move_particles(params.dt, particles),

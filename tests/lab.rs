@@ -1,5 +1,6 @@
-//! The `fluid-lab` workbench: runs with a chosen model and kernel (the scalar kernel also
-//! reproduces the reference outputs), generated scenes, and clear errors.
+//! The `fluid-lab` workbench: runs with a chosen model and kernel (the scalar and the
+//! compensated reference kernels also reproduce the reference outputs), diagnostics,
+//! generated scenes, and clear errors.
 
 mod common;
 
@@ -7,15 +8,20 @@ use common::{exit_code, input, reference_output, run_lab, stderr, stdout};
 use fluid::fld;
 
 #[test]
-fn the_scalar_kernel_reproduces_every_reference_output() {
+fn the_scalar_and_reference_kernels_reproduce_every_reference_output() {
     let dir = tempfile::tempdir().unwrap();
-    for name in ["small", "large"] {
+    for (kernel, name) in [
+        ("scalar", "small"),
+        ("scalar", "large"),
+        ("reference", "small"),
+        ("reference", "large"),
+    ] {
         for steps in 1..=5 {
             let out = dir.path().join(format!("{name}-{steps}.fld"));
             let output = run_lab(&[
                 "run".as_ref(),
                 "--kernel".as_ref(),
-                "scalar".as_ref(),
+                kernel.as_ref(),
                 "--steps".as_ref(),
                 steps.to_string().as_ref(),
                 input(name).as_os_str(),
@@ -25,7 +31,7 @@ fn the_scalar_kernel_reproduces_every_reference_output() {
             let expected = std::fs::read(reference_output(name, steps)).unwrap();
             assert!(
                 std::fs::read(&out).unwrap() == expected,
-                "{name}-{steps} differs"
+                "{kernel}: {name}-{steps} differs"
             );
         }
     }

@@ -1,13 +1,16 @@
 //! The density and acceleration stages 3-5, whose pair loops are the hot part of a time
-//! step, over the tiles of the neighbour search. Two implementations compute the same pair terms: [`Kernel::Scalar`]
-//! (one pair at a time, the reference path) and [`Kernel::Simd`] (four partners at a
-//! time in `f64x4` lanes). They differ only in the order in which terms are summed, which
-//! the reference outputs do not depend on (SPEC.md section 5).
+//! step, over the tiles of the neighbour search. Three implementations compute the same
+//! pair terms. [`Kernel::Scalar`] (one pair at a time, the plain path) and
+//! [`Kernel::Simd`] (four partners at a time in `f64x4` lanes) differ only in the order in
+//! which terms are summed, which the reference outputs do not depend on (SPEC.md section
+//! 5). [`Kernel::Reference`] sums each particle's terms in id order with compensated
+//! summation, for accuracy measurements.
 //!
 //! The density loop also records where the pairs closer than h are ([`ClosePairs`]): the
 //! acceleration loop, over the same positions, visits only those tiles and, on the SIMD
 //! kernel, only those groups of four partners, without testing the others again.
 
+mod reference;
 mod scalar;
 mod simd;
 
@@ -58,19 +61,24 @@ impl Candidates<'_> {
 }
 
 /// Stage 3: adds (h^2 - r^2)^3 to both raw density sums of every pair of `tiles` closer
-/// than h, and records in `close` where such pairs are.
+/// than h, and records in `close` where such pairs are. `id` (each slot's particle)
+/// orders the reference kernel's sums.
 pub fn increment_densities(
     kernel: Kernel,
     params: &Params,
     tiles: &[Tile],
     p: &AxisArrays,
     rho: &mut [f64],
+    id: &[u32],
     close: &mut ClosePairs,
 ) {
     close.clear();
     match kernel {
         Kernel::Scalar => scalar::increment_densities(params, tiles, p, rho, &mut close.tiles),
         Kernel::Simd => simd::increment_densities(params, tiles, p, rho, close),
+        Kernel::Reference => {
+            reference::increment_densities(params, tiles, p, rho, id, &mut close.tiles)
+        }
     }
 }
 
@@ -92,6 +100,7 @@ pub fn transfer_accelerations(
     p: &AxisArrays,
     v: &AxisArrays,
     rho: &[f64],
+    id: &[u32],
     a: &mut AxisArrays,
 ) {
     match (kernel, model) {
@@ -106,6 +115,14 @@ pub fn transfer_accelerations(
         }
         (Kernel::Simd, Model::Fluidanimate) => {
             simd::transfer_accelerations::<true>(params, candidates, p, v, rho, a)
+        }
+        (Kernel::Reference, Model::Course) => {
+            let tiles = candidates.tiles();
+            reference::transfer_accelerations::<false>(params, tiles, p, v, rho, id, a)
+        }
+        (Kernel::Reference, Model::Fluidanimate) => {
+            let tiles = candidates.tiles();
+            reference::transfer_accelerations::<true>(params, tiles, p, v, rho, id, a)
         }
     }
 }
