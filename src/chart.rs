@@ -460,6 +460,138 @@ where
     Ok(())
 }
 
+/// A chart with a logarithmic y axis: lines (or points) of (x, y) with y > 0; points
+/// with y <= 0 or not finite are left out (a log axis cannot show them).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogChart {
+    /// The file stem.
+    pub name: &'static str,
+    /// The title.
+    pub title: String,
+    /// The x axis' description (linear, from 0).
+    pub x_label: String,
+    /// The y axis' description (logarithmic).
+    pub y_label: String,
+    /// The series: legend text and points.
+    pub series: Vec<(String, Vec<(f64, f64)>)>,
+    /// Whether to join each series' points with lines (else points only).
+    pub lines: bool,
+    /// Texts written beside points: (x, y, text).
+    pub notes: Vec<(f64, f64, String)>,
+    /// Where the legend goes.
+    pub legend: SeriesLabelPosition,
+    /// Where the data come from.
+    pub footer: String,
+}
+
+impl LogChart {
+    /// The points drawn: those with a positive, finite y.
+    fn drawn(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        self.series
+            .iter()
+            .flat_map(|(_, points)| points.iter().copied())
+            .filter(|(_, y)| y.is_finite() && *y > 0.0)
+    }
+
+    /// The x axis: from 0 to past the largest x.
+    pub fn x_range(&self) -> Range<f64> {
+        let largest = self.drawn().map(|(x, _)| x).fold(0.0, f64::max);
+        0.0..if largest > 0.0 { largest * 1.15 } else { 1.0 }
+    }
+
+    /// The y axis: from half the smallest y to twice the largest (decades apart at least).
+    pub fn y_range(&self) -> Range<f64> {
+        let (low, high) = self
+            .drawn()
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), (_, y)| {
+                (lo.min(y), hi.max(y))
+            });
+        if high == 0.0 {
+            return 1e-3..1.0;
+        }
+        (low / 2.0).min(high / 10.0)..high * 2.0
+    }
+}
+
+/// Writes `chart` as `DIR/NAME.png` and `DIR/NAME.svg`; returns both paths.
+pub fn render_log(chart: &LogChart, folder: &Path) -> Result<[PathBuf; 2], Box<dyn Error>> {
+    register_font()?;
+    let png = folder.join(format!("{}.png", chart.name));
+    let svg = folder.join(format!("{}.svg", chart.name));
+    draw_log(BitMapBackend::new(&png, SIZE).into_drawing_area(), chart)?;
+    draw_log(SVGBackend::new(&svg, SIZE).into_drawing_area(), chart)?;
+    Ok([png, svg])
+}
+
+fn draw_log<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    chart: &LogChart,
+) -> Result<(), Box<dyn Error>>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let (_, height) = root.dim_in_pixel();
+    let (plot, footer) = root.split_vertically(height - 28);
+    let mut context = ChartBuilder::on(&plot)
+        .caption(&chart.title, ("sans-serif", 24))
+        .margin(16)
+        .x_label_area_size(44)
+        .y_label_area_size(80)
+        .build_cartesian_2d(chart.x_range(), chart.y_range().log_scale())?;
+    context
+        .configure_mesh()
+        .x_desc(chart.x_label.as_str())
+        .y_desc(chart.y_label.as_str())
+        .x_label_formatter(&|x| match x.fract() == 0.0 {
+            true => format!("{x:.0}"),
+            false => format!("{x:.1}"),
+        })
+        .y_label_formatter(&|y| format!("{y:.0e}"))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()?;
+    for (index, (label, points)) in chart.series.iter().enumerate() {
+        let color = COLOURS[index % COLOURS.len()];
+        let points: Vec<(f64, f64)> = points
+            .iter()
+            .copied()
+            .filter(|(_, y)| y.is_finite() && *y > 0.0)
+            .collect();
+        let markers = points.iter().map(|&p| Circle::new(p, 4, color.filled()));
+        if chart.lines {
+            context.draw_series(LineSeries::new(
+                points.iter().copied(),
+                color.stroke_width(2),
+            ))?;
+        }
+        context
+            .draw_series(markers)?
+            .label(label.as_str())
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+    }
+    for (x, y, text) in &chart.notes {
+        if y.is_finite() && *y > 0.0 {
+            let style = ("sans-serif", 13).into_font().color(&BLACK.mix(0.8));
+            context.draw_series(std::iter::once(Text::new(text.clone(), (*x, *y), style)))?;
+        }
+    }
+    context
+        .configure_series_labels()
+        .label_font(("sans-serif", 14))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .position(chart.legend.clone())
+        .draw()?;
+    footer.draw(&Text::new(
+        chart.footer.as_str(),
+        (16, 4),
+        ("sans-serif", 12).into_font().color(&BLACK.mix(0.7)),
+    ))?;
+    root.present()?;
+    Ok(())
+}
+
 /// Splits `text` into lines of at most about `width` characters, at spaces and newlines.
 fn wrap(text: &str, width: usize) -> Vec<String> {
     let mut lines = Vec::new();

@@ -12,13 +12,10 @@ use std::fmt;
 pub const CSV_HEADER: &str = "step,time_s,max_speed_m_s,outside,kinetic_j,potential_j,\
                               total_j,mean_density_error,max_density_error,pairs_within_h";
 
-/// Diagnostics of one state.
+/// What one scan of the particles tells, without densities: cheap enough to check a run
+/// after every step.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Diagnostics {
-    /// Steps run.
-    pub step: u64,
-    /// Simulated time, steps times dt.
-    pub time: f64,
+pub struct Vitals {
     /// Largest |v|.
     pub max_speed: f64,
     /// Particles more than h outside the box.
@@ -27,14 +24,63 @@ pub struct Diagnostics {
     pub kinetic: f64,
     /// Potential energy above the box's floor, sum of m g (y - y_min).
     pub potential: f64,
+    /// The first particle (by id) with a non-finite position or velocity.
+    pub non_finite: Option<u32>,
+}
+
+impl Vitals {
+    /// Scans the particles of `simulation` as they are.
+    pub fn of(simulation: &Simulation) -> Vitals {
+        let params = simulation.params();
+        let particles = simulation.particles();
+        let mut vitals = Vitals {
+            max_speed: 0.0,
+            outside: 0,
+            kinetic: 0.0,
+            potential: 0.0,
+            non_finite: None,
+        };
+        let (low, high) = (BOX_MIN - params.h, BOX_MAX + params.h);
+        for slot in 0..particles.len() {
+            let position = vector_at(&particles.p, slot);
+            let velocity = vector_at(&particles.v, slot);
+            if !(position.is_finite() && velocity.is_finite()) {
+                let id = particles.id[slot];
+                vitals.non_finite = Some(vitals.non_finite.map_or(id, |k| k.min(id)));
+                continue;
+            }
+            let speed = velocity.length();
+            vitals.max_speed = vitals.max_speed.max(speed);
+            if !(position.cmpge(low).all() && position.cmple(high).all()) {
+                vitals.outside += 1;
+            }
+            vitals.kinetic += 0.5 * params.mass * speed * speed;
+            vitals.potential += params.mass * -GRAVITY.y * (position.y - BOX_MIN.y);
+        }
+        vitals
+    }
+
+    /// Kinetic plus potential energy.
+    pub fn total_energy(&self) -> f64 {
+        self.kinetic + self.potential
+    }
+}
+
+/// Diagnostics of one state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Diagnostics {
+    /// Steps run.
+    pub step: u64,
+    /// Simulated time, steps times dt.
+    pub time: f64,
+    /// Speed, particles outside, energies, non-finite values.
+    pub vitals: Vitals,
     /// Mean of |rho - rho_0| / rho_0.
     pub mean_density_error: f64,
     /// Largest |rho - rho_0| / rho_0.
     pub max_density_error: f64,
     /// Pairs of particles closer than h.
     pub pairs: u64,
-    /// The first particle (by id) with a non-finite position, velocity or density.
-    pub non_finite: Option<u32>,
 }
 
 impl Diagnostics {
@@ -45,36 +91,15 @@ impl Diagnostics {
         let params = copy.params();
         let particles = copy.particles();
         let n = particles.len();
-        let mass = params.mass;
         let mut diagnostics = Diagnostics {
             step,
             time: step as f64 * params.dt,
-            max_speed: 0.0,
-            outside: 0,
-            kinetic: 0.0,
-            potential: 0.0,
+            vitals: Vitals::of(&copy),
             mean_density_error: 0.0,
             max_density_error: 0.0,
             pairs: 0,
-            non_finite: None,
         };
-        let (low, high) = (BOX_MIN - params.h, BOX_MAX + params.h);
-        for slot in 0..n {
-            let position = vector_at(&particles.p, slot);
-            let velocity = vector_at(&particles.v, slot);
-            let density = particles.rho[slot];
-            if !(position.is_finite() && velocity.is_finite() && density.is_finite()) {
-                let id = particles.id[slot];
-                diagnostics.non_finite = Some(diagnostics.non_finite.map_or(id, |k| k.min(id)));
-                continue;
-            }
-            let speed = velocity.length();
-            diagnostics.max_speed = diagnostics.max_speed.max(speed);
-            if !(position.cmpge(low).all() && position.cmple(high).all()) {
-                diagnostics.outside += 1;
-            }
-            diagnostics.kinetic += 0.5 * mass * speed * speed;
-            diagnostics.potential += mass * -GRAVITY.y * (position.y - BOX_MIN.y);
+        for &density in &particles.rho[..n] {
             let error = (density - FLUID_DENSITY).abs() / FLUID_DENSITY;
             diagnostics.mean_density_error += error / n as f64;
             diagnostics.max_density_error = diagnostics.max_density_error.max(error);
@@ -93,7 +118,7 @@ impl Diagnostics {
 
     /// Kinetic plus potential energy.
     pub fn total_energy(&self) -> f64 {
-        self.kinetic + self.potential
+        self.vitals.total_energy()
     }
 
     /// One CSV row, in the order of [`CSV_HEADER`].
@@ -102,10 +127,10 @@ impl Diagnostics {
             "{},{:.6},{},{},{},{},{},{},{},{}",
             self.step,
             self.time,
-            self.max_speed,
-            self.outside,
-            self.kinetic,
-            self.potential,
+            self.vitals.max_speed,
+            self.vitals.outside,
+            self.vitals.kinetic,
+            self.vitals.potential,
             self.total_energy(),
             self.mean_density_error,
             self.max_density_error,
@@ -160,7 +185,7 @@ impl Checks {
     pub const ENERGY_FACTOR: f64 = 1.5;
 
     /// Checks against `first`, the state the run starts from.
-    pub fn from(first: &Diagnostics) -> Checks {
+    pub fn from(first: &Vitals) -> Checks {
         Checks {
             initial_energy: first.total_energy(),
             energy_factor: Self::ENERGY_FACTOR,
@@ -169,7 +194,7 @@ impl Checks {
 
     /// The first failure `state` shows: non-finite values, then particles out of the box,
     /// then energy growth.
-    pub fn failure(&self, state: &Diagnostics) -> Option<Failure> {
+    pub fn failure(&self, state: &Vitals) -> Option<Failure> {
         if let Some(id) = state.non_finite {
             return Some(Failure::NonFinite(id));
         }
@@ -213,16 +238,18 @@ mod tests {
         let m = params.mass;
         assert_eq!(diagnostics.step, 7);
         assert_eq!(diagnostics.time, 7.0 * 1e-3);
-        assert_eq!(diagnostics.max_speed, 5.0);
-        assert_eq!(diagnostics.outside, 1);
-        assert!((diagnostics.kinetic - 0.5 * m * 25.0).abs() < 1e-15);
+        let vitals = diagnostics.vitals;
+        assert_eq!(vitals, Vitals::of(&state));
+        assert_eq!(vitals.max_speed, 5.0);
+        assert_eq!(vitals.outside, 1);
+        assert!((vitals.kinetic - 0.5 * m * 25.0).abs() < 1e-15);
         let heights = 0.1 + 0.1 + 0.05 + (BOX_MAX.y + 0.5 - BOX_MIN.y);
-        assert!((diagnostics.potential - m * 9.8 * heights).abs() < 1e-12);
+        assert!((vitals.potential - m * 9.8 * heights).abs() < 1e-12);
         assert_eq!(
             diagnostics.pairs, 1,
             "only the two 4 mm apart are closer than h"
         );
-        assert_eq!(diagnostics.non_finite, None);
+        assert_eq!(vitals.non_finite, None);
         // The lone particles' densities are h^6 * factor, far below the rest density.
         let alone = params.h6 * params.density_factor;
         let error = (FLUID_DENSITY - alone) / FLUID_DENSITY;
@@ -237,15 +264,15 @@ mod tests {
     #[test]
     fn checks_name_the_first_failure() {
         let still = simulation(&[(BOX_MIN + 0.05, DVec3::ZERO)]);
-        let first = Diagnostics::of(&still, 0);
+        let first = Vitals::of(&still);
         let checks = Checks::from(&first);
         assert_eq!(checks.failure(&first), None);
         let fast = simulation(&[(BOX_MIN + 0.05, DVec3::splat(10.0))]);
-        let grown = Diagnostics::of(&fast, 1);
+        let grown = Vitals::of(&fast);
         assert!(matches!(checks.failure(&grown), Some(Failure::EnergyGrew(f)) if f > 1.5));
-        let gone = Diagnostics::of(&simulation(&[(BOX_MAX + 1.0, DVec3::ZERO)]), 2);
+        let gone = Vitals::of(&simulation(&[(BOX_MAX + 1.0, DVec3::ZERO)]));
         assert_eq!(checks.failure(&gone), Some(Failure::LeftBox(1)));
-        let broken = Diagnostics::of(&simulation(&[(BOX_MIN + 0.05, DVec3::NAN)]), 3);
+        let broken = Vitals::of(&simulation(&[(BOX_MIN + 0.05, DVec3::NAN)]));
         assert_eq!(checks.failure(&broken), Some(Failure::NonFinite(0)));
         assert_eq!(
             Failure::NonFinite(0).to_string(),

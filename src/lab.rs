@@ -1,9 +1,10 @@
 //! The workbench (`fluid-lab`): everything `fluid`'s fixed contract leaves out, on the same
 //! library. Each subcommand is a function of its parsed arguments.
 
-use crate::chart::{self, SweepTable};
+use crate::accuracy;
+use crate::chart::{self, LogChart, SweepTable};
 use crate::cli;
-use crate::diagnostics::{self, Diagnostics};
+use crate::diagnostics::{self, Diagnostics, Vitals};
 use crate::energy::{EnergyMethod, Sources};
 use crate::export::Snapshot;
 use crate::fld::{self, OutputFile};
@@ -17,9 +18,10 @@ use crate::sweep::{self, Plan, Sweep};
 use clap::builder::RangedU64ValueParser;
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use plotters::chart::SeriesLabelPosition;
 use std::error::Error;
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// The workbench's command line.
@@ -42,6 +44,11 @@ enum Command {
     Export(ExportArgs),
     /// Render a state as a PNG, or a run as an animated GIF or PNG series.
     Render(RenderArgs),
+    /// Compare two .fld files: largest and RMS error per field, and the worst particle.
+    Compare(CompareArgs),
+    /// Time per step against error, for each model and kernel, relative to the reference
+    /// trajectory: a CSV and two charts.
+    Accuracy(AccuracyArgs),
     /// Write a generated scene (dam break, drop, filled box, random cloud, corner block) as
     /// a .fld input.
     Scene(SceneArgs),
@@ -149,6 +156,30 @@ struct SceneArgs {
 }
 
 #[derive(Debug, Args)]
+struct CompareArgs {
+    /// The state measured.
+    first: PathBuf,
+    /// The state it is measured against.
+    second: PathBuf,
+}
+
+#[derive(Debug, Args)]
+struct AccuracyArgs {
+    /// Input .fld file.
+    input: PathBuf,
+    /// Folder for accuracy.csv, accuracy-speed.{png,svg} and error-growth.{png,svg}.
+    #[arg(long)]
+    output_dir: PathBuf,
+    /// Steps after which the accuracy-speed chart shows the error (the largest is the
+    /// length of every run).
+    #[arg(long, value_delimiter = ',', default_values_t = [5, 20, 100])]
+    horizons: Vec<u64>,
+    /// Models to measure.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = Model::ALL)]
+    models: Vec<Model>,
+}
+
+#[derive(Debug, Args)]
 struct SweepArgs {
     /// Input .fld files.
     #[arg(default_values = ["data/in/small.fld", "data/in/large.fld"])]
@@ -190,6 +221,8 @@ impl Lab {
             Command::Run(args) => run(args, stdout),
             Command::Export(args) => export(args, stdout),
             Command::Render(args) => render(args, stdout),
+            Command::Compare(args) => compare(args, stdout),
+            Command::Accuracy(args) => accuracy(args, stdout),
             Command::Scene(args) => write_scene(args),
             Command::Sweep(args) => measure_sweep(args, stdout),
             Command::Chart(args) => draw_charts(args, stdout),
@@ -291,7 +324,7 @@ fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
         progress.inc(1);
         // A run that produced NaN or infinities fails here, naming the step, instead of
         // writing them out.
-        if let Some(id) = first_non_finite(&simulation) {
+        if let Some(id) = Vitals::of(&simulation).non_finite {
             progress.finish_and_clear();
             return Err(
                 format!("the run failed at step {step}: particle {id} is not finite").into(),
@@ -319,17 +352,6 @@ fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
         output.commit(&fld::encode(ppm, simulation.particles()))?;
     }
     Ok(())
-}
-
-/// The id of the first particle (in slot order) with a non-finite position or velocity.
-fn first_non_finite(simulation: &Simulation) -> Option<u32> {
-    let particles = simulation.particles();
-    let n = particles.len();
-    let finite =
-        |arrays: &[Vec<f64>; 3], slot: usize| (0..3).all(|axis| arrays[axis][slot].is_finite());
-    (0..n)
-        .find(|&slot| !(finite(&particles.p, slot) && finite(&particles.v, slot)))
-        .map(|slot| particles.id[slot])
 }
 
 /// Parses a positive, finite time step.
@@ -492,6 +514,137 @@ fn draw_charts(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     };
     for chart in table.charts() {
         for path in chart::render(&chart, &folder)? {
+            writeln!(stdout, "wrote {}", path.display())?;
+        }
+    }
+    Ok(())
+}
+
+fn read_state(path: &Path) -> Result<fld::Scene, Box<dyn Error>> {
+    let name = path.display().to_string();
+    let input = fld::map_input(path)?;
+    Ok(fld::parse(&input, &name)?)
+}
+
+fn compare(args: CompareArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let (first, second) = (read_state(&args.first)?, read_state(&args.second)?);
+    let errors = accuracy::compare(&first.particles, &second.particles).map_err(|reason| {
+        format!(
+            "cannot compare {} with {}: {reason}",
+            args.first.display(),
+            args.second.display()
+        )
+    })?;
+    if first.ppm != second.ppm {
+        writeln!(stdout, "note: ppm {} against {}", first.ppm, second.ppm)?;
+    }
+    writeln!(stdout, "field max_error rms_error worst_particle")?;
+    for (field, error) in errors {
+        writeln!(
+            stdout,
+            "{field} {:.6e} {:.6e} {}",
+            error.max, error.rms, error.worst
+        )?;
+    }
+    Ok(())
+}
+
+fn accuracy(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let steps = args.horizons.iter().copied().max().unwrap_or(0);
+    if steps == 0 {
+        return Err("--horizons needs a step after 0".into());
+    }
+    std::fs::create_dir_all(&args.output_dir)
+        .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
+    let name = args.input.display().to_string();
+    let scene = read_state(&args.input)?;
+    let particles = scene.particles.len();
+    let start = cli::place(scene.ppm, scene.particles, Method::default(), name.clone())?;
+    let file_name = args.input.file_name().unwrap_or_default().to_string_lossy();
+    let mut rows = format!("{}\n", accuracy::CSV_HEADER);
+    let mut trajectories = Vec::new();
+    for model in args.models {
+        let runs = accuracy::sweep(&start, model, &Kernel::FAST, steps);
+        rows.push_str(&accuracy::csv(&file_name, particles, &runs));
+        trajectories.extend(runs);
+    }
+    let csv_path = args.output_dir.join("accuracy.csv");
+    OutputFile::create(&csv_path)?.commit(rows.as_bytes())?;
+    writeln!(stdout, "wrote {}", csv_path.display())?;
+    let machine = Machine::this();
+    let label =
+        |t: &accuracy::Trajectory| format!("{} {}", t.method.model.name(), t.method.kernel.name());
+    let reference_times: Vec<String> = trajectories
+        .iter()
+        .filter(|t| t.method.kernel == Kernel::Reference)
+        .map(|t| {
+            format!(
+                "{} {:.2} ms",
+                t.method.model.name(),
+                t.seconds_per_step * 1e3
+            )
+        })
+        .collect();
+    let footer = format!(
+        "{file_name}, {particles} particles; {} ({} CPUs), commit {}; error: largest position distance \
+         to the reference ({} per step)",
+        machine.cpu_model,
+        machine.cpus,
+        machine.commit,
+        reference_times.join(", ")
+    );
+    let fast = || {
+        trajectories
+            .iter()
+            .filter(|t| t.method.kernel != Kernel::Reference)
+    };
+    let speed = LogChart {
+        name: "accuracy-speed",
+        title: format!("Error against time per step, {file_name}"),
+        x_label: "time per step (ms)".into(),
+        y_label: "position error (m)".into(),
+        series: args
+            .horizons
+            .iter()
+            .map(|&horizon| {
+                let points = fast()
+                    .map(|t| (t.seconds_per_step * 1e3, t.errors[horizon as usize - 1].max))
+                    .collect();
+                (format!("after {horizon} steps"), points)
+            })
+            .collect(),
+        lines: false,
+        legend: SeriesLabelPosition::UpperRight,
+        notes: fast()
+            .map(|t| {
+                let worst = t.errors[steps as usize - 1].max;
+                (t.seconds_per_step * 1e3, worst, format!("  {}", label(t)))
+            })
+            .collect(),
+        footer: footer.clone(),
+    };
+    let growth = LogChart {
+        name: "error-growth",
+        title: format!("Error growth against the reference, {file_name}"),
+        x_label: "step".into(),
+        y_label: "position error (m)".into(),
+        series: fast()
+            .map(|t| {
+                let points = t
+                    .errors
+                    .iter()
+                    .enumerate()
+                    .map(|(k, e)| ((k + 1) as f64, e.max));
+                (label(t), points.collect())
+            })
+            .collect(),
+        lines: true,
+        legend: SeriesLabelPosition::UpperLeft,
+        notes: Vec::new(),
+        footer,
+    };
+    for chart in [speed, growth] {
+        for path in chart::render_log(&chart, &args.output_dir)? {
             writeln!(stdout, "wrote {}", path.display())?;
         }
     }

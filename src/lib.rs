@@ -10,6 +10,7 @@
 //! workbench), plus [`gformat`], [`trace`],
 //! [`scene`] and [`error`].
 
+pub mod accuracy;
 pub mod cells;
 pub mod chart;
 pub mod cli;

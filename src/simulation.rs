@@ -119,6 +119,14 @@ impl Simulation {
         self.search.tiles()
     }
 
+    /// A copy that goes on with another model and kernel.
+    pub fn clone_with_method(&self, method: Method) -> Simulation {
+        let mut copy = self.clone();
+        copy.method = method;
+        copy.close_found = false;
+        copy
+    }
+
     /// Changes the time step of the following steps.
     pub fn set_time_step(&mut self, dt: f64) {
         self.params.dt = dt;

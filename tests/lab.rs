@@ -178,3 +178,86 @@ fn diagnostics_follow_the_run_and_a_failing_run_names_its_step() {
     assert_eq!(exit_code(&output), 2);
     assert!(stderr(&output).contains("-1 is not a positive time step"));
 }
+
+#[test]
+fn compare_reports_errors_per_field_and_refuses_different_sizes() {
+    let one = reference_output("small", 1);
+    let two = reference_output("small", 2);
+    let output = run_lab(&["compare".as_ref(), one.as_os_str(), one.as_os_str()]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert_eq!(
+        stdout(&output),
+        "field max_error rms_error worst_particle\n\
+         p 0.000000e0 0.000000e0 0\nhv 0.000000e0 0.000000e0 0\nv 0.000000e0 0.000000e0 0\n"
+    );
+    let output = run_lab(&["compare".as_ref(), two.as_os_str(), one.as_os_str()]);
+    let report = stdout(&output);
+    let rows: Vec<Vec<&str>> = report
+        .lines()
+        .skip(1)
+        .map(|l| l.split(' ').collect())
+        .collect();
+    let (before, after) = (
+        fld::parse(&std::fs::read(&one).unwrap(), "1")
+            .unwrap()
+            .particles,
+        fld::parse(&std::fs::read(&two).unwrap(), "2")
+            .unwrap()
+            .particles,
+    );
+    let worst: usize = rows[0][3].parse().unwrap();
+    let moved = (0..3)
+        .map(|axis| (after.p[axis][worst] - before.p[axis][worst]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert_eq!(rows[0][1], format!("{moved:.6e}"));
+    let large = reference_output("large", 1);
+    let output = run_lab(&["compare".as_ref(), one.as_os_str(), large.as_os_str()]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).ends_with(": 4800 particles against 15138\n"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
+fn accuracy_measures_each_kernel_against_the_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let output = run_lab(&[
+        "accuracy".as_ref(),
+        small.as_os_str(),
+        "--horizons".as_ref(),
+        "2,4".as_ref(),
+        "--models".as_ref(),
+        "fluidanimate".as_ref(),
+        "--output-dir".as_ref(),
+        dir.path().as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    for name in [
+        "accuracy.csv",
+        "accuracy-speed.png",
+        "accuracy-speed.svg",
+        "error-growth.png",
+        "error-growth.svg",
+    ] {
+        assert!(stdout(&output).contains(&format!("{}\n", dir.path().join(name).display())));
+    }
+    let text = std::fs::read_to_string(dir.path().join("accuracy.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(fluid::accuracy::CSV_HEADER));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3 * 4);
+    for row in &rows {
+        assert_eq!(&row[..3], ["small.fld", "4800", "fluidanimate"]);
+        let error: f64 = row[6].parse().unwrap();
+        match row[3] {
+            "reference" => assert_eq!(error, 0.0),
+            "scalar" | "simd" => assert!(error < 1e-12, "{row:?}"),
+            other => panic!("kernel {other}"),
+        }
+        assert!(row[5].parse::<f64>().unwrap() > 0.0);
+    }
+}
