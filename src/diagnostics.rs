@@ -155,7 +155,10 @@ impl fmt::Display for Failure {
         match self {
             Failure::NonFinite(id) => write!(f, "particle {id} is not finite"),
             Failure::LeftBox(count) => write!(f, "{count} particles left the box"),
-            Failure::EnergyGrew(factor) => write!(f, "the energy grew {factor:.3e} times"),
+            Failure::EnergyGrew(factor) if *factor < 1e3 => {
+                write!(f, "the energy grew {factor:.2} times")
+            }
+            Failure::EnergyGrew(factor) => write!(f, "the energy grew {factor:.2e} times"),
         }
     }
 }
@@ -279,5 +282,13 @@ mod tests {
             "particle 0 is not finite"
         );
         assert_eq!(Failure::LeftBox(3).to_string(), "3 particles left the box");
+        assert_eq!(
+            Failure::EnergyGrew(1.5642).to_string(),
+            "the energy grew 1.56 times"
+        );
+        assert_eq!(
+            Failure::EnergyGrew(12345.0).to_string(),
+            "the energy grew 1.23e4 times"
+        );
     }
 }

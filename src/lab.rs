@@ -14,6 +14,7 @@ use crate::params::TIME_STEP;
 use crate::render::{self, Animation, Colouring};
 use crate::scene::{self, SceneKind};
 use crate::simulation::Simulation;
+use crate::stability;
 use crate::sweep::{self, Plan, Sweep};
 use clap::builder::RangedU64ValueParser;
 use clap::{Args, Parser, Subcommand};
@@ -49,6 +50,8 @@ enum Command {
     /// Time per step against error, for each model and kernel, relative to the reference
     /// trajectory: a CSV and two charts.
     Accuracy(AccuracyArgs),
+    /// Run a scene over time steps and resolutions and map where each model fails.
+    Stability(StabilityArgs),
     /// Write a generated scene (dam break, drop, filled box, random cloud, corner block) as
     /// a .fld input.
     Scene(SceneArgs),
@@ -180,6 +183,31 @@ struct AccuracyArgs {
 }
 
 #[derive(Debug, Args)]
+struct StabilityArgs {
+    /// Folder for stability.csv and stability-map.{png,svg}.
+    #[arg(long)]
+    output_dir: PathBuf,
+    /// The scene run.
+    #[arg(long, value_enum, default_value_t = SceneKind::DamBreak)]
+    scene: SceneKind,
+    /// Seed of the scene.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Models to run.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = Model::ALL)]
+    models: Vec<Model>,
+    /// Particles per metre of the scene.
+    #[arg(long, value_delimiter = ',', default_values_t = [100.0, 150.0, 200.0, 300.0])]
+    ppms: Vec<f64>,
+    /// Time steps, as multiples of the course's 1e-3 s.
+    #[arg(long, value_delimiter = ',', default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]
+    dt_factors: Vec<f64>,
+    /// Simulated seconds each run must last to count as stable.
+    #[arg(long, default_value_t = 0.5)]
+    duration: f64,
+}
+
+#[derive(Debug, Args)]
 struct SweepArgs {
     /// Input .fld files.
     #[arg(default_values = ["data/in/small.fld", "data/in/large.fld"])]
@@ -223,6 +251,7 @@ impl Lab {
             Command::Render(args) => render(args, stdout),
             Command::Compare(args) => compare(args, stdout),
             Command::Accuracy(args) => accuracy(args, stdout),
+            Command::Stability(args) => stability(args, stdout),
             Command::Scene(args) => write_scene(args),
             Command::Sweep(args) => measure_sweep(args, stdout),
             Command::Chart(args) => draw_charts(args, stdout),
@@ -647,6 +676,46 @@ fn accuracy(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
         for path in chart::render_log(&chart, &args.output_dir)? {
             writeln!(stdout, "wrote {}", path.display())?;
         }
+    }
+    Ok(())
+}
+
+fn stability(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    for &factor in &args.dt_factors {
+        parse_time_step(&(factor * TIME_STEP).to_string())
+            .map_err(|_| format!("--dt-factors: {factor} does not give a positive time step"))?;
+    }
+    std::fs::create_dir_all(&args.output_dir)
+        .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
+    let mut rows = format!("{}\n", stability::CSV_HEADER);
+    let mut outcomes = Vec::new();
+    for &model in &args.models {
+        for &ppm in &args.ppms {
+            for &factor in &args.dt_factors {
+                let dt = factor * TIME_STEP;
+                let outcome =
+                    stability::watch(args.scene, args.seed, model, ppm, dt, args.duration)?;
+                writeln!(stdout, "{}", outcome.summary())?;
+                rows.push_str(&outcome.csv_row());
+                rows.push('\n');
+                outcomes.push(outcome);
+            }
+        }
+    }
+    let csv_path = args.output_dir.join("stability.csv");
+    OutputFile::create(&csv_path)?.commit(rows.as_bytes())?;
+    writeln!(stdout, "wrote {}", csv_path.display())?;
+    let machine = Machine::this();
+    let footer = format!(
+        "{} seed {}, {} s each; fails on: non-finite values, particles more than h outside the \
+         box, energy above 1.5 x the first; commit {}",
+        args.scene.name(),
+        args.seed,
+        args.duration,
+        machine.commit
+    );
+    for path in stability::render_map(&outcomes, &footer, &args.output_dir)? {
+        writeln!(stdout, "wrote {}", path.display())?;
     }
     Ok(())
 }

@@ -32,6 +32,7 @@ pub mod progargs;
 pub mod render;
 pub mod scene;
 pub mod simulation;
+pub mod stability;
 pub mod stages;
 pub mod sweep;
 pub mod trace;

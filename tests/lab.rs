@@ -261,3 +261,59 @@ fn accuracy_measures_each_kernel_against_the_reference() {
         assert!(row[5].parse::<f64>().unwrap() > 0.0);
     }
 }
+
+#[test]
+fn stability_reports_each_run_and_maps_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = run_lab(&[
+        "stability".as_ref(),
+        "--models".as_ref(),
+        "course,fluidanimate".as_ref(),
+        "--ppms".as_ref(),
+        "100".as_ref(),
+        "--dt-factors".as_ref(),
+        "1,2".as_ref(),
+        "--duration".as_ref(),
+        "0.03".as_ref(),
+        "--output-dir".as_ref(),
+        dir.path().as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let report = stdout(&output);
+    let lines: Vec<&str> = report.lines().collect();
+    assert!(
+        lines[0].starts_with("course, ppm 100, dt 0.001 s: failed at step "),
+        "{report}"
+    );
+    assert!(
+        lines[1].starts_with("course, ppm 100, dt 0.002 s: failed at step "),
+        "{report}"
+    );
+    assert_eq!(
+        lines[2],
+        "fluidanimate, ppm 100, dt 0.001 s: stable for 30 steps (0.030 s)"
+    );
+    assert_eq!(
+        lines[3],
+        "fluidanimate, ppm 100, dt 0.002 s: stable for 15 steps (0.030 s)"
+    );
+    let text = std::fs::read_to_string(dir.path().join("stability.csv")).unwrap();
+    assert_eq!(text.lines().next(), Some(fluid::stability::CSV_HEADER));
+    assert_eq!(text.lines().count(), 5);
+    assert!(
+        text.contains(",fluidanimate,100,0.001,845,30,,,stable,\n"),
+        "{text}"
+    );
+    for name in ["stability-map.png", "stability-map.svg"] {
+        assert!(dir.path().join(name).exists());
+    }
+    let output = run_lab(&[
+        "stability".as_ref(),
+        "--dt-factors".as_ref(),
+        "0".as_ref(),
+        "--output-dir".as_ref(),
+        dir.path().as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(stderr(&output).contains("--dt-factors: 0 does not give a positive time step"));
+}
