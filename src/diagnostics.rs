@@ -154,6 +154,7 @@ impl fmt::Display for Failure {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Failure::NonFinite(id) => write!(f, "particle {id} is not finite"),
+            Failure::LeftBox(1) => write!(f, "1 particle left the box"),
             Failure::LeftBox(count) => write!(f, "{count} particles left the box"),
             Failure::EnergyGrew(factor) if *factor < 1e3 => {
                 write!(f, "the energy grew {factor:.2} times")
