@@ -4,10 +4,10 @@
 //! order of the tiles, and carry about one rounding error each instead of one per term.
 //! About ten times slower than the scalar kernel; for accuracy measurements only.
 
+use super::scalar::pair_acceleration;
 use crate::neighbours::Tile;
-use crate::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
+use crate::params::Params;
 use crate::particles::{vector_at, AxisArrays};
-use glam::DVec3;
 
 /// A compensated sum (Neumaier's variant of Kahan's): the running sum and the rounding
 /// errors it lost, added back at the end.
@@ -96,28 +96,21 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
     id: &[u32],
     a: &mut AxisArrays,
 ) {
-    let Params {
-        h,
-        h2,
-        pressure_factor,
-        viscosity_factor,
-        ..
-    } = *params;
-    let partners = close_partners(tiles, p, h2, id);
+    let partners = close_partners(tiles, p, params.h2, id);
     for (i, list) in partners.iter().enumerate() {
         let mut sums = [0, 1, 2].map(|axis| Neumaier::new(a[axis][i]));
         for &j in list {
             let j = j as usize;
-            // The same terms, in the same operations, as the scalar kernel adds to i.
+            // The scalar kernel's terms, in the same operations.
             let offset = vector_at(p, i) - vector_at(p, j);
-            let dist = offset.length_squared().max(MIN_DISTANCE_SQUARED).sqrt();
-            let q = h - dist;
-            let pressure = pressure_factor * q * q / dist * (rho[i] + rho[j] - 2.0 * FLUID_DENSITY);
-            let mut viscosity: DVec3 = (vector_at(v, j) - vector_at(v, i)) * viscosity_factor;
-            if FLUIDANIMATE {
-                viscosity *= q;
-            }
-            let da = (offset * pressure + viscosity) / (rho[i] * rho[j]);
+            let velocities = [vector_at(v, i), vector_at(v, j)];
+            let da = pair_acceleration::<FLUIDANIMATE>(
+                params,
+                offset,
+                offset.length_squared(),
+                velocities,
+                [rho[i], rho[j]],
+            );
             for (sum, term) in sums.iter_mut().zip(da.to_array()) {
                 sum.add(term);
             }

@@ -4,6 +4,7 @@
 use crate::neighbours::Tile;
 use crate::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::particles::{vector_at, AxisArrays};
+use glam::DVec3;
 
 pub(super) fn increment_densities(
     params: &Params,
@@ -33,6 +34,27 @@ pub(super) fn increment_densities(
     }
 }
 
+/// The acceleration particle i gets from particle j (j gets its opposite, exactly), for a
+/// pair closer than h with `offset` = p_i - p_j and `r2` = |offset|^2. `FLUIDANIMATE`
+/// multiplies the viscosity term by (h - dist).
+#[inline(always)]
+pub(super) fn pair_acceleration<const FLUIDANIMATE: bool>(
+    params: &Params,
+    offset: DVec3,
+    r2: f64,
+    [v_i, v_j]: [DVec3; 2],
+    [rho_i, rho_j]: [f64; 2],
+) -> DVec3 {
+    let dist = r2.max(MIN_DISTANCE_SQUARED).sqrt();
+    let q = params.h - dist;
+    let pressure = params.pressure_factor * q * q / dist * (rho_i + rho_j - 2.0 * FLUID_DENSITY);
+    let mut viscosity = (v_j - v_i) * params.viscosity_factor;
+    if FLUIDANIMATE {
+        viscosity *= q;
+    }
+    (offset * pressure + viscosity) / (rho_i * rho_j)
+}
+
 /// `FLUIDANIMATE` multiplies the viscosity term by (h - dist).
 pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
     params: &Params,
@@ -42,28 +64,20 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
     rho: &[f64],
     a: &mut AxisArrays,
 ) {
-    let Params {
-        h,
-        h2,
-        pressure_factor,
-        viscosity_factor,
-        ..
-    } = *params;
     for tile in tiles {
         for i in tile.firsts() {
             for j in tile.partners(i) {
                 let offset = vector_at(p, i) - vector_at(p, j);
                 let r2 = offset.length_squared();
-                if r2 < h2 {
-                    let dist = r2.max(MIN_DISTANCE_SQUARED).sqrt();
-                    let q = h - dist;
-                    let pressure =
-                        pressure_factor * q * q / dist * (rho[i] + rho[j] - 2.0 * FLUID_DENSITY);
-                    let mut viscosity = (vector_at(v, j) - vector_at(v, i)) * viscosity_factor;
-                    if FLUIDANIMATE {
-                        viscosity *= q;
-                    }
-                    let da = (offset * pressure + viscosity) / (rho[i] * rho[j]);
+                if r2 < params.h2 {
+                    let velocities = [vector_at(v, i), vector_at(v, j)];
+                    let da = pair_acceleration::<FLUIDANIMATE>(
+                        params,
+                        offset,
+                        r2,
+                        velocities,
+                        [rho[i], rho[j]],
+                    );
                     for (axis, da) in a.iter_mut().zip(da.to_array()) {
                         axis[i] += da;
                         axis[j] -= da;
