@@ -357,14 +357,47 @@ impl SweepTable {
     }
 }
 
-/// Writes `chart` as `DIR/NAME.png` and `DIR/NAME.svg`; returns both paths.
-pub fn render(chart: &Chart, folder: &Path) -> Result<[PathBuf; 2], Box<dyn Error>> {
+/// A picture that draws itself on any plotters backend, written as PNG and SVG.
+pub trait Drawing {
+    /// The file stem.
+    fn name(&self) -> &str;
+    /// Draws the picture on `root` and presents it.
+    fn draw_on<DB: DrawingBackend>(
+        &self,
+        root: DrawingArea<DB, Shift>,
+    ) -> Result<(), Box<dyn Error>>
+    where
+        DB::ErrorType: 'static;
+}
+
+/// Writes `drawing` as `DIR/NAME.png` and `DIR/NAME.svg`, `size` pixels; returns both paths.
+pub fn render<D: Drawing>(
+    drawing: &D,
+    folder: &Path,
+    size: (u32, u32),
+) -> Result<[PathBuf; 2], Box<dyn Error>> {
     register_font()?;
-    let png = folder.join(format!("{}.png", chart.name));
-    let svg = folder.join(format!("{}.svg", chart.name));
-    draw(BitMapBackend::new(&png, SIZE).into_drawing_area(), chart)?;
-    draw(SVGBackend::new(&svg, SIZE).into_drawing_area(), chart)?;
+    let png = folder.join(format!("{}.png", drawing.name()));
+    let svg = folder.join(format!("{}.svg", drawing.name()));
+    drawing.draw_on(BitMapBackend::new(&png, size).into_drawing_area())?;
+    drawing.draw_on(SVGBackend::new(&svg, size).into_drawing_area())?;
     Ok([png, svg])
+}
+
+/// Splits a chart's area into the plot and a footer line, and writes the footer.
+fn plot_and_footer<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    footer: &str,
+) -> Result<DrawingArea<DB, Shift>, Box<dyn Error>>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let (_, height) = root.dim_in_pixel();
+    let (plot, bottom) = root.split_vertically(height - 28);
+    let style = ("sans-serif", 12).into_font().color(&BLACK.mix(0.7));
+    bottom.draw(&Text::new(footer, (16, 4), style))?;
+    Ok(plot)
 }
 
 /// Registers DejaVu Sans, from the binary itself, as plotters' `sans-serif`.
@@ -382,6 +415,22 @@ pub(crate) fn register_font() -> Result<(), Box<dyn Error>> {
     Ok(result?)
 }
 
+impl Drawing for Chart {
+    fn name(&self) -> &str {
+        self.name
+    }
+
+    fn draw_on<DB: DrawingBackend>(
+        &self,
+        root: DrawingArea<DB, Shift>,
+    ) -> Result<(), Box<dyn Error>>
+    where
+        DB::ErrorType: 'static,
+    {
+        draw(root, self)
+    }
+}
+
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     chart: &Chart,
@@ -389,9 +438,7 @@ fn draw<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    root.fill(&WHITE)?;
-    let (_, height) = root.dim_in_pixel();
-    let (plot, footer) = root.split_vertically(height - 28);
+    let plot = plot_and_footer(&root, &chart.footer)?;
     let (x, y) = (chart.x_range(), chart.y_range());
     let mut context = ChartBuilder::on(&plot)
         .caption(&chart.title, ("sans-serif", 24))
@@ -451,11 +498,6 @@ where
             .position(SeriesLabelPosition::UpperLeft)
             .draw()?;
     }
-    footer.draw(&Text::new(
-        chart.footer.as_str(),
-        (16, 4),
-        ("sans-serif", 12).into_font().color(&BLACK.mix(0.7)),
-    ))?;
     root.present()?;
     Ok(())
 }
@@ -513,14 +555,20 @@ impl LogChart {
     }
 }
 
-/// Writes `chart` as `DIR/NAME.png` and `DIR/NAME.svg`; returns both paths.
-pub fn render_log(chart: &LogChart, folder: &Path) -> Result<[PathBuf; 2], Box<dyn Error>> {
-    register_font()?;
-    let png = folder.join(format!("{}.png", chart.name));
-    let svg = folder.join(format!("{}.svg", chart.name));
-    draw_log(BitMapBackend::new(&png, SIZE).into_drawing_area(), chart)?;
-    draw_log(SVGBackend::new(&svg, SIZE).into_drawing_area(), chart)?;
-    Ok([png, svg])
+impl Drawing for LogChart {
+    fn name(&self) -> &str {
+        self.name
+    }
+
+    fn draw_on<DB: DrawingBackend>(
+        &self,
+        root: DrawingArea<DB, Shift>,
+    ) -> Result<(), Box<dyn Error>>
+    where
+        DB::ErrorType: 'static,
+    {
+        draw_log(root, self)
+    }
 }
 
 fn draw_log<DB: DrawingBackend>(
@@ -530,9 +578,7 @@ fn draw_log<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    root.fill(&WHITE)?;
-    let (_, height) = root.dim_in_pixel();
-    let (plot, footer) = root.split_vertically(height - 28);
+    let plot = plot_and_footer(&root, &chart.footer)?;
     let mut context = ChartBuilder::on(&plot)
         .caption(&chart.title, ("sans-serif", 24))
         .margin(16)
@@ -583,11 +629,6 @@ where
         .border_style(BLACK.mix(0.4))
         .position(chart.legend.clone())
         .draw()?;
-    footer.draw(&Text::new(
-        chart.footer.as_str(),
-        (16, 4),
-        ("sans-serif", 12).into_font().color(&BLACK.mix(0.7)),
-    ))?;
     root.present()?;
     Ok(())
 }
@@ -802,7 +843,7 @@ mod tests {
         let folder = tempfile::tempdir().unwrap();
         let table = SweepTable::parse(&sweep_csv(true)).unwrap();
         for chart in table.charts() {
-            let [png, svg] = render(&chart, folder.path()).unwrap();
+            let [png, svg] = render(&chart, folder.path(), SIZE).unwrap();
             let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
             let mut reader = decoder.read_info().unwrap();
             let mut pixels = vec![0; reader.output_buffer_size()];

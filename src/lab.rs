@@ -542,7 +542,7 @@ fn draw_charts(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
         None => args.csv.parent().map(PathBuf::from).unwrap_or_default(),
     };
     for chart in table.charts() {
-        for path in chart::render(&chart, &folder)? {
+        for path in chart::render(&chart, &folder, chart::SIZE)? {
             writeln!(stdout, "wrote {}", path.display())?;
         }
     }
@@ -673,7 +673,7 @@ fn accuracy(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
         footer,
     };
     for chart in [speed, growth] {
-        for path in chart::render_log(&chart, &args.output_dir)? {
+        for path in chart::render(&chart, &args.output_dir, chart::SIZE)? {
             writeln!(stdout, "wrote {}", path.display())?;
         }
     }
@@ -714,7 +714,11 @@ fn stability(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         args.duration,
         machine.commit
     );
-    for path in stability::render_map(&outcomes, &footer, &args.output_dir)? {
+    let map = stability::StabilityMap {
+        outcomes: &outcomes,
+        footer,
+    };
+    for path in chart::render(&map, &args.output_dir, stability::SIZE)? {
         writeln!(stdout, "wrote {}", path.display())?;
     }
     Ok(())

@@ -3,7 +3,7 @@
 //! kinetic plus potential energy above 1.5 times the first) until it fails or reaches the
 //! simulated time asked for; and the map of the outcomes.
 
-use crate::chart::register_font;
+use crate::chart::Drawing;
 use crate::diagnostics::{Checks, Failure, Vitals};
 use crate::method::{Kernel, Method, Model};
 use crate::params::Params;
@@ -13,7 +13,6 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::error::Error;
-use std::path::{Path, PathBuf};
 
 /// The CSV header of [`Outcome::csv_row`].
 pub const CSV_HEADER: &str =
@@ -121,28 +120,30 @@ pub fn watch(
 /// Pixel size of the map.
 pub const SIZE: (u32, u32) = (1100, 520);
 
-/// Draws the outcomes as one grid per model (columns: time steps, rows: ppm), each cell
-/// green if stable, else red, darker the sooner it failed, with the failure time and
-/// reason; writes `DIR/stability-map.png` and `.svg`.
-pub fn render_map(
-    outcomes: &[Outcome],
-    footer: &str,
-    folder: &Path,
-) -> Result<[PathBuf; 2], Box<dyn Error>> {
-    register_font()?;
-    let png = folder.join("stability-map.png");
-    let svg = folder.join("stability-map.svg");
-    draw_map(
-        &BitMapBackend::new(&png, SIZE).into_drawing_area(),
-        outcomes,
-        footer,
-    )?;
-    draw_map(
-        &SVGBackend::new(&svg, SIZE).into_drawing_area(),
-        outcomes,
-        footer,
-    )?;
-    Ok([png, svg])
+/// The outcomes as one grid per model (columns: time steps, rows: ppm), each cell green
+/// if stable, else red, darker the sooner it failed, with the failure step, time and
+/// reason: `stability-map.png` and `.svg` through [`crate::chart::render`].
+pub struct StabilityMap<'a> {
+    /// The runs.
+    pub outcomes: &'a [Outcome],
+    /// Where the data come from.
+    pub footer: String,
+}
+
+impl Drawing for StabilityMap<'_> {
+    fn name(&self) -> &str {
+        "stability-map"
+    }
+
+    fn draw_on<DB: DrawingBackend>(
+        &self,
+        root: DrawingArea<DB, Shift>,
+    ) -> Result<(), Box<dyn Error>>
+    where
+        DB::ErrorType: 'static,
+    {
+        draw_map(&root, self.outcomes, &self.footer)
+    }
 }
 
 /// The distinct values of `values`, ascending.
@@ -300,7 +301,11 @@ mod tests {
             .map(|&dt| watch(SceneKind::DamBreak, 1, Model::Course, 100.0, dt, 0.01).unwrap())
             .collect();
         let dir = tempfile::tempdir().unwrap();
-        let [png, svg] = render_map(&outcomes, "test", dir.path()).unwrap();
+        let map = StabilityMap {
+            outcomes: &outcomes,
+            footer: "test".into(),
+        };
+        let [png, svg] = crate::chart::render(&map, dir.path(), SIZE).unwrap();
         let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
         let info = decoder.read_info().unwrap();
         assert_eq!((info.info().width, info.info().height), SIZE);
