@@ -40,17 +40,29 @@ impl Neumaier {
     }
 }
 
-/// Each slot's partners closer than h among the pairs of `tiles`, in id order.
-fn close_partners(tiles: &[Tile], p: &AxisArrays, h2: f64, id: &[u32]) -> Vec<Vec<u32>> {
+/// Each slot's partners closer than h among the pairs of `tiles`, in id order; the tiles
+/// holding such a pair are added to `hits`.
+fn close_partners(
+    tiles: &[Tile],
+    p: &AxisArrays,
+    h2: f64,
+    id: &[u32],
+    hits: &mut Vec<Tile>,
+) -> Vec<Vec<u32>> {
     let mut partners = vec![Vec::new(); id.len()];
     for tile in tiles {
+        let mut hit = false;
         for i in tile.firsts() {
             for j in tile.partners(i) {
                 if (vector_at(p, i) - vector_at(p, j)).length_squared() < h2 {
                     partners[i].push(j as u32);
                     partners[j].push(i as u32);
+                    hit = true;
                 }
             }
+        }
+        if hit {
+            hits.push(*tile);
         }
     }
     for list in &mut partners {
@@ -68,7 +80,7 @@ pub(super) fn increment_densities(
     hits: &mut Vec<Tile>,
 ) {
     let h2 = params.h2;
-    let partners = close_partners(tiles, p, h2, id);
+    let partners = close_partners(tiles, p, h2, id, hits);
     for (i, list) in partners.iter().enumerate() {
         let mut sum = Neumaier::new(rho[i]);
         for &j in list {
@@ -78,12 +90,6 @@ pub(super) fn increment_densities(
         }
         rho[i] = sum.total();
     }
-    hits.extend(tiles.iter().filter(|tile| {
-        tile.firsts().any(|i| {
-            tile.partners(i)
-                .any(|j| (vector_at(p, i) - vector_at(p, j)).length_squared() < h2)
-        })
-    }));
 }
 
 /// `FLUIDANIMATE` multiplies the viscosity term by (h - dist).
@@ -96,7 +102,7 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
     id: &[u32],
     a: &mut AxisArrays,
 ) {
-    let partners = close_partners(tiles, p, params.h2, id);
+    let partners = close_partners(tiles, p, params.h2, id, &mut Vec::new());
     for (i, list) in partners.iter().enumerate() {
         let mut sums = [0, 1, 2].map(|axis| Neumaier::new(a[axis][i]));
         for &j in list {
