@@ -386,9 +386,14 @@ fn run(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
 /// Parses a positive, finite time step.
 fn parse_time_step(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
-        Ok(dt) if dt.is_finite() && dt > 0.0 => Ok(dt),
+        Ok(dt) if is_time_step(dt) => Ok(dt),
         _ => Err(format!("{text} is not a positive time step")),
     }
+}
+
+/// Whether `dt` can be a time step: finite and positive.
+fn is_time_step(dt: f64) -> bool {
+    dt.is_finite() && dt > 0.0
 }
 
 /// Parses `LOW,HIGH` into a non-empty range.
@@ -682,8 +687,11 @@ fn accuracy(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
 
 fn stability(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     for &factor in &args.dt_factors {
-        parse_time_step(&(factor * TIME_STEP).to_string())
-            .map_err(|_| format!("--dt-factors: {factor} does not give a positive time step"))?;
+        if !is_time_step(factor * TIME_STEP) {
+            return Err(
+                format!("--dt-factors: {factor} does not give a positive time step").into(),
+            );
+        }
     }
     std::fs::create_dir_all(&args.output_dir)
         .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
