@@ -427,79 +427,73 @@ impl Drawing for Chart {
     where
         DB::ErrorType: 'static,
     {
-        draw(root, self)
-    }
-}
-
-fn draw<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
-    chart: &Chart,
-) -> Result<(), Box<dyn Error>>
-where
-    DB::ErrorType: 'static,
-{
-    let plot = plot_and_footer(&root, &chart.footer)?;
-    let (x, y) = (chart.x_range(), chart.y_range());
-    let mut context = ChartBuilder::on(&plot)
-        .caption(&chart.title, ("sans-serif", 24))
-        .margin(16)
-        .x_label_area_size(44)
-        .y_label_area_size(72)
-        .build_cartesian_2d(x.clone(), y.clone())?;
-    context
-        .configure_mesh()
-        .x_desc("iterations")
-        .y_desc(chart.y_label)
-        .x_label_formatter(&|iterations| format!("{iterations:.0}"))
-        .y_labels(if chart.missing.is_some() { 0 } else { 10 })
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
-        .draw()?;
-    for (index, series) in chart.series.iter().enumerate() {
-        let color = COLOURS[index % COLOURS.len()];
-        let points = &series.points;
+        let plot = plot_and_footer(&root, &self.footer)?;
+        let (x, y) = (self.x_range(), self.y_range());
+        let mut context = ChartBuilder::on(&plot)
+            .caption(&self.title, ("sans-serif", 24))
+            .margin(16)
+            .x_label_area_size(44)
+            .y_label_area_size(72)
+            .build_cartesian_2d(x.clone(), y.clone())?;
         context
-            .draw_series(LineSeries::new(
-                points.iter().map(|p| (p.iterations as f64, p.median)),
-                color.stroke_width(2),
-            ))?
-            .label(&series.label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
-        // Each bar spans min to max, with a circle at the median.
-        context.draw_series(points.iter().map(|p| {
-            ErrorBar::new_vertical(p.iterations as f64, p.min, p.median, p.max, color, 8)
-        }))?;
-    }
-    for (index, (label, value)) in chart.baselines.iter().enumerate() {
-        let color = BLACK.mix(0.6 - 0.2 * index as f64);
-        let line = [(x.start, *value), (x.end, *value)];
-        context
-            .draw_series(DashedLineSeries::new(line, 8, 6, color.stroke_width(2)))?
-            .label(label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
-    }
-    if let Some(missing) = &chart.missing {
-        let centre = ((x.start + x.end) / 2.0, (y.start + y.end) / 2.0);
-        let anchor = Pos::new(HPos::Center, VPos::Center);
-        let style = ("sans-serif", 18).into_text_style(&plot).pos(anchor);
-        let lines = wrap(missing, 80);
-        let (cx, cy) = context.backend_coord(&centre);
-        for (index, line) in lines.iter().enumerate() {
-            let offset = (index as i32 * 2 - lines.len() as i32 + 1) * 12;
-            plot.draw(&Text::new(line.as_str(), (cx, cy + offset), style.clone()))?;
-        }
-    }
-    if !chart.series.is_empty() || !chart.baselines.is_empty() {
-        context
-            .configure_series_labels()
-            .label_font(("sans-serif", 14))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .position(SeriesLabelPosition::UpperLeft)
+            .configure_mesh()
+            .x_desc("iterations")
+            .y_desc(self.y_label)
+            .x_label_formatter(&|iterations| format!("{iterations:.0}"))
+            .y_labels(if self.missing.is_some() { 0 } else { 10 })
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
             .draw()?;
+        for (index, series) in self.series.iter().enumerate() {
+            let color = COLOURS[index % COLOURS.len()];
+            let points = &series.points;
+            context
+                .draw_series(LineSeries::new(
+                    points.iter().map(|p| (p.iterations as f64, p.median)),
+                    color.stroke_width(2),
+                ))?
+                .label(&series.label)
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+            // Each bar spans min to max, with a circle at the median.
+            context.draw_series(points.iter().map(|p| {
+                ErrorBar::new_vertical(p.iterations as f64, p.min, p.median, p.max, color, 8)
+            }))?;
+        }
+        for (index, (label, value)) in self.baselines.iter().enumerate() {
+            let color = BLACK.mix(0.6 - 0.2 * index as f64);
+            let line = [(x.start, *value), (x.end, *value)];
+            context
+                .draw_series(DashedLineSeries::new(line, 8, 6, color.stroke_width(2)))?
+                .label(label)
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+        }
+        if let Some(missing) = &self.missing {
+            let centre = ((x.start + x.end) / 2.0, (y.start + y.end) / 2.0);
+            let anchor = Pos::new(HPos::Center, VPos::Center);
+            let style = ("sans-serif", 18).into_text_style(&plot).pos(anchor);
+            let lines = wrap(missing, 80);
+            let (cx, cy) = context.backend_coord(&centre);
+            for (index, line) in lines.iter().enumerate() {
+                let offset = (index as i32 * 2 - lines.len() as i32 + 1) * 12;
+                plot.draw(&Text::new(line.as_str(), (cx, cy + offset), style.clone()))?;
+            }
+        }
+        if !self.series.is_empty() || !self.baselines.is_empty() {
+            context
+                .configure_series_labels()
+                .label_font(("sans-serif", 14))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK.mix(0.4))
+                .position(SeriesLabelPosition::UpperLeft)
+                .draw()?;
+        }
+        root.present()?;
+        Ok(())
     }
-    root.present()?;
-    Ok(())
 }
 
 /// A chart with a logarithmic y axis: lines (or points) of (x, y) with y > 0; points
@@ -567,70 +561,60 @@ impl Drawing for LogChart {
     where
         DB::ErrorType: 'static,
     {
-        draw_log(root, self)
-    }
-}
-
-fn draw_log<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
-    chart: &LogChart,
-) -> Result<(), Box<dyn Error>>
-where
-    DB::ErrorType: 'static,
-{
-    let plot = plot_and_footer(&root, &chart.footer)?;
-    let mut context = ChartBuilder::on(&plot)
-        .caption(&chart.title, ("sans-serif", 24))
-        .margin(16)
-        .x_label_area_size(44)
-        .y_label_area_size(80)
-        .build_cartesian_2d(chart.x_range(), chart.y_range().log_scale())?;
-    context
-        .configure_mesh()
-        .x_desc(chart.x_label.as_str())
-        .y_desc(chart.y_label.as_str())
-        .x_label_formatter(&|x| match x.fract() == 0.0 {
-            true => format!("{x:.0}"),
-            false => format!("{x:.1}"),
-        })
-        .y_label_formatter(&|y| format!("{y:.0e}"))
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
-        .draw()?;
-    for (index, (label, points)) in chart.series.iter().enumerate() {
-        let color = COLOURS[index % COLOURS.len()];
-        let points: Vec<(f64, f64)> = points
-            .iter()
-            .copied()
-            .filter(|(_, y)| y.is_finite() && *y > 0.0)
-            .collect();
-        let markers = points.iter().map(|&p| Circle::new(p, 4, color.filled()));
-        if chart.lines {
-            context.draw_series(LineSeries::new(
-                points.iter().copied(),
-                color.stroke_width(2),
-            ))?;
+        let plot = plot_and_footer(&root, &self.footer)?;
+        let mut context = ChartBuilder::on(&plot)
+            .caption(&self.title, ("sans-serif", 24))
+            .margin(16)
+            .x_label_area_size(44)
+            .y_label_area_size(80)
+            .build_cartesian_2d(self.x_range(), self.y_range().log_scale())?;
+        context
+            .configure_mesh()
+            .x_desc(self.x_label.as_str())
+            .y_desc(self.y_label.as_str())
+            .x_label_formatter(&|x| match x.fract() == 0.0 {
+                true => format!("{x:.0}"),
+                false => format!("{x:.1}"),
+            })
+            .y_label_formatter(&|y| format!("{y:.0e}"))
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .draw()?;
+        for (index, (label, points)) in self.series.iter().enumerate() {
+            let color = COLOURS[index % COLOURS.len()];
+            let points: Vec<(f64, f64)> = points
+                .iter()
+                .copied()
+                .filter(|(_, y)| y.is_finite() && *y > 0.0)
+                .collect();
+            let markers = points.iter().map(|&p| Circle::new(p, 4, color.filled()));
+            if self.lines {
+                context.draw_series(LineSeries::new(
+                    points.iter().copied(),
+                    color.stroke_width(2),
+                ))?;
+            }
+            context
+                .draw_series(markers)?
+                .label(label.as_str())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+        }
+        for (x, y, text) in &self.notes {
+            if y.is_finite() && *y > 0.0 {
+                let style = ("sans-serif", 13).into_font().color(&BLACK.mix(0.8));
+                context.draw_series(std::iter::once(Text::new(text.clone(), (*x, *y), style)))?;
+            }
         }
         context
-            .draw_series(markers)?
-            .label(label.as_str())
-            .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+            .configure_series_labels()
+            .label_font(("sans-serif", 14))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .position(self.legend.clone())
+            .draw()?;
+        root.present()?;
+        Ok(())
     }
-    for (x, y, text) in &chart.notes {
-        if y.is_finite() && *y > 0.0 {
-            let style = ("sans-serif", 13).into_font().color(&BLACK.mix(0.8));
-            context.draw_series(std::iter::once(Text::new(text.clone(), (*x, *y), style)))?;
-        }
-    }
-    context
-        .configure_series_labels()
-        .label_font(("sans-serif", 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .position(chart.legend.clone())
-        .draw()?;
-    root.present()?;
-    Ok(())
 }
 
 /// Splits `text` into lines of at most about `width` characters, at spaces and newlines.
