@@ -67,14 +67,12 @@ pub fn generate(
         ));
     }
     let extent = BOX_MAX - BOX_MIN;
-    let lattice_count = (extent * ppm).floor();
+    let [nx, ny, nz] = lattice_dims(ppm).map(|n| n as f64);
     let count = match (kind, particles) {
-        (SceneKind::RandomCloud, None) => {
-            (0.3 * lattice_count.x * lattice_count.y * lattice_count.z) as usize
-        }
+        (SceneKind::RandomCloud, None) => (0.3 * nx * ny * nz) as usize,
         (SceneKind::CornerBlock, None) => return Err("corner-block needs --particles".to_string()),
         (_, Some(count)) => count,
-        _ => (lattice_count.x * lattice_count.y * lattice_count.z) as usize,
+        _ => (nx * ny * nz) as usize,
     };
     if count > MAX_PARTICLES {
         return Err(format!(
@@ -106,14 +104,19 @@ pub fn generate(
     Ok(scene)
 }
 
+/// Lattice points along x, y and z at `ppm` particles per metre: floor(extent * ppm).
+fn lattice_dims(ppm: f64) -> [usize; 3] {
+    ((BOX_MAX - BOX_MIN) * ppm)
+        .floor()
+        .to_array()
+        .map(|n| n as usize)
+}
+
 /// The lattice points (spacing 1/`ppm`, half a spacing from the walls, x fastest, then z,
 /// then y) for which `inside` holds, each jittered by up to [`JITTER`] spacings per axis.
 fn lattice(ppm: f64, seed: u64, inside: impl Fn(DVec3) -> bool) -> Particles {
     let spacing = 1.0 / ppm;
-    let [nx, ny, nz] = ((BOX_MAX - BOX_MIN) * ppm)
-        .floor()
-        .to_array()
-        .map(|n| n as usize);
+    let [nx, ny, nz] = lattice_dims(ppm);
     let mut random = fastrand::Rng::with_seed(seed);
     let mut points = Vec::new();
     for y in 0..ny {
