@@ -38,6 +38,12 @@ pub fn map_input(path: &Path) -> Result<Mmap, FluidError> {
     unsafe { Mmap::map(&file) }.map_err(|_| cannot_open())
 }
 
+/// Maps and parses the input file at `path`, named as given in messages (for callers that
+/// need no other check between the two, unlike `fluid`'s contract).
+pub fn read(path: &Path) -> Result<Scene, FluidError> {
+    parse(&map_input(path)?, &path.display().to_string())
+}
+
 fn read_f32(bytes: &[u8], at: usize) -> f32 {
     f32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"))
 }

@@ -22,7 +22,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotters::chart::SeriesLabelPosition;
 use std::error::Error;
 use std::io::{IsTerminal, Write};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// The workbench's command line.
@@ -271,8 +271,7 @@ struct Loaded {
 
 fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     let name = args.input.display().to_string();
-    let input = fld::map_input(&args.input)?;
-    let scene = fld::parse(&input, &name)?;
+    let scene = fld::read(&args.input)?;
     let method = Method {
         model: args.model,
         kernel: args.kernel,
@@ -554,14 +553,8 @@ fn draw_charts(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     Ok(())
 }
 
-fn read_state(path: &Path) -> Result<fld::Scene, Box<dyn Error>> {
-    let name = path.display().to_string();
-    let input = fld::map_input(path)?;
-    Ok(fld::parse(&input, &name)?)
-}
-
 fn compare(args: CompareArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let (first, second) = (read_state(&args.first)?, read_state(&args.second)?);
+    let (first, second) = (fld::read(&args.first)?, fld::read(&args.second)?);
     let errors = accuracy::compare(&first.particles, &second.particles).map_err(|reason| {
         format!(
             "cannot compare {} with {}: {reason}",
@@ -590,10 +583,10 @@ fn accuracy(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     }
     std::fs::create_dir_all(&args.output_dir)
         .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
-    let name = args.input.display().to_string();
-    let scene = read_state(&args.input)?;
+    let scene = fld::read(&args.input)?;
     let particles = scene.particles.len();
-    let start = cli::place(scene.ppm, scene.particles, Method::default(), name.clone())?;
+    let name = args.input.display().to_string();
+    let start = cli::place(scene.ppm, scene.particles, Method::default(), name)?;
     let file_name = args.input.file_name().unwrap_or_default().to_string_lossy();
     let mut rows = format!("{}\n", accuracy::CSV_HEADER);
     let mut trajectories = Vec::new();

@@ -294,9 +294,7 @@ fn file_name(path: &Path) -> String {
 
 /// The number of particles in a `.fld` input (which also checks that it is one).
 fn particle_count(path: &Path) -> Result<usize, Box<dyn Error>> {
-    let name = path.display().to_string();
-    let input = crate::fld::map_input(path)?;
-    Ok(crate::fld::parse(&input, &name)?.particles.len())
+    Ok(crate::fld::read(path)?.particles.len())
 }
 
 /// One progress line for a record.
