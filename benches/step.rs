@@ -8,11 +8,11 @@
 
 use criterion::profiler::Profiler;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use fluid::fld;
-use fluid::method::{Kernel, Method, Model};
-use fluid::scene;
-use fluid::simulation::Simulation;
-use fluid::stages::Stage;
+use fluid::io::fld;
+use fluid::lab::scene;
+use fluid::sim::method::{Kernel, Method, Model};
+use fluid::sim::simulation::Simulation;
+use fluid::sim::stages::Stage;
 use pprof::ProfilerGuard;
 use std::fs::File;
 use std::path::Path;

@@ -2,12 +2,11 @@
 //! SPEC.md section 1 in order, the printed parameters, the simulation and the atomic write.
 
 use crate::error::FluidError;
-use crate::fld::{self, OutputFile};
-use crate::gformat::format_g;
-use crate::method::Method;
-use crate::particles::Particles;
+use crate::io::fld::{self, OutputFile};
+use crate::io::gformat::format_g;
 use crate::progargs::ProgArgs;
-use crate::simulation::Simulation;
+use crate::sim::method::Method;
+use crate::sim::simulation::Simulation;
 use std::ffi::OsString;
 use std::io::Write;
 
@@ -23,25 +22,12 @@ where
     let input_name = args.input.display().to_string();
     let scene = fld::parse(&input, &input_name)?;
     drop(input);
-    let mut simulation = place(scene.ppm, scene.particles, Method::default(), input_name)?;
+    let ppm = scene.ppm;
+    let mut simulation = scene.into_simulation(Method::default(), &input_name)?;
     let _ = stdout.write_all(parameter_report(&simulation).as_bytes());
     let _ = stdout.flush();
     simulation.run(args.steps);
-    output.commit(&fld::encode(scene.ppm, simulation.particles()))
-}
-
-/// The simulation of an input's particles with `method`; an input whose particles per
-/// metre admit no grid is invalid (exit 251), named `file` in the message.
-pub fn place(
-    ppm: f32,
-    particles: Particles,
-    method: Method,
-    file: String,
-) -> Result<Simulation, FluidError> {
-    Simulation::with_method(ppm.into(), particles, method).map_err(|e| FluidError::InvalidInput {
-        file,
-        reason: format!("particles per meter {} gives {e}", format_g(ppm.into())),
-    })
+    Ok(output.commit(&fld::encode(ppm, simulation.particles()))?)
 }
 
 /// The seven lines printed before simulating, numbers in C++ default format.
@@ -69,7 +55,7 @@ pub fn parameter_report(simulation: &Simulation) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::particles::Particles;
+    use crate::sim::particles::Particles;
 
     #[test]
     fn report_for_the_small_input() {

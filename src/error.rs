@@ -1,5 +1,6 @@
 //! The errors `fluid` reports, their messages and their exit codes (SPEC.md sections 1 and 8).
 
+use crate::io::fld::FileError;
 use std::fmt;
 
 /// Everything that stops a run of `fluid`. `Display` gives the message after `Error: `.
@@ -11,34 +12,8 @@ pub enum FluidError {
     StepsNotNumeric,
     /// Rule 3: the step count is negative.
     NegativeSteps,
-    /// Rule 4: the input file cannot be opened or mapped for reading.
-    CannotOpenInput(String),
-    /// Rule 5: the output file cannot be opened (created) for writing.
-    CannotOpenOutput(String),
-    /// Rule 6: the header's particle count is zero or negative.
-    InvalidParticleCount(i32),
-    /// Rule 7: the whole records in the body are not as many as the header says.
-    ParticleCountMismatch {
-        /// Count in the header.
-        header: i32,
-        /// Whole 36-byte records found after the header.
-        found: u64,
-    },
-    /// Section 8: any other defect of the input file (short header, partial record,
-    /// non-finite or out-of-range value).
-    InvalidInput {
-        /// The input file name as given.
-        file: String,
-        /// What is wrong, without a final period.
-        reason: String,
-    },
-    /// The output could not be written after the simulation (e.g. the disk is full).
-    CannotWriteOutput {
-        /// The output file name as given.
-        file: String,
-        /// The operating system's reason.
-        reason: String,
-    },
+    /// Rules 4 to 7 and section 8: the input or the output file.
+    File(FileError),
 }
 
 impl FluidError {
@@ -47,12 +22,20 @@ impl FluidError {
         match self {
             Self::ArgumentCount(_) | Self::StepsNotNumeric => 255,
             Self::NegativeSteps => 254,
-            Self::CannotOpenInput(_) => 253,
-            Self::CannotOpenOutput(_) | Self::CannotWriteOutput { .. } => 252,
-            Self::InvalidParticleCount(_)
-            | Self::ParticleCountMismatch { .. }
-            | Self::InvalidInput { .. } => 251,
+            Self::File(FileError::CannotOpenInput(_)) => 253,
+            Self::File(FileError::CannotOpenOutput(_) | FileError::CannotWriteOutput { .. }) => 252,
+            Self::File(
+                FileError::InvalidParticleCount(_)
+                | FileError::ParticleCountMismatch { .. }
+                | FileError::InvalidInput { .. },
+            ) => 251,
         }
+    }
+}
+
+impl From<FileError> for FluidError {
+    fn from(error: FileError) -> Self {
+        Self::File(error)
     }
 }
 
@@ -62,17 +45,7 @@ impl fmt::Display for FluidError {
             Self::ArgumentCount(n) => write!(f, "Invalid number of arguments: {n}."),
             Self::StepsNotNumeric => write!(f, "time steps must be numeric."),
             Self::NegativeSteps => write!(f, "Invalid number of time steps."),
-            Self::CannotOpenInput(file) => write!(f, "Cannot open {file} for reading"),
-            Self::CannotOpenOutput(file) => write!(f, "Cannot open {file} for writing"),
-            Self::InvalidParticleCount(np) => write!(f, "Invalid number of particles: {np}."),
-            Self::ParticleCountMismatch { header, found } => write!(
-                f,
-                "Number of particles mismatch. Header: {header}, Found: {found}."
-            ),
-            Self::InvalidInput { file, reason } => {
-                write!(f, "Invalid input file {file}: {reason}.")
-            }
-            Self::CannotWriteOutput { file, reason } => write!(f, "Cannot write {file}: {reason}."),
+            Self::File(error) => error.fmt(f),
         }
     }
 }
@@ -83,19 +56,39 @@ impl std::error::Error for FluidError {}
 mod tests {
     use super::*;
 
+    fn file(error: FileError) -> FluidError {
+        FluidError::from(error)
+    }
+
     #[test]
     fn exit_codes_follow_the_spec_table() {
         assert_eq!(FluidError::ArgumentCount(2).exit_code(), 255);
         assert_eq!(FluidError::StepsNotNumeric.exit_code(), 255);
         assert_eq!(FluidError::NegativeSteps.exit_code(), 254);
-        assert_eq!(FluidError::CannotOpenInput("a".into()).exit_code(), 253);
-        assert_eq!(FluidError::CannotOpenOutput("a".into()).exit_code(), 252);
-        assert_eq!(FluidError::InvalidParticleCount(0).exit_code(), 251);
-        let mismatch = FluidError::ParticleCountMismatch {
+        assert_eq!(
+            file(FileError::CannotOpenInput("a".into())).exit_code(),
+            253
+        );
+        assert_eq!(
+            file(FileError::CannotOpenOutput("a".into())).exit_code(),
+            252
+        );
+        let unwritten = FileError::CannotWriteOutput {
+            file: "a".into(),
+            reason: "full".into(),
+        };
+        assert_eq!(file(unwritten).exit_code(), 252);
+        assert_eq!(file(FileError::InvalidParticleCount(0)).exit_code(), 251);
+        let mismatch = FileError::ParticleCountMismatch {
             header: 3,
             found: 2,
         };
-        assert_eq!(mismatch.exit_code(), 251);
+        assert_eq!(file(mismatch).exit_code(), 251);
+        let invalid = FileError::InvalidInput {
+            file: "a".into(),
+            reason: "bad".into(),
+        };
+        assert_eq!(file(invalid).exit_code(), 251);
     }
 
     #[test]
@@ -105,19 +98,27 @@ mod tests {
             "Invalid number of arguments: 4."
         );
         assert_eq!(
-            FluidError::CannotOpenInput("in.fld".into()).to_string(),
+            FluidError::StepsNotNumeric.to_string(),
+            "time steps must be numeric."
+        );
+        assert_eq!(
+            FluidError::NegativeSteps.to_string(),
+            "Invalid number of time steps."
+        );
+        assert_eq!(
+            file(FileError::CannotOpenInput("in.fld".into())).to_string(),
             "Cannot open in.fld for reading"
         );
         assert_eq!(
-            FluidError::InvalidParticleCount(-7).to_string(),
+            file(FileError::InvalidParticleCount(-7)).to_string(),
             "Invalid number of particles: -7."
         );
+        let mismatch = FileError::ParticleCountMismatch {
+            header: 10,
+            found: 9,
+        };
         assert_eq!(
-            FluidError::ParticleCountMismatch {
-                header: 10,
-                found: 9
-            }
-            .to_string(),
+            file(mismatch).to_string(),
             "Number of particles mismatch. Header: 10, Found: 9."
         );
     }

@@ -2,37 +2,23 @@
 //! (derived from PARSEC fluidanimate). The model is specified in `SPEC.md` of the shared
 //! folder; this crate reproduces its reference outputs byte for byte.
 //!
-//! Modules, one per concept: [`progargs`] (arguments), [`fld`] (file format), [`params`]
-//! (constants and derived values), [`method`] (model and kernel), [`grid`] (blocks),
-//! [`cells`] (cell ordering), [`neighbours`] (pair search), [`particles`]
-//! (structure-of-arrays state), [`kernel`] (pair stages), [`stages`] (the other stages),
-//! [`simulation`] (driver), [`cli`] (the `fluid` command), [`lab`] (the `fluid-lab`
-//! workbench), plus [`gformat`], [`trace`],
-//! [`scene`] and [`error`].
+//! Three wings, each building only on those before it (`ARCHITECTURE.md` has the map):
+//! - [`sim`]: the model and what one time step does;
+//! - [`io`]: files in and out (`.fld`, traces, VTK and CSV exports);
+//! - [`lab`]: the `fluid-lab` workbench (scenes, diagnostics, accuracy, stability, sweeps,
+//!   energy, charts, pictures).
+//!
+//! At the door, the `fluid` command's fixed contract: [`progargs`] (its arguments),
+//! [`cli`] (one run) and [`error`] (its messages and exit codes).
 
-pub mod accuracy;
-pub mod cells;
-pub mod chart;
-pub mod cli;
-pub mod diagnostics;
-pub mod energy;
-pub mod error;
-pub mod export;
-pub mod fld;
-pub mod gformat;
-pub mod grid;
-pub mod kernel;
+pub mod io;
 pub mod lab;
-pub mod machine;
-pub mod method;
-pub mod neighbours;
-pub mod params;
-pub mod particles;
+pub mod sim;
+
+pub mod cli;
+pub mod error;
 pub mod progargs;
-pub mod render;
-pub mod scene;
-pub mod simulation;
-pub mod stability;
-pub mod stages;
-pub mod sweep;
-pub mod trace;
+
+pub use sim::method::{Kernel, Method, Model};
+pub use sim::particles::Particles;
+pub use sim::simulation::Simulation;

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{exit_code, input, reference_output, run_lab, stderr, stdout};
-use fluid::fld;
+use fluid::io::fld;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -199,7 +199,7 @@ fn renders_write_png_series_and_gif_animations() {
         .collect();
     assert_eq!(stdout(&output), expected);
     for path in &series {
-        assert_eq!(png_size(path), fluid::render::SIZE);
+        assert_eq!(png_size(path), fluid::lab::render::SIZE);
     }
 
     let gif = dir.path().join("small.gif");

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{exit_code, input, reference_output, run_lab, stderr, stdout};
-use fluid::fld;
+use fluid::io::fld;
 
 #[test]
 fn the_scalar_and_reference_kernels_reproduce_every_reference_output() {
@@ -88,7 +88,7 @@ fn every_generated_scene_reads_back_through_the_fld_reader() {
         if count > 0 {
             assert_eq!(scene.particles.len(), count, "{kind}");
         }
-        let expected = fluid::scene::generate(
+        let expected = fluid::lab::scene::generate(
             clap::ValueEnum::from_str(kind, false).unwrap(),
             200.0,
             4,
@@ -145,7 +145,7 @@ fn diagnostics_follow_the_run_and_a_failing_run_names_its_step() {
     assert_eq!(exit_code(&output), 0, "stderr: {}", stderr(&output));
     let text = std::fs::read_to_string(&csv).unwrap();
     let rows: Vec<Vec<&str>> = text.lines().map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows[0].join(","), fluid::diagnostics::CSV_HEADER);
+    assert_eq!(rows[0].join(","), fluid::lab::diagnostics::CSV_HEADER);
     let steps: Vec<&str> = rows[1..].iter().map(|row| row[0]).collect();
     assert_eq!(steps, ["0", "2", "4"]);
     // The course model: speeds and energy explode, particles leave the box.
@@ -247,7 +247,7 @@ fn accuracy_measures_each_kernel_against_the_reference() {
     }
     let text = std::fs::read_to_string(dir.path().join("accuracy.csv")).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some(fluid::accuracy::CSV_HEADER));
+    assert_eq!(lines.next(), Some(fluid::lab::accuracy::CSV_HEADER));
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), 3 * 4);
     for row in &rows {
@@ -298,7 +298,7 @@ fn stability_reports_each_run_and_maps_them() {
         "fluidanimate, ppm 100, dt 0.002 s: stable for 15 steps (0.030 s)"
     );
     let text = std::fs::read_to_string(dir.path().join("stability.csv")).unwrap();
-    assert_eq!(text.lines().next(), Some(fluid::stability::CSV_HEADER));
+    assert_eq!(text.lines().next(), Some(fluid::lab::stability::CSV_HEADER));
     assert_eq!(text.lines().count(), 5);
     assert!(
         text.contains(",fluidanimate,100,0.001,845,30,,,stable,\n"),

@@ -3,10 +3,10 @@
 
 mod common;
 
-use fluid::fld;
-use fluid::method::{Kernel, Method, Model};
-use fluid::params::{BOX_MAX, BOX_MIN};
-use fluid::simulation::Simulation;
+use fluid::io::fld;
+use fluid::sim::method::{Kernel, Method, Model};
+use fluid::sim::params::{BOX_MAX, BOX_MIN};
+use fluid::sim::simulation::Simulation;
 
 fn simulation(size: &str, model: Model) -> Simulation {
     let bytes = std::fs::read(common::input(size)).unwrap();

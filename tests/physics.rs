@@ -3,12 +3,12 @@
 //! runs to the far wall; the mechanical energy never grows. The course model, for
 //! contrast, gains energy tenfold within 5 steps.
 
-use fluid::diagnostics::Diagnostics;
-use fluid::export::Snapshot;
-use fluid::method::{Kernel, Method, Model};
-use fluid::params::{BOX_MAX, BOX_MIN, GRAVITY, PRESSURE_STIFFNESS};
-use fluid::scene::{self, SceneKind};
-use fluid::simulation::Simulation;
+use fluid::io::export::Snapshot;
+use fluid::lab::diagnostics::Diagnostics;
+use fluid::lab::scene::{self, SceneKind};
+use fluid::sim::method::{Kernel, Method, Model};
+use fluid::sim::params::{BOX_MAX, BOX_MIN, GRAVITY, PRESSURE_STIFFNESS};
+use fluid::sim::simulation::Simulation;
 
 const PPM: f64 = 150.0;
 

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{exit_code, input, run_lab, stderr, stdout};
-use fluid::sweep::COLUMNS;
+use fluid::lab::sweep::COLUMNS;
 use std::path::Path;
 
 fn column(name: &str) -> usize {

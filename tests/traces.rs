@@ -4,13 +4,13 @@
 
 mod common;
 
-use fluid::cells::Wall;
-use fluid::fld;
-use fluid::method::{Kernel, Method, Model};
-use fluid::particles::Particles;
-use fluid::simulation::Simulation;
-use fluid::stages::Stage;
-use fluid::trace::Trace;
+use fluid::io::fld;
+use fluid::io::trace::Trace;
+use fluid::sim::cells::Wall;
+use fluid::sim::method::{Kernel, Method, Model};
+use fluid::sim::particles::Particles;
+use fluid::sim::simulation::Simulation;
+use fluid::sim::stages::Stage;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

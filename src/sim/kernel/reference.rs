@@ -5,9 +5,9 @@
 //! About ten times slower than the scalar kernel; for accuracy measurements only.
 
 use super::scalar::pair_acceleration;
-use crate::neighbours::Tile;
-use crate::params::Params;
-use crate::particles::{vector_at, AxisArrays};
+use crate::sim::neighbours::Tile;
+use crate::sim::params::Params;
+use crate::sim::particles::{vector_at, AxisArrays};
 
 /// A compensated sum (Neumaier's variant of Kahan's): the running sum and the rounding
 /// errors it lost, added back at the end.

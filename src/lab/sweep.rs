@@ -2,8 +2,8 @@
 //! each run's wall, user and system time, peak memory and energy recorded, plus idle
 //! windows as a separate baseline, written as one tidy CSV (one row per run).
 
-use crate::energy::{Domain, Energy, EnergyMethod, MeasureError};
-use crate::machine::Machine;
+use crate::lab::energy::{Domain, Energy, EnergyMethod, MeasureError};
+use crate::lab::machine::Machine;
 use std::error::Error;
 use std::io::{self, Read, Seek, Write};
 use std::os::unix::process::ExitStatusExt;
@@ -294,7 +294,7 @@ fn file_name(path: &Path) -> String {
 
 /// The number of particles in a `.fld` input (which also checks that it is one).
 fn particle_count(path: &Path) -> Result<usize, Box<dyn Error>> {
-    Ok(crate::fld::read(path)?.particles.len())
+    Ok(crate::io::fld::read(path)?.particles.len())
 }
 
 /// One progress line for a record.

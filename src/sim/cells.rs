@@ -14,9 +14,9 @@
 //! contiguous, and so are the three cells of any row along x, which the pair search uses.
 //! The clamped block still decides the wall stages: each particle's walls are recorded here.
 
-use crate::grid::Grid;
-use crate::params::BOX_MIN;
-use crate::particles::Particles;
+use crate::sim::grid::Grid;
+use crate::sim::params::BOX_MIN;
+use crate::sim::particles::Particles;
 
 /// Largest cell coordinate magnitude kept; beyond it (about 9,000 km from the box at 204
 /// particles per metre) coordinates saturate, which keeps adjacent cells adjacent.
@@ -332,7 +332,7 @@ impl CellOrder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::Params;
+    use crate::sim::params::Params;
 
     fn grid() -> Grid {
         Grid::new(Params::new(204.0).h).unwrap()

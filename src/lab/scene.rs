@@ -2,9 +2,9 @@
 //! of fluid at rest on a cubic lattice of spacing 1/ppm (the spacing at which the particle
 //! mass gives the rest density), or a random cloud, at a chosen ppm and seed.
 
-use crate::grid::Grid;
-use crate::params::{Params, BOX_MAX, BOX_MIN};
-use crate::particles::Particles;
+use crate::sim::grid::Grid;
+use crate::sim::params::{Params, BOX_MAX, BOX_MIN};
+use crate::sim::particles::Particles;
 use glam::DVec3;
 
 /// The largest scene written: an `.fld` header counts particles in an `i32`, and a scene

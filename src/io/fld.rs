@@ -1,10 +1,12 @@
 //! The `.fld` file format (SPEC.md section 2): reading a memory-mapped input and validating
 //! it (sections 1 and 8), and writing an output atomically (temporary file + rename).
 
-use crate::error::FluidError;
-use crate::gformat::format_g;
-use crate::particles::Particles;
+use crate::io::gformat::format_g;
+use crate::sim::method::Method;
+use crate::sim::particles::Particles;
+use crate::sim::simulation::Simulation;
 use memmap2::Mmap;
+use std::fmt;
 use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -17,6 +19,60 @@ pub const RECORD_BYTES: usize = 36;
 /// The fields of a record, in file order.
 pub const FIELD_NAMES: [&str; 9] = ["px", "py", "pz", "hvx", "hvy", "hvz", "vx", "vy", "vz"];
 
+/// What is wrong with an input or an output file: SPEC.md rules 4 to 7 and section 8.
+/// `Display` gives the message after `Error: `; the `fluid` door gives each its exit code.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum FileError {
+    /// Rule 4: the input file cannot be opened or mapped for reading.
+    CannotOpenInput(String),
+    /// Rule 5: the output file cannot be opened (created) for writing.
+    CannotOpenOutput(String),
+    /// Rule 6: the header's particle count is zero or negative.
+    InvalidParticleCount(i32),
+    /// Rule 7: the whole records in the body are not as many as the header says.
+    ParticleCountMismatch {
+        /// Count in the header.
+        header: i32,
+        /// Whole 36-byte records found after the header.
+        found: u64,
+    },
+    /// Section 8: any other defect of the input file (short header, partial record,
+    /// non-finite or out-of-range value, particles per metre that admit no grid).
+    InvalidInput {
+        /// The input file name as given.
+        file: String,
+        /// What is wrong, without a final period.
+        reason: String,
+    },
+    /// The output could not be written after the simulation (e.g. the disk is full).
+    CannotWriteOutput {
+        /// The output file name as given.
+        file: String,
+        /// The operating system's reason.
+        reason: String,
+    },
+}
+
+impl fmt::Display for FileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::CannotOpenInput(file) => write!(f, "Cannot open {file} for reading"),
+            Self::CannotOpenOutput(file) => write!(f, "Cannot open {file} for writing"),
+            Self::InvalidParticleCount(np) => write!(f, "Invalid number of particles: {np}."),
+            Self::ParticleCountMismatch { header, found } => write!(
+                f,
+                "Number of particles mismatch. Header: {header}, Found: {found}."
+            ),
+            Self::InvalidInput { file, reason } => {
+                write!(f, "Invalid input file {file}: {reason}.")
+            }
+            Self::CannotWriteOutput { file, reason } => write!(f, "Cannot write {file}: {reason}."),
+        }
+    }
+}
+
+impl std::error::Error for FileError {}
+
 /// The contents of a valid `.fld` file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
@@ -26,9 +82,23 @@ pub struct Scene {
     pub particles: Particles,
 }
 
+impl Scene {
+    /// The simulation of these particles with `method`. Particles per metre that admit no
+    /// grid make the input invalid (exit 251 for `fluid`); `file` names it in the message.
+    pub fn into_simulation(self, method: Method, file: &str) -> Result<Simulation, FileError> {
+        let ppm = self.ppm;
+        Simulation::with_method(ppm.into(), self.particles, method).map_err(|e| {
+            FileError::InvalidInput {
+                file: file.to_string(),
+                reason: format!("particles per meter {} gives {e}", format_g(ppm.into())),
+            }
+        })
+    }
+}
+
 /// Opens and memory-maps an input file (rule 4: any failure is "cannot open").
-pub fn map_input(path: &Path) -> Result<Mmap, FluidError> {
-    let cannot_open = || FluidError::CannotOpenInput(path.display().to_string());
+pub fn map_input(path: &Path) -> Result<Mmap, FileError> {
+    let cannot_open = || FileError::CannotOpenInput(path.display().to_string());
     let file = File::open(path).map_err(|_| cannot_open())?;
     if !file.metadata().map_err(|_| cannot_open())?.is_file() {
         return Err(cannot_open());
@@ -40,7 +110,7 @@ pub fn map_input(path: &Path) -> Result<Mmap, FluidError> {
 
 /// Maps and parses the input file at `path`, named as given in messages (for callers that
 /// need no other check between the two, unlike `fluid`'s contract).
-pub fn read(path: &Path) -> Result<Scene, FluidError> {
+pub fn read(path: &Path) -> Result<Scene, FileError> {
     parse(&map_input(path)?, &path.display().to_string())
 }
 
@@ -51,8 +121,8 @@ fn read_f32(bytes: &[u8], at: usize) -> f32 {
 /// Validates and decodes the bytes of an `.fld` file named `file` (for messages).
 /// Checks, in order: header length, np > 0 (rule 6), whole records == np (rule 7),
 /// no partial record, finite ppm > 0, finite fields (section 8).
-pub fn parse(bytes: &[u8], file: &str) -> Result<Scene, FluidError> {
-    let invalid = |reason: String| FluidError::InvalidInput {
+pub fn parse(bytes: &[u8], file: &str) -> Result<Scene, FileError> {
+    let invalid = |reason: String| FileError::InvalidInput {
         file: file.to_string(),
         reason,
     };
@@ -65,12 +135,12 @@ pub fn parse(bytes: &[u8], file: &str) -> Result<Scene, FluidError> {
     let ppm = read_f32(bytes, 0);
     let np = i32::from_le_bytes(bytes[4..8].try_into().expect("4 bytes"));
     if np <= 0 {
-        return Err(FluidError::InvalidParticleCount(np));
+        return Err(FileError::InvalidParticleCount(np));
     }
     let body = &bytes[HEADER_BYTES..];
     let found = body.len() / RECORD_BYTES;
     if found != np as usize {
-        return Err(FluidError::ParticleCountMismatch {
+        return Err(FileError::ParticleCountMismatch {
             header: np,
             found: found as u64,
         });
@@ -149,8 +219,8 @@ impl OutputFile {
     /// Checks that `path` can be written (rule 5) before anything is simulated: creates
     /// the temporary file beside it (or opens a special file). Nothing appears at `path`
     /// until [`OutputFile::commit`]. A symbolic link is written through, not replaced.
-    pub fn create(path: &Path) -> Result<Self, FluidError> {
-        let cannot_open = || FluidError::CannotOpenOutput(path.display().to_string());
+    pub fn create(path: &Path) -> Result<Self, FileError> {
+        let cannot_open = || FileError::CannotOpenOutput(path.display().to_string());
         let target = match std::fs::canonicalize(path) {
             Ok(existing) => existing,
             Err(_) => path.to_path_buf(),
@@ -177,8 +247,8 @@ impl OutputFile {
 
     /// Writes `bytes` and, for a regular file, renames the temporary file over the target
     /// (mode 0644 on Unix). On failure the temporary file is removed, the target untouched.
-    pub fn commit(self, bytes: &[u8]) -> Result<(), FluidError> {
-        let failed = |e: std::io::Error| FluidError::CannotWriteOutput {
+    pub fn commit(self, bytes: &[u8]) -> Result<(), FileError> {
+        let failed = |e: std::io::Error| FileError::CannotWriteOutput {
             file: self.name.clone(),
             reason: e.to_string(),
         };
@@ -235,9 +305,9 @@ mod tests {
         std::array::from_fn(|i| seed + i as f32 * 0.125)
     }
 
-    fn reason(result: Result<Scene, FluidError>) -> String {
+    fn reason(result: Result<Scene, FileError>) -> String {
         match result {
-            Err(FluidError::InvalidInput { reason, .. }) => reason,
+            Err(FileError::InvalidInput { reason, .. }) => reason,
             other => panic!("expected InvalidInput, got {other:?}"),
         }
     }
@@ -283,18 +353,18 @@ mod tests {
     fn non_positive_particle_counts_are_rule_6() {
         assert_eq!(
             parse(&file_bytes(204.0, 0, &[]), "f"),
-            Err(FluidError::InvalidParticleCount(0))
+            Err(FileError::InvalidParticleCount(0))
         );
         assert_eq!(
             parse(&file_bytes(204.0, -3, &[record(0.0)]), "f"),
-            Err(FluidError::InvalidParticleCount(-3))
+            Err(FileError::InvalidParticleCount(-3))
         );
     }
 
     #[test]
     fn record_count_mismatch_is_rule_7() {
         let bytes = file_bytes(204.0, 3, &[record(0.0), record(1.0)]);
-        let expected = FluidError::ParticleCountMismatch {
+        let expected = FileError::ParticleCountMismatch {
             header: 3,
             found: 2,
         };
@@ -357,10 +427,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         for path in [dir.path().to_path_buf(), dir.path().join("missing/out.fld")] {
             let err = OutputFile::create(&path).unwrap_err();
-            assert_eq!(
-                err,
-                FluidError::CannotOpenOutput(path.display().to_string())
-            );
+            assert_eq!(err, FileError::CannotOpenOutput(path.display().to_string()));
         }
     }
 
@@ -372,7 +439,7 @@ mod tests {
             .commit(b"data")
             .unwrap_err();
         assert!(
-            matches!(&err, FluidError::CannotWriteOutput { file, .. } if file == "/dev/full"),
+            matches!(&err, FileError::CannotWriteOutput { file, .. } if file == "/dev/full"),
             "{err:?}"
         );
         let dir = tempfile::tempdir().unwrap();
@@ -410,7 +477,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         for path in [dir.path().to_path_buf(), dir.path().join("missing.fld")] {
             let err = map_input(&path).unwrap_err();
-            assert_eq!(err, FluidError::CannotOpenInput(path.display().to_string()));
+            assert_eq!(err, FileError::CannotOpenInput(path.display().to_string()));
         }
     }
 

@@ -1,9 +1,9 @@
 //! The reference pair loops: one pair at a time, in plain f64, each pair's terms added to
 //! both particles at once.
 
-use crate::neighbours::Tile;
-use crate::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
-use crate::particles::{vector_at, AxisArrays};
+use crate::sim::neighbours::Tile;
+use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
+use crate::sim::particles::{vector_at, AxisArrays};
 use glam::DVec3;
 
 pub(super) fn increment_densities(

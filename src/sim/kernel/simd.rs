@@ -15,9 +15,9 @@ use super::{Candidates, ClosePairs, OVERFLOW_GROUP};
 
 /// The group bit that stands for every group from [`OVERFLOW_GROUP`] on.
 const OVERFLOW_BIT: u64 = 1 << OVERFLOW_GROUP;
-use crate::neighbours::Tile;
-use crate::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
-use crate::particles::{AxisArrays, PADDING};
+use crate::sim::neighbours::Tile;
+use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
+use crate::sim::particles::{AxisArrays, PADDING};
 use wide::f64x4;
 
 const LANES: usize = 4;

@@ -1,11 +1,11 @@
 //! The stages of one time step (SPEC.md section 4) and the per-particle ones among them:
-//! stages 6-8. Stage 1 is the cell order ([`crate::cells`]), stage 2 is done by the
+//! stages 6-8. Stage 1 is the cell order ([`crate::sim::cells`]), stage 2 is done by the
 //! reordering ([`Particles::reset_densities_and_accelerations`]), and the pair stages 3-5
-//! are the [`crate::kernel`].
+//! are the [`crate::sim::kernel`].
 
-use crate::cells::{Wall, WallSlots};
-use crate::params::{BOX_MAX, BOX_MIN, COLLISION_STIFFNESS, DAMPING, PARTICLE_SIZE};
-use crate::particles::Particles;
+use crate::sim::cells::{Wall, WallSlots};
+use crate::sim::params::{BOX_MAX, BOX_MIN, COLLISION_STIFFNESS, DAMPING, PARTICLE_SIZE};
+use crate::sim::particles::Particles;
 
 /// The eight stages of a time step, in execution order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -140,9 +140,9 @@ pub fn interact_with_boundary(walls: &WallSlots, particles: &mut Particles) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cells::CellOrder;
-    use crate::grid::Grid;
-    use crate::params::TIME_STEP;
+    use crate::sim::cells::CellOrder;
+    use crate::sim::grid::Grid;
+    use crate::sim::params::TIME_STEP;
     use glam::DVec3;
 
     #[test]

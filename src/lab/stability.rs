@@ -3,12 +3,12 @@
 //! kinetic plus potential energy above 1.5 times the first) until it fails or reaches the
 //! simulated time asked for; and the map of the outcomes.
 
-use crate::chart::Drawing;
-use crate::diagnostics::{Checks, Failure, Vitals};
-use crate::method::{Kernel, Method, Model};
-use crate::params::Params;
-use crate::scene::{self, SceneKind};
-use crate::simulation::Simulation;
+use crate::lab::chart::Drawing;
+use crate::lab::diagnostics::{Checks, Failure, Vitals};
+use crate::lab::scene::{self, SceneKind};
+use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::params::Params;
+use crate::sim::simulation::Simulation;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -122,7 +122,7 @@ pub const SIZE: (u32, u32) = (1100, 520);
 
 /// The outcomes as one grid per model (columns: time steps, rows: ppm), each cell green
 /// if stable, else red, darker the sooner it failed, with the failure step, time and
-/// reason: `stability-map.png` and `.svg` through [`crate::chart::render`].
+/// reason: `stability-map.png` and `.svg` through [`crate::lab::chart::render`].
 pub struct StabilityMap<'a> {
     /// The runs.
     pub outcomes: &'a [Outcome],
@@ -305,7 +305,7 @@ mod tests {
             outcomes: &outcomes,
             footer: "test".into(),
         };
-        let [png, svg] = crate::chart::render(&map, dir.path(), SIZE).unwrap();
+        let [png, svg] = crate::lab::chart::render(&map, dir.path(), SIZE).unwrap();
         let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
         let info = decoder.read_info().unwrap();
         assert_eq!((info.info().width, info.info().height), SIZE);

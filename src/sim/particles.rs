@@ -1,7 +1,7 @@
 //! Particle state as a structure of arrays: one contiguous `Vec` per field and axis, so the
 //! physics loops stream through memory and can be vectorised.
 
-use crate::params::GRAVITY;
+use crate::sim::params::GRAVITY;
 use glam::DVec3;
 
 /// Three arrays, one per axis, of one vector field.

@@ -2,9 +2,9 @@
 //! the block stage 1 puts it in, written as legacy VTK (which ParaView opens: positions as
 //! points; velocity, half velocity, density, block and id as point data) or as CSV.
 
-use crate::cells::cell_of;
-use crate::particles::vector_at;
-use crate::simulation::Simulation;
+use crate::sim::cells::cell_of;
+use crate::sim::particles::vector_at;
+use crate::sim::simulation::Simulation;
 use glam::DVec3;
 use std::fmt::Write;
 
@@ -130,8 +130,8 @@ fn write_vectors(text: &mut String, vectors: &[DVec3]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::BOX_MIN;
-    use crate::particles::Particles;
+    use crate::sim::params::BOX_MIN;
+    use crate::sim::particles::Particles;
 
     /// Two particles 1 mm apart near the low corner, and one far away, at ppm 200.
     fn simulation() -> Simulation {

@@ -14,10 +14,10 @@ mod reference;
 mod scalar;
 mod simd;
 
-use crate::method::{Kernel, Model};
-use crate::neighbours::Tile;
-use crate::params::Params;
-use crate::particles::AxisArrays;
+use crate::sim::method::{Kernel, Model};
+use crate::sim::neighbours::Tile;
+use crate::sim::params::Params;
+use crate::sim::particles::AxisArrays;
 
 /// The last group bit of [`ClosePairs::groups`], which stands for every group from it on.
 const OVERFLOW_GROUP: usize = 63;

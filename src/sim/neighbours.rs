@@ -11,7 +11,7 @@
 //! tests per cell (is there any key near it in its plane, in the next plane?) settle the
 //! usual case of a particle far outside the box.
 
-use crate::cells::{CellLayout, SENTINELS};
+use crate::sim::cells::{CellLayout, SENTINELS};
 
 /// A set of candidate pairs: every slot of `first..first_end` with every slot of
 /// `second..second_end`, or, for a cell with itself (`first == second`), every pair of its
@@ -186,10 +186,10 @@ impl TileSearch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cells::{cell_of, coarse_cell, CellOrder};
-    use crate::grid::Grid;
-    use crate::params::Params;
-    use crate::particles::Particles;
+    use crate::sim::cells::{cell_of, coarse_cell, CellOrder};
+    use crate::sim::grid::Grid;
+    use crate::sim::params::Params;
+    use crate::sim::particles::Particles;
     use std::collections::BTreeSet;
 
     /// Every pair (lower slot first) that the tiles visit, failing on a repeat.

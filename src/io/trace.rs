@@ -1,7 +1,7 @@
 //! Reader for the course's per-stage trace files (`.trz`, SPEC.md section 6): the full
 //! double-precision state after one stage, block by block.
 
-use crate::particles::Particles;
+use crate::sim::particles::Particles;
 use std::io;
 use std::path::Path;
 

@@ -3,9 +3,9 @@
 //! the checks that call a run failed (non-finite values, energy growing past a bound,
 //! particles leaving the box).
 
-use crate::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
-use crate::particles::vector_at;
-use crate::simulation::Simulation;
+use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
+use crate::sim::particles::vector_at;
+use crate::sim::simulation::Simulation;
 use std::fmt;
 
 /// The CSV header of [`Diagnostics::csv_row`].
@@ -213,7 +213,7 @@ impl Checks {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::particles::Particles;
+    use crate::sim::particles::Particles;
     use glam::DVec3;
 
     fn simulation(points: &[(DVec3, DVec3)]) -> Simulation {

@@ -2,14 +2,14 @@
 //! tiles of the current step, and the buffers reused from step to step (no step
 //! allocates once the buffers have grown), and runs stages and time steps.
 
-use crate::cells::CellOrder;
-use crate::grid::{Grid, GridSizeError};
-use crate::kernel::{self, Candidates, ClosePairs};
-use crate::method::Method;
-use crate::neighbours::{Tile, TileSearch};
-use crate::params::Params;
-use crate::particles::Particles;
-use crate::stages::{self, Stage};
+use crate::sim::cells::CellOrder;
+use crate::sim::grid::{Grid, GridSizeError};
+use crate::sim::kernel::{self, Candidates, ClosePairs};
+use crate::sim::method::Method;
+use crate::sim::neighbours::{Tile, TileSearch};
+use crate::sim::params::Params;
+use crate::sim::particles::Particles;
+use crate::sim::stages::{self, Stage};
 
 /// A running simulation.
 #[derive(Debug, Clone)]
@@ -228,9 +228,9 @@ impl Simulation {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cells::SENTINELS;
-    use crate::method::{Kernel, Model};
-    use crate::params::BOX_MIN;
+    use crate::sim::cells::SENTINELS;
+    use crate::sim::method::{Kernel, Model};
+    use crate::sim::params::BOX_MIN;
 
     /// Particles at the given x positions (y, z at the box's lower corner plus a margin).
     fn along_x(xs: &[f64]) -> Particles {

@@ -1,9 +1,9 @@
-//! Charts of a sweep CSV (see [`crate::sweep`]): time, energy and power against iterations,
+//! Charts of a sweep CSV (see [`crate::lab::sweep`]): time, energy and power against iterations,
 //! one line per input (and energy domain), each point the median of its repeats with a
 //! min-max bar. Drawn with plotters as PNG and SVG, with an embedded font (DejaVu Sans), so
 //! no system font library and no network are needed.
 
-use crate::energy::Domain;
+use crate::lab::energy::Domain;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -639,9 +639,9 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::energy::{Energy, EnergyMethod};
-    use crate::machine::Machine;
-    use crate::sweep::{Plan, Record, Sweep, Usage};
+    use crate::lab::energy::{Energy, EnergyMethod};
+    use crate::lab::machine::Machine;
+    use crate::lab::sweep::{Plan, Record, Sweep, Usage};
     use std::time::Duration;
 
     /// A sweep CSV as `fluid-lab sweep` writes it: two inputs, iterations 0, 10 and 100,

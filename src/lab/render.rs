@@ -3,9 +3,9 @@
 //! or density on the viridis scale with its colour bar, the box's walls drawn. One PNG, or
 //! the frames of a run as an animated GIF. Drawn with plotters and the embedded DejaVu Sans.
 
-use crate::chart::register_font;
-use crate::export::Snapshot;
-use crate::params::{BOX_MAX, BOX_MIN};
+use crate::io::export::Snapshot;
+use crate::lab::chart::register_font;
+use crate::sim::params::{BOX_MAX, BOX_MIN};
 use glam::DVec3;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -224,7 +224,7 @@ where
     let subtitle = format!(
         "step {} (t = {:.3} s), {} particles, {outside} outside the box",
         snapshot.step,
-        snapshot.step as f64 * crate::params::TIME_STEP,
+        snapshot.step as f64 * crate::sim::params::TIME_STEP,
         snapshot.len()
     );
     root.draw(&Text::new(
@@ -316,7 +316,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulation::Simulation;
+    use crate::sim::simulation::Simulation;
 
     #[test]
     fn the_layout_keeps_every_box_corner_in_the_frame_and_the_views_apart() {
@@ -357,7 +357,7 @@ mod tests {
 
     /// A 10 x 10 x 10 block at rest in the low corner, at 200 particles per metre.
     fn corner_snapshot() -> Snapshot {
-        let particles = crate::scene::corner_block(200.0, 1000);
+        let particles = crate::lab::scene::corner_block(200.0, 1000);
         Snapshot::of(&Simulation::new(200.0, particles).unwrap(), 0)
     }
 

@@ -1,14 +1,14 @@
 //! The grid of blocks that partitions the box (SPEC.md section 3): its size and linear block
 //! indices. The block of a position (clamped into the grid) is its cell of
-//! [`crate::cells`] clamped.
+//! [`crate::sim::cells`] clamped.
 
-use crate::params::{BOX_MAX, BOX_MIN};
+use crate::sim::params::{BOX_MAX, BOX_MIN};
 use glam::DVec3;
 use std::fmt;
 
 /// Largest number of blocks a grid may have (about 49,000 particles per metre): rejects
 /// absurd inputs, and keeps every cell within a grid's width of the box exact in the
-/// 48-bit keys of the cell order (`crate::cells`).
+/// 48-bit keys of the cell order (`crate::sim::cells`).
 pub const MAX_BLOCKS: usize = 1 << 26;
 
 /// Why no grid can be built for a smoothing length.
@@ -78,7 +78,7 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::Params;
+    use crate::sim::params::Params;
 
     fn small_grid() -> Grid {
         Grid::new(Params::new(204.0).h).unwrap()

@@ -3,9 +3,9 @@
 //! against the reference trajectory (the compensated [`Kernel::Reference`]) and records
 //! time per step and position error at every step.
 
-use crate::method::{Kernel, Method, Model};
-use crate::particles::{vector_at, AxisArrays, Particles};
-use crate::simulation::Simulation;
+use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::particles::{vector_at, AxisArrays, Particles};
+use crate::sim::simulation::Simulation;
 use glam::DVec3;
 use std::fmt::Write;
 use std::time::Instant;
@@ -181,7 +181,7 @@ mod tests {
 
     #[test]
     fn the_sweep_measures_each_kernel_against_the_reference() {
-        let particles = crate::scene::corner_block(150.0, 300);
+        let particles = crate::lab::scene::corner_block(150.0, 300);
         let start = Simulation::new(150.0, particles).unwrap();
         let trajectories = sweep(&start, Model::Fluidanimate, &Kernel::FAST, 3);
         let kernels: Vec<Kernel> = trajectories.iter().map(|t| t.method.kernel).collect();

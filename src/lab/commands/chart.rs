@@ -1,0 +1,34 @@
+//! `fluid-lab chart`: the charts of a sweep CSV (time, energy and power against
+//! iterations), as PNG and SVG.
+
+use crate::lab::chart::{self, SweepTable};
+use clap::Args;
+use std::error::Error;
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct ChartArgs {
+    /// The CSV written by `fluid-lab sweep`.
+    csv: PathBuf,
+    /// Folder for time, energy and power .png and .svg [default: the CSV's folder].
+    #[arg(long)]
+    output_dir: Option<PathBuf>,
+}
+
+pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let text = std::fs::read_to_string(&args.csv)
+        .map_err(|error| format!("cannot read {}: {error}", args.csv.display()))?;
+    let table =
+        SweepTable::parse(&text).map_err(|error| format!("{}: {error}", args.csv.display()))?;
+    let folder = match args.output_dir {
+        Some(folder) => folder,
+        None => args.csv.parent().map(PathBuf::from).unwrap_or_default(),
+    };
+    for chart in table.charts() {
+        for path in chart::render(&chart, &folder, chart::SIZE)? {
+            writeln!(stdout, "wrote {}", path.display())?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,61 @@
+//! `fluid-lab export`: a state, or a run every k steps, as VTK (ParaView) or CSV files.
+
+use super::simulate::{load, run_visiting, Loaded, SimulationArgs};
+use crate::io::export::Snapshot;
+use crate::io::fld::OutputFile;
+use clap::builder::RangedU64ValueParser;
+use clap::Args;
+use std::error::Error;
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    #[command(flatten)]
+    simulation: SimulationArgs,
+    /// Folder for the files, named INPUT-STEM_STEP.vtk (or .csv).
+    output_dir: PathBuf,
+    /// Also export every this many steps (and step 0) [default: the final state only].
+    #[arg(long, value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
+    every: Option<u64>,
+    /// File format.
+    #[arg(long, value_enum, default_value_t = ExportFormat::Vtk)]
+    format: ExportFormat,
+}
+
+/// The format of exported states.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExportFormat {
+    /// Legacy VTK polydata, which ParaView opens (a numbered series as a time series).
+    Vtk,
+    /// One row per particle.
+    Csv,
+}
+
+pub fn exec(args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let Loaded {
+        stem,
+        name,
+        mut simulation,
+        ..
+    } = load(&args.simulation)?;
+    std::fs::create_dir_all(&args.output_dir)
+        .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
+    let steps = args.simulation.steps;
+    run_visiting(&mut simulation, steps, args.every, |simulation, step| {
+        let snapshot = Snapshot::of(simulation, step);
+        let (text, extension) = match args.format {
+            ExportFormat::Vtk => (
+                snapshot.to_vtk(&format!("fluid: {name}, step {step}")),
+                "vtk",
+            ),
+            ExportFormat::Csv => (snapshot.to_csv(), "csv"),
+        };
+        let path = args
+            .output_dir
+            .join(format!("{stem}_{step:06}.{extension}"));
+        OutputFile::create(&path)?.commit(text.as_bytes())?;
+        writeln!(stdout, "wrote {}", path.display())?;
+        Ok(())
+    })
+}

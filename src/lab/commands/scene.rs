@@ -1,0 +1,32 @@
+//! `fluid-lab scene`: a generated scene written as a `.fld` input.
+
+use crate::io::fld::{self, OutputFile};
+use crate::lab::scene::{self, SceneKind};
+use clap::Args;
+use std::error::Error;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct SceneArgs {
+    /// The scene.
+    #[arg(value_enum)]
+    kind: SceneKind,
+    /// Output .fld file.
+    output: PathBuf,
+    /// Particles per metre: the lattice spacing is 1/ppm.
+    #[arg(long, default_value_t = 400.0)]
+    ppm: f32,
+    /// Seed of the lattice jitter and of the random cloud.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Number of particles (random-cloud and corner-block only).
+    #[arg(long)]
+    particles: Option<usize>,
+}
+
+pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
+    let output = OutputFile::create(&args.output)?;
+    let particles = scene::generate(args.kind, args.ppm.into(), args.seed, args.particles)?;
+    output.commit(&fld::encode(args.ppm, &particles))?;
+    Ok(())
+}

@@ -1,0 +1,109 @@
+//! The simulation a subcommand runs: its arguments (input, steps, model, kernel, time
+//! step), the input placed for it, and a run with a progress bar that visits chosen steps.
+
+use crate::io::fld;
+use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::params::TIME_STEP;
+use crate::sim::simulation::Simulation;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::error::Error;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+/// A simulation to run: input, steps, model and kernel.
+#[derive(Debug, Args)]
+pub struct SimulationArgs {
+    /// Input .fld file.
+    pub input: PathBuf,
+    /// Time steps to run.
+    #[arg(long, default_value_t = 1)]
+    pub steps: u64,
+    /// Physical model.
+    #[arg(long, value_enum, default_value_t = Model::Course)]
+    pub model: Model,
+    /// Pair-loop implementation.
+    #[arg(long, value_enum, default_value_t = Kernel::Simd)]
+    pub kernel: Kernel,
+    /// Time step in seconds.
+    #[arg(long, default_value_t = TIME_STEP, value_parser = parse_time_step)]
+    pub dt: f64,
+}
+
+/// An input placed for simulation.
+pub struct Loaded {
+    /// The input's file stem, for output names.
+    pub stem: String,
+    /// The input's name as given.
+    pub name: String,
+    /// Particles per metre, as the input stores it.
+    pub ppm: f32,
+    /// The input's particles, ready to step.
+    pub simulation: Simulation,
+}
+
+/// Reads and places the input of `args` with its model, kernel and time step.
+pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
+    let name = args.input.display().to_string();
+    let scene = fld::read(&args.input)?;
+    let method = Method {
+        model: args.model,
+        kernel: args.kernel,
+    };
+    let stem = args.input.file_stem().unwrap_or_default();
+    let ppm = scene.ppm;
+    let mut simulation = scene.into_simulation(method, &name)?;
+    simulation.set_time_step(args.dt);
+    Ok(Loaded {
+        stem: stem.to_string_lossy().into_owned(),
+        simulation,
+        name,
+        ppm,
+    })
+}
+
+/// A progress bar over `steps` on stderr, with steps per second, if stderr is a terminal;
+/// hidden otherwise.
+pub fn progress_bar(steps: u64) -> ProgressBar {
+    if steps == 0 || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let style = ProgressStyle::with_template("{bar:30} {pos}/{len} steps  {per_sec}  eta {eta}")
+        .expect("a valid template");
+    ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::stderr()).with_style(style)
+}
+
+/// Runs `steps` steps, calling `visit` at step 0 and every `every` steps (if given), and
+/// at the last step.
+pub fn run_visiting(
+    simulation: &mut Simulation,
+    steps: u64,
+    every: Option<u64>,
+    mut visit: impl FnMut(&Simulation, u64) -> Result<(), Box<dyn Error>>,
+) -> Result<(), Box<dyn Error>> {
+    let progress = progress_bar(steps);
+    for step in 0..=steps {
+        if step > 0 {
+            simulation.step();
+            progress.inc(1);
+        }
+        if step == steps || every.is_some_and(|every| step % every == 0) {
+            visit(simulation, step)?;
+        }
+    }
+    progress.finish_and_clear();
+    Ok(())
+}
+
+/// Parses a positive, finite time step.
+pub fn parse_time_step(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(dt) if is_time_step(dt) => Ok(dt),
+        _ => Err(format!("{text} is not a positive time step")),
+    }
+}
+
+/// Whether `dt` can be a time step: finite and positive.
+pub fn is_time_step(dt: f64) -> bool {
+    dt.is_finite() && dt > 0.0
+}

@@ -1,0 +1,87 @@
+//! `fluid-lab stability`: a scene over time steps and resolutions, each run watched until
+//! it fails; a CSV and the stability map.
+
+use super::simulate::is_time_step;
+use crate::io::fld::OutputFile;
+use crate::lab::chart;
+use crate::lab::machine::Machine;
+use crate::lab::scene::SceneKind;
+use crate::lab::stability;
+use crate::sim::method::Model;
+use crate::sim::params::TIME_STEP;
+use clap::Args;
+use std::error::Error;
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct StabilityArgs {
+    /// Folder for stability.csv and stability-map.{png,svg}.
+    #[arg(long)]
+    output_dir: PathBuf,
+    /// The scene run.
+    #[arg(long, value_enum, default_value_t = SceneKind::DamBreak)]
+    scene: SceneKind,
+    /// Seed of the scene.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Models to run.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = Model::ALL)]
+    models: Vec<Model>,
+    /// Particles per metre of the scene.
+    #[arg(long, value_delimiter = ',', default_values_t = [100.0, 150.0, 200.0, 300.0])]
+    ppms: Vec<f64>,
+    /// Time steps, as multiples of the course's 1e-3 s.
+    #[arg(long, value_delimiter = ',', default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]
+    dt_factors: Vec<f64>,
+    /// Simulated seconds each run must last to count as stable.
+    #[arg(long, default_value_t = 0.5)]
+    duration: f64,
+}
+
+pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    for &factor in &args.dt_factors {
+        if !is_time_step(factor * TIME_STEP) {
+            return Err(
+                format!("--dt-factors: {factor} does not give a positive time step").into(),
+            );
+        }
+    }
+    std::fs::create_dir_all(&args.output_dir)
+        .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
+    let mut rows = format!("{}\n", stability::CSV_HEADER);
+    let mut outcomes = Vec::new();
+    for &model in &args.models {
+        for &ppm in &args.ppms {
+            for &factor in &args.dt_factors {
+                let dt = factor * TIME_STEP;
+                let outcome =
+                    stability::watch(args.scene, args.seed, model, ppm, dt, args.duration)?;
+                writeln!(stdout, "{}", outcome.summary())?;
+                rows.push_str(&outcome.csv_row());
+                rows.push('\n');
+                outcomes.push(outcome);
+            }
+        }
+    }
+    let csv_path = args.output_dir.join("stability.csv");
+    OutputFile::create(&csv_path)?.commit(rows.as_bytes())?;
+    writeln!(stdout, "wrote {}", csv_path.display())?;
+    let machine = Machine::this();
+    let footer = format!(
+        "{} seed {}, {} s each; fails on: non-finite values, particles more than h outside the \
+         box, energy above 1.5 x the first; commit {}",
+        args.scene.name(),
+        args.seed,
+        args.duration,
+        machine.commit
+    );
+    let map = stability::StabilityMap {
+        outcomes: &outcomes,
+        footer,
+    };
+    for path in chart::render(&map, &args.output_dir, stability::SIZE)? {
+        writeln!(stdout, "wrote {}", path.display())?;
+    }
+    Ok(())
+}

@@ -1,0 +1,75 @@
+//! The workbench wing (`fluid-lab`): everything `fluid`'s fixed contract leaves out, on
+//! the same library. Its concepts are modules here: generated [`scene`]s, per-state
+//! [`diagnostics`], [`accuracy`] against the reference trajectory, [`stability`] maps,
+//! iteration [`sweep`]s with their [`energy`] and [`machine`], [`chart`]s and [`render`]ed
+//! pictures. The command line is [`Lab`], one module of `commands/` per subcommand.
+
+pub mod accuracy;
+pub mod chart;
+mod commands;
+pub mod diagnostics;
+pub mod energy;
+pub mod machine;
+pub mod render;
+pub mod scene;
+pub mod stability;
+pub mod sweep;
+
+use clap::{Parser, Subcommand};
+use std::error::Error;
+use std::io::Write;
+
+/// The workbench's command line.
+#[derive(Debug, Parser)]
+#[command(
+    name = "fluid-lab",
+    about = "Workbench for the fluid SPH simulator",
+    version
+)]
+pub struct Lab {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// The subcommands, each with its arguments (a module of `commands` each).
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run a scene with a chosen model and kernel, timed; optionally write the final state.
+    Run(commands::run::RunArgs),
+    /// Export a state, or a run every k steps, as VTK (ParaView) or CSV files.
+    Export(commands::export::ExportArgs),
+    /// Render a state as a PNG, or a run as an animated GIF or PNG series.
+    Render(commands::render::RenderArgs),
+    /// Compare two .fld files: largest and RMS error per field, and the worst particle.
+    Compare(commands::compare::CompareArgs),
+    /// Time per step against error, for each model and kernel, relative to the reference
+    /// trajectory: a CSV and two charts.
+    Accuracy(commands::accuracy::AccuracyArgs),
+    /// Run a scene over time steps and resolutions and map where each model fails.
+    Stability(commands::stability::StabilityArgs),
+    /// Write a generated scene (dam break, drop, filled box, random cloud, corner block) as
+    /// a .fld input.
+    Scene(commands::scene::SceneArgs),
+    /// Measure `fluid` over iteration counts (time, memory, energy) into a CSV.
+    #[command(args_override_self = true)]
+    Sweep(commands::sweep::SweepArgs),
+    /// Chart a sweep CSV: time, energy and power against iterations, as PNG and SVG.
+    Chart(commands::chart::ChartArgs),
+}
+
+impl Lab {
+    /// Runs the parsed command, writing its report to `stdout`.
+    pub fn execute(self, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+        match self.command {
+            Command::Run(args) => commands::run::exec(args, stdout),
+            Command::Export(args) => commands::export::exec(args, stdout),
+            Command::Render(args) => commands::render::exec(args, stdout),
+            Command::Compare(args) => commands::compare::exec(args, stdout),
+            Command::Accuracy(args) => commands::accuracy::exec(args, stdout),
+            Command::Stability(args) => commands::stability::exec(args, stdout),
+            Command::Scene(args) => commands::scene::exec(args),
+            Command::Sweep(args) => commands::sweep::exec(args, stdout),
+            Command::Chart(args) => commands::chart::exec(args, stdout),
+        }
+    }
+}

@@ -1,0 +1,20 @@
+//! The model wing: the course model and everything one time step does, from the cell
+//! order to the motion of the particles. It reads and writes no file and knows nothing of
+//! the command lines; [`crate::io`], [`crate::lab`] and the `fluid` door build on it.
+//!
+//! A step ([`simulation::Simulation::step`]) runs the [`stages`] in order: the [`cells`] sort the
+//! particles into cell order, the [`neighbours`] search lists the tiles of candidate
+//! slots, a [`kernel`] runs the pair loops (density, acceleration), and the per-particle
+//! stages push particles off the walls and move them. [`params`] holds the constants,
+//! [`method`] which model and kernel run, [`grid`] the blocks of the box and
+//! [`particles`] the state as a structure of arrays.
+
+pub mod cells;
+pub mod grid;
+pub mod kernel;
+pub mod method;
+pub mod neighbours;
+pub mod params;
+pub mod particles;
+pub mod simulation;
+pub mod stages;
