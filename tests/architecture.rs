@@ -1,0 +1,572 @@
+//! The layout's rules (ARCHITECTURE.md), checked on the source itself: `sim/` uses nothing
+//! from `io/`, `lab/` or the door; `io/` nothing from `lab/` or the door; the door
+//! (`cli`, `progargs`, `error`, and the `fluid` binary) nothing from `lab/`, so the
+//! `fluid` binary's path reaches no workbench code; `lab/` nothing from the door. Every
+//! module lives in a wing or at the door.
+//!
+//! Each file under `src/` is parsed with `syn`. A use of another module is any path that
+//! starts with `crate`, `self` or `super` (or `fluid` in a binary), in `use` items, in
+//! code, in types and inside macro calls; `#[path]` attributes, which would hide a file
+//! from this map, are refused.
+
+use proc_macro2::{TokenStream, TokenTree};
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use syn::visit::Visit;
+
+/// Where a module sits in the layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Wing {
+    /// `lib.rs`, which declares the wings.
+    Root,
+    /// `sim/`: the model and one time step.
+    Sim,
+    /// `io/`: files in and out.
+    Io,
+    /// `lab/` and the `fluid-lab` binary: the workbench.
+    Lab,
+    /// `cli`, `progargs`, `error` and the `fluid` binary: the fixed contract.
+    Door,
+}
+
+impl Wing {
+    /// The wing of a module, by its path from the crate root; `None` outside every wing.
+    fn of(module: &[String]) -> Option<Wing> {
+        match module.first().map(String::as_str) {
+            None => Some(Wing::Root),
+            Some("sim") => Some(Wing::Sim),
+            Some("io") => Some(Wing::Io),
+            Some("lab" | "bin:fluid-lab") => Some(Wing::Lab),
+            Some("cli" | "progargs" | "error" | "bin:fluid") => Some(Wing::Door),
+            Some(_) => None,
+        }
+    }
+
+    /// Whether code in `self` may use modules of `other`.
+    fn may_use(self, other: Wing) -> bool {
+        use Wing::*;
+        match self {
+            Root => true,
+            Sim => other == Sim,
+            Io => matches!(other, Sim | Io),
+            Lab => matches!(other, Sim | Io | Lab),
+            Door => matches!(other, Sim | Io | Door),
+        }
+    }
+}
+
+/// One use of a module by another.
+#[derive(Debug, Clone)]
+struct Edge {
+    from: Vec<String>,
+    to: Vec<String>,
+    /// The path as written.
+    text: String,
+    /// Inside `#[cfg(test)]`: not part of any binary.
+    test_only: bool,
+    file: PathBuf,
+}
+
+/// The module graph of a crate's sources.
+#[derive(Debug, Default)]
+struct Graph {
+    /// Every module: file modules and inline ones.
+    modules: BTreeSet<Vec<String>>,
+    /// The file each module's own code is in (an inline module's is its parent's).
+    files: BTreeMap<Vec<String>, PathBuf>,
+    /// Modules declared inside `#[cfg(test)]`: not part of any binary.
+    test_modules: BTreeSet<Vec<String>>,
+    /// Names the crate root re-exports (`pub use`), and what they stand for.
+    root_exports: BTreeMap<String, Vec<String>>,
+    edges: Vec<Edge>,
+    /// Defects that are not edges (a `#[path]` attribute, a file syn cannot parse).
+    defects: Vec<String>,
+}
+
+/// The module path of a source file below `src/`; binaries get a module of their own.
+fn module_of(relative: &Path) -> Vec<String> {
+    let parts: Vec<String> = relative
+        .with_extension("")
+        .iter()
+        .map(|part| part.to_string_lossy().into_owned())
+        .collect();
+    match parts.iter().map(String::as_str).collect::<Vec<_>>()[..] {
+        ["lib"] => Vec::new(),
+        ["main"] => vec!["bin:fluid".into()],
+        ["bin", name] => vec![format!("bin:{name}")],
+        _ if parts.last().is_some_and(|last| last == "mod") => parts[..parts.len() - 1].to_vec(),
+        _ => parts,
+    }
+}
+
+fn is_cfg_test(attrs: &[syn::Attribute]) -> bool {
+    attrs.iter().any(|attr| {
+        attr.path().is_ident("cfg")
+            && matches!(&attr.meta, syn::Meta::List(list) if list.tokens.to_string() == "test")
+    })
+}
+
+fn item_attrs(item: &syn::Item) -> &[syn::Attribute] {
+    match item {
+        syn::Item::Const(i) => &i.attrs,
+        syn::Item::Enum(i) => &i.attrs,
+        syn::Item::Fn(i) => &i.attrs,
+        syn::Item::Impl(i) => &i.attrs,
+        syn::Item::Mod(i) => &i.attrs,
+        syn::Item::Static(i) => &i.attrs,
+        syn::Item::Struct(i) => &i.attrs,
+        syn::Item::Trait(i) => &i.attrs,
+        syn::Item::Type(i) => &i.attrs,
+        syn::Item::Use(i) => &i.attrs,
+        _ => &[],
+    }
+}
+
+/// Collects the anchored paths of one file.
+struct FileVisitor<'g> {
+    graph: &'g mut Graph,
+    file: PathBuf,
+    /// The module being visited (the file's, then inline modules).
+    module: Vec<String>,
+    /// Depth of `#[cfg(test)]` items around the current position.
+    test_depth: usize,
+    /// Paths written, relative to `module` at the time: (module, segments, test-only).
+    paths: Vec<(Vec<String>, Vec<String>, bool)>,
+}
+
+impl FileVisitor<'_> {
+    fn record(&mut self, segments: Vec<String>) {
+        let anchored = matches!(
+            segments.first().map(String::as_str),
+            Some("crate" | "self" | "super" | "fluid")
+        );
+        if anchored {
+            self.paths
+                .push((self.module.clone(), segments, self.test_depth > 0));
+        }
+    }
+
+    /// Every `crate::a::b` (or `super::`, `self::`, `fluid::`) run of tokens in a macro call.
+    fn scan_tokens(&mut self, tokens: TokenStream) {
+        let tokens: Vec<TokenTree> = tokens.into_iter().collect();
+        let mut i = 0;
+        while i < tokens.len() {
+            match &tokens[i] {
+                TokenTree::Group(group) => self.scan_tokens(group.stream()),
+                TokenTree::Ident(ident) => {
+                    let mut segments = vec![ident.to_string()];
+                    let mut j = i + 1;
+                    while let (Some(TokenTree::Punct(a)), Some(TokenTree::Punct(b))) =
+                        (tokens.get(j), tokens.get(j + 1))
+                    {
+                        let Some(TokenTree::Ident(next)) = tokens.get(j + 2) else {
+                            break;
+                        };
+                        if a.as_char() != ':' || b.as_char() != ':' {
+                            break;
+                        }
+                        segments.push(next.to_string());
+                        j += 3;
+                    }
+                    if segments.len() > 1 {
+                        self.record(segments);
+                    }
+                    i = j - 1;
+                }
+                _ => {}
+            }
+            i += 1;
+        }
+    }
+}
+
+fn use_tree_paths(tree: &syn::UseTree, prefix: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+    match tree {
+        syn::UseTree::Path(path) => {
+            prefix.push(path.ident.to_string());
+            use_tree_paths(&path.tree, prefix, out);
+            prefix.pop();
+        }
+        syn::UseTree::Name(name) => {
+            let mut full = prefix.clone();
+            if name.ident != "self" {
+                full.push(name.ident.to_string());
+            }
+            out.push(full);
+        }
+        syn::UseTree::Rename(rename) => {
+            let mut full = prefix.clone();
+            if rename.ident != "self" {
+                full.push(rename.ident.to_string());
+            }
+            out.push(full);
+        }
+        syn::UseTree::Glob(_) => out.push(prefix.clone()),
+        syn::UseTree::Group(group) => {
+            for item in &group.items {
+                use_tree_paths(item, prefix, out);
+            }
+        }
+    }
+}
+
+impl<'ast> Visit<'ast> for FileVisitor<'_> {
+    fn visit_item(&mut self, item: &'ast syn::Item) {
+        let test = is_cfg_test(item_attrs(item));
+        self.test_depth += usize::from(test);
+        syn::visit::visit_item(self, item);
+        self.test_depth -= usize::from(test);
+    }
+
+    fn visit_item_mod(&mut self, item: &'ast syn::ItemMod) {
+        if item.attrs.iter().any(|attr| attr.path().is_ident("path")) {
+            let defect = format!("{}: #[path] on mod {}", self.file.display(), item.ident);
+            self.graph.defects.push(defect);
+        }
+        self.module.push(item.ident.to_string());
+        self.graph.modules.insert(self.module.clone());
+        if item.content.is_some() {
+            let file = self.file.clone();
+            self.graph.files.insert(self.module.clone(), file);
+        }
+        if self.test_depth > 0 {
+            self.graph.test_modules.insert(self.module.clone());
+        }
+        syn::visit::visit_item_mod(self, item);
+        self.module.pop();
+    }
+
+    fn visit_item_use(&mut self, item: &'ast syn::ItemUse) {
+        let mut paths = Vec::new();
+        use_tree_paths(&item.tree, &mut Vec::new(), &mut paths);
+        if self.module.is_empty() && matches!(item.vis, syn::Visibility::Public(_)) {
+            for path in &paths {
+                if let Some(name) = path.last() {
+                    let target = path.iter().skip_while(|s| *s == "crate").cloned();
+                    self.graph
+                        .root_exports
+                        .insert(name.clone(), target.collect());
+                }
+            }
+        }
+        for path in paths {
+            self.record(path);
+        }
+    }
+
+    fn visit_path(&mut self, path: &'ast syn::Path) {
+        let segments = path.segments.iter().map(|s| s.ident.to_string()).collect();
+        self.record(segments);
+        syn::visit::visit_path(self, path);
+    }
+
+    fn visit_vis_restricted(&mut self, _: &'ast syn::VisRestricted) {
+        // `pub(super)`, `pub(in crate::x)` limit who sees an item; they use nothing.
+    }
+
+    fn visit_macro(&mut self, mac: &'ast syn::Macro) {
+        self.scan_tokens(mac.tokens.clone());
+        syn::visit::visit_macro(self, mac);
+    }
+}
+
+impl Graph {
+    /// The graph of `files` (path below `src/`, source text).
+    fn of(files: &[(PathBuf, String)]) -> Graph {
+        let mut graph = Graph::default();
+        let mut written = Vec::new();
+        for (relative, source) in files {
+            let module = module_of(relative);
+            graph.modules.insert(module.clone());
+            graph.files.insert(module.clone(), relative.clone());
+            let parsed = match syn::parse_file(source) {
+                Ok(parsed) => parsed,
+                Err(error) => {
+                    graph
+                        .defects
+                        .push(format!("{}: {error}", relative.display()));
+                    continue;
+                }
+            };
+            let mut visitor = FileVisitor {
+                graph: &mut graph,
+                file: relative.clone(),
+                module,
+                test_depth: 0,
+                paths: Vec::new(),
+            };
+            visitor.visit_file(&parsed);
+            let paths = std::mem::take(&mut visitor.paths);
+            written.extend(paths.into_iter().map(|p| (relative.clone(), p)));
+        }
+        for (file, (from, segments, test_only)) in written {
+            if let Some(to) = graph.resolve(&from, &segments) {
+                if to != from {
+                    let text = segments.join("::");
+                    graph.edges.push(Edge {
+                        from,
+                        to,
+                        text,
+                        test_only,
+                        file,
+                    });
+                }
+            }
+        }
+        graph
+    }
+
+    /// The module a path written in `from` names: the longest known module it starts with.
+    fn resolve(&self, from: &[String], segments: &[String]) -> Option<Vec<String>> {
+        let binary = from.first().is_some_and(|first| first.starts_with("bin:"));
+        let mut absolute: Vec<String> = match segments[0].as_str() {
+            "crate" if !binary => Vec::new(),
+            "fluid" if binary => Vec::new(),
+            "self" if !binary => from.to_vec(),
+            "super" if !binary => from.to_vec(),
+            _ => return None,
+        };
+        let mut rest = &segments[1..];
+        if segments[0] == "super" {
+            absolute.pop();
+            while rest.first().is_some_and(|s| s == "super") {
+                absolute.pop();
+                rest = &rest[1..];
+            }
+        }
+        if absolute.is_empty() {
+            if let Some(target) = rest.first().and_then(|name| self.root_exports.get(name)) {
+                if !self.modules.contains(&vec![rest[0].clone()]) {
+                    return self.resolve(&[], &[["crate".to_string()].as_slice(), target].concat());
+                }
+            }
+        }
+        absolute.extend(rest.iter().cloned());
+        (0..=absolute.len())
+            .rev()
+            .map(|n| absolute[..n].to_vec())
+            .find(|prefix| self.modules.contains(prefix))
+    }
+
+    /// Every broken rule, one line each.
+    fn violations(&self) -> Vec<String> {
+        let name = |module: &[String]| match module {
+            [] => "the crate root".to_string(),
+            _ => module.join("::"),
+        };
+        let mut found = self.defects.clone();
+        for module in &self.modules {
+            if Wing::of(module).is_none() {
+                found.push(format!(
+                    "{} is in no wing (sim, io, lab) nor at the door",
+                    name(module)
+                ));
+            }
+        }
+        for edge in &self.edges {
+            let (Some(from), Some(to)) = (Wing::of(&edge.from), Wing::of(&edge.to)) else {
+                continue;
+            };
+            if !from.may_use(to) {
+                found.push(format!(
+                    "{}: {} ({from:?}) uses {} ({to:?}) through {}",
+                    edge.file.display(),
+                    name(&edge.from),
+                    name(&edge.to),
+                    edge.text
+                ));
+            }
+        }
+        for module in self.reachable(&["bin:fluid".to_string()]) {
+            if Wing::of(&module) == Some(Wing::Lab) {
+                found.push(format!("the fluid binary reaches {}", name(&module)));
+            }
+        }
+        found
+    }
+
+    /// The modules that non-test code of `start` uses, directly or through others. A
+    /// module also reaches the modules it declares (a use of a child module by its bare
+    /// name is not an anchored path), and a use of the crate root reaches every wing.
+    fn reachable(&self, start: &[String]) -> BTreeSet<Vec<String>> {
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![start.to_vec()];
+        while let Some(module) = stack.pop() {
+            if !seen.insert(module.clone()) {
+                continue;
+            }
+            let file = self.files.get(&module);
+            let uses = self.edges.iter().filter(|edge| {
+                !edge.test_only && Some(&edge.file) == file && edge.from.starts_with(&module)
+            });
+            stack.extend(uses.map(|edge| edge.to.clone()));
+            let children = self.modules.iter().filter(|child| {
+                child.len() == module.len() + 1
+                    && child.starts_with(&module)
+                    && !self.test_modules.contains(*child)
+            });
+            stack.extend(children.cloned());
+        }
+        seen
+    }
+}
+
+/// Every `.rs` file below `dir`, as (path below `dir`, text).
+fn sources(dir: &Path) -> Vec<(PathBuf, String)> {
+    let mut found = Vec::new();
+    let mut folders = vec![dir.to_path_buf()];
+    while let Some(folder) = folders.pop() {
+        for entry in std::fs::read_dir(&folder).expect("a readable source folder") {
+            let path = entry.expect("a readable entry").path();
+            if path.is_dir() {
+                folders.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                let text = std::fs::read_to_string(&path).expect("a readable source file");
+                found.push((path.strip_prefix(dir).unwrap().to_path_buf(), text));
+            }
+        }
+    }
+    found.sort();
+    found
+}
+
+fn graph_of(files: &[(&str, &str)]) -> Graph {
+    let files: Vec<(PathBuf, String)> = files
+        .iter()
+        .map(|(path, text)| (PathBuf::from(path), text.to_string()))
+        .collect();
+    Graph::of(&files)
+}
+
+fn has_edge(graph: &Graph, from: &str, to: &str) -> bool {
+    let split = |m: &str| -> Vec<String> { m.split("::").map(String::from).collect() };
+    graph
+        .edges
+        .iter()
+        .any(|edge| edge.from == split(from) && edge.to == split(to))
+}
+
+#[test]
+fn the_source_keeps_the_layout_rules() {
+    let graph = Graph::of(&sources(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src")));
+    // The map is not empty: uses across files are resolved to the modules they name.
+    assert!(graph.modules.len() > 40, "{} modules", graph.modules.len());
+    assert!(has_edge(&graph, "sim::simulation", "sim::kernel"));
+    assert!(has_edge(&graph, "cli", "io::fld"));
+    assert!(has_edge(&graph, "bin:fluid", "cli"));
+    assert!(has_edge(&graph, "lab::commands::run", "lab::diagnostics"));
+    let reached = graph.reachable(&["bin:fluid".to_string()]);
+    assert!(reached.contains(&vec![
+        "sim".to_string(),
+        "kernel".to_string(),
+        "simd".to_string()
+    ]));
+    let violations = graph.violations();
+    assert!(violations.is_empty(), "{}", violations.join("\n"));
+}
+
+/// A small crate in the real layout, for the checks below to break.
+const LIB: &str = "pub mod sim; pub mod io; pub mod lab; pub mod cli; pub use sim::grid::Grid;";
+const SIM: &str = "pub mod grid;";
+const IO: &str = "pub mod fld;";
+const LAB: &str = "pub mod scene;";
+
+fn crate_with(extra: &[(&str, &str)]) -> Vec<String> {
+    let mut files = vec![
+        ("lib.rs", LIB),
+        ("sim/mod.rs", SIM),
+        ("sim/grid.rs", "pub struct Grid;"),
+        ("io/mod.rs", IO),
+        ("io/fld.rs", "use crate::sim::grid::Grid;"),
+        ("lab/mod.rs", LAB),
+        ("lab/scene.rs", "use crate::io::fld; use crate::Grid;"),
+        ("cli.rs", "use crate::io::fld;"),
+        ("main.rs", "fn main() { fluid::cli::run(); }"),
+    ];
+    for (path, text) in extra {
+        files.retain(|(existing, _)| existing != path);
+        files.push((path, text));
+    }
+    graph_of(&files).violations()
+}
+
+#[test]
+fn a_well_layered_crate_passes() {
+    assert_eq!(crate_with(&[]), Vec::<String>::new());
+}
+
+#[test]
+fn every_way_of_naming_another_wing_is_seen() {
+    let cases = [
+        ("sim/grid.rs", "use crate::lab::scene;"),
+        ("sim/grid.rs", "use crate::{sim::grid, io::{fld}};"),
+        ("sim/grid.rs", "use super::super::io::fld::*;"),
+        ("sim/grid.rs", "fn f() { let _ = crate::io::fld::read(); }"),
+        ("sim/grid.rs", "fn f(_: crate::lab::scene::Scene) {}"),
+        (
+            "sim/grid.rs",
+            "fn f() { println!(\"{}\", crate::lab::scene::name()); }",
+        ),
+        (
+            "sim/grid.rs",
+            "#[cfg(test)] mod tests { use crate::lab::scene::generate; }",
+        ),
+        ("sim/grid.rs", "use crate::cli;"),
+        ("io/fld.rs", "use crate::lab::scene;"),
+        ("io/fld.rs", "use crate::cli::run;"),
+        ("lab/scene.rs", "use crate::cli::place;"),
+        ("cli.rs", "use crate::lab::scene;"),
+        ("main.rs", "use fluid::lab::scene; fn main() {}"),
+    ];
+    for (file, text) in cases {
+        let found = crate_with(&[(file, text)]);
+        assert!(!found.is_empty(), "{file}: {text} broke no rule");
+    }
+}
+
+#[test]
+fn modules_outside_the_wings_and_path_attributes_are_refused() {
+    let stray = crate_with(&[
+        ("lib.rs", &format!("{LIB} pub mod stray;")),
+        ("stray.rs", ""),
+    ]);
+    assert_eq!(
+        stray,
+        ["stray is in no wing (sim, io, lab) nor at the door"]
+    );
+    let hidden = crate_with(&[("sim/mod.rs", "#[path = \"../lab/scene.rs\"] pub mod grid;")]);
+    assert_eq!(hidden, ["sim/mod.rs: #[path] on mod grid"]);
+}
+
+#[test]
+fn the_fluid_binary_reaches_no_workbench_code() {
+    // io::fld breaks its own rule by using lab, and so brings lab into fluid's path.
+    let found = crate_with(&[("io/fld.rs", "use crate::lab::scene::Scene;")]);
+    assert!(
+        found
+            .iter()
+            .any(|v| v == "the fluid binary reaches lab::scene"),
+        "{found:?}"
+    );
+    // Workbench code used only by tests of the door is not in the binary's path.
+    let tests = crate_with(&[(
+        "cli.rs",
+        "#[cfg(test)] mod tests { use crate::lab::scene; }",
+    )]);
+    assert!(
+        !tests.iter().any(|v| v.starts_with("the fluid binary")),
+        "{tests:?}"
+    );
+}
+
+#[test]
+fn root_re_exports_resolve_to_their_module() {
+    let graph = graph_of(&[
+        ("lib.rs", LIB),
+        ("sim/mod.rs", SIM),
+        ("sim/grid.rs", ""),
+        ("lab/mod.rs", LAB),
+        ("lab/scene.rs", "use crate::Grid;"),
+    ]);
+    assert!(has_edge(&graph, "lab::scene", "sim::grid"));
+}
