@@ -4,9 +4,9 @@
 mod common;
 
 use fluid::io::fld;
-use fluid::sim::method::{Kernel, Method, Model};
 use fluid::sim::params::{BOX_MAX, BOX_MIN};
-use fluid::sim::simulation::Simulation;
+use fluid::Simulation;
+use fluid::{Kernel, Method, Model};
 
 fn simulation(size: &str, model: Model) -> Simulation {
     let bytes = std::fs::read(common::input(size)).unwrap();

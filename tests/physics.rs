@@ -6,9 +6,9 @@
 use fluid::io::export::Snapshot;
 use fluid::lab::diagnostics::Diagnostics;
 use fluid::lab::scene::{self, SceneKind};
-use fluid::sim::method::{Kernel, Method, Model};
 use fluid::sim::params::{BOX_MAX, BOX_MIN, GRAVITY, PRESSURE_STIFFNESS};
-use fluid::sim::simulation::Simulation;
+use fluid::Simulation;
+use fluid::{Kernel, Method, Model};
 
 const PPM: f64 = 150.0;
 

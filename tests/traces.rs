@@ -7,10 +7,10 @@ mod common;
 use fluid::io::fld;
 use fluid::io::trace::Trace;
 use fluid::sim::cells::Wall;
-use fluid::sim::method::{Kernel, Method, Model};
-use fluid::sim::particles::Particles;
-use fluid::sim::simulation::Simulation;
 use fluid::sim::stages::Stage;
+use fluid::Particles;
+use fluid::Simulation;
+use fluid::{Kernel, Method, Model};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
