@@ -1,4 +1,6 @@
-//! The errors `fluid` reports, their messages and their exit codes (SPEC.md sections 1 and 8).
+//! The errors `fluid` reports and their exit codes (SPEC.md sections 1 and 8): its own
+//! argument errors (rules 1-3), and the file errors of [`crate::io::fld`] (rules 4-8),
+//! whose messages that module gives.
 
 use crate::io::fld::FileError;
 use std::fmt;

@@ -6,8 +6,9 @@
 //!
 //! Each file under `src/` is parsed with `syn`. A use of another module is any path that
 //! starts with `crate`, `self` or `super` (or `fluid` in a binary), in `use` items, in
-//! code, in types and inside macro calls; `#[path]` attributes, which would hide a file
-//! from this map, are refused.
+//! code, in types, and in the tokens of macro calls and attributes. What would hide code
+//! or a path from this map is refused: `#[path]` (also inside `cfg_attr`), `include!`,
+//! `extern crate` and `#[macro_use]`.
 
 use proc_macro2::{TokenStream, TokenTree};
 use std::collections::{BTreeMap, BTreeSet};
@@ -15,7 +16,7 @@ use std::path::{Path, PathBuf};
 use syn::visit::Visit;
 
 /// Where a module sits in the layout.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Wing {
     /// `lib.rs`, which declares the wings.
     Root,
@@ -93,7 +94,7 @@ fn module_of(relative: &Path) -> Vec<String> {
     match parts.iter().map(String::as_str).collect::<Vec<_>>()[..] {
         ["lib"] => Vec::new(),
         ["main"] => vec!["bin:fluid".into()],
-        ["bin", name] => vec![format!("bin:{name}")],
+        ["bin", name] | ["bin", name, "main"] => vec![format!("bin:{name}")],
         _ if parts.last().is_some_and(|last| last == "mod") => parts[..parts.len() - 1].to_vec(),
         _ => parts,
     }
@@ -135,6 +136,11 @@ struct FileVisitor<'g> {
 }
 
 impl FileVisitor<'_> {
+    fn refuse(&mut self, what: String) {
+        let defect = format!("{}: {what} is refused", self.file.display());
+        self.graph.defects.push(defect);
+    }
+
     fn record(&mut self, segments: Vec<String>) {
         let anchored = matches!(
             segments.first().map(String::as_str),
@@ -180,7 +186,12 @@ impl FileVisitor<'_> {
     }
 }
 
-fn use_tree_paths(tree: &syn::UseTree, prefix: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+/// The paths a `use` tree names, each with the name it binds (a glob binds none).
+fn use_tree_paths(
+    tree: &syn::UseTree,
+    prefix: &mut Vec<String>,
+    out: &mut Vec<(Vec<String>, Option<String>)>,
+) {
     match tree {
         syn::UseTree::Path(path) => {
             prefix.push(path.ident.to_string());
@@ -192,16 +203,17 @@ fn use_tree_paths(tree: &syn::UseTree, prefix: &mut Vec<String>, out: &mut Vec<V
             if name.ident != "self" {
                 full.push(name.ident.to_string());
             }
-            out.push(full);
+            let bound = full.last().cloned();
+            out.push((full, bound));
         }
         syn::UseTree::Rename(rename) => {
             let mut full = prefix.clone();
             if rename.ident != "self" {
                 full.push(rename.ident.to_string());
             }
-            out.push(full);
+            out.push((full, Some(rename.rename.to_string())));
         }
-        syn::UseTree::Glob(_) => out.push(prefix.clone()),
+        syn::UseTree::Glob(_) => out.push((prefix.clone(), None)),
         syn::UseTree::Group(group) => {
             for item in &group.items {
                 use_tree_paths(item, prefix, out);
@@ -218,11 +230,26 @@ impl<'ast> Visit<'ast> for FileVisitor<'_> {
         self.test_depth -= usize::from(test);
     }
 
-    fn visit_item_mod(&mut self, item: &'ast syn::ItemMod) {
-        if item.attrs.iter().any(|attr| attr.path().is_ident("path")) {
-            let defect = format!("{}: #[path] on mod {}", self.file.display(), item.ident);
-            self.graph.defects.push(defect);
+    fn visit_attribute(&mut self, attr: &'ast syn::Attribute) {
+        let path = attr.path();
+        let hidden_path = path.is_ident("cfg_attr")
+            && matches!(&attr.meta, syn::Meta::List(list) if list.tokens.clone().into_iter()
+                .any(|token| matches!(token, TokenTree::Ident(ident) if ident == "path")));
+        if path.is_ident("path") || path.is_ident("macro_use") || hidden_path {
+            let name = path
+                .get_ident()
+                .map(ToString::to_string)
+                .unwrap_or_default();
+            self.refuse(format!("#[{name}]"));
         }
+        syn::visit::visit_attribute(self, attr);
+    }
+
+    fn visit_item_extern_crate(&mut self, item: &'ast syn::ItemExternCrate) {
+        self.refuse(format!("extern crate {}", item.ident));
+    }
+
+    fn visit_item_mod(&mut self, item: &'ast syn::ItemMod) {
         self.module.push(item.ident.to_string());
         self.graph.modules.insert(self.module.clone());
         if item.content.is_some() {
@@ -240,16 +267,15 @@ impl<'ast> Visit<'ast> for FileVisitor<'_> {
         let mut paths = Vec::new();
         use_tree_paths(&item.tree, &mut Vec::new(), &mut paths);
         if self.module.is_empty() && matches!(item.vis, syn::Visibility::Public(_)) {
-            for path in &paths {
-                if let Some(name) = path.last() {
-                    let target = path.iter().skip_while(|s| *s == "crate").cloned();
-                    self.graph
-                        .root_exports
-                        .insert(name.clone(), target.collect());
+            for (path, bound) in &paths {
+                if let Some(name) = bound {
+                    let target = path.iter().skip_while(|s| *s == "crate" || *s == "self");
+                    let target = target.cloned().collect();
+                    self.graph.root_exports.insert(name.clone(), target);
                 }
             }
         }
-        for path in paths {
+        for (path, _) in paths {
             self.record(path);
         }
     }
@@ -265,8 +291,15 @@ impl<'ast> Visit<'ast> for FileVisitor<'_> {
     }
 
     fn visit_macro(&mut self, mac: &'ast syn::Macro) {
-        self.scan_tokens(mac.tokens.clone());
+        if mac.path.is_ident("include") {
+            self.refuse("include!".to_string());
+        }
         syn::visit::visit_macro(self, mac);
+    }
+
+    /// The tokens of macro calls and of attributes (`#[arg(value_parser = crate::x)]`).
+    fn visit_token_stream(&mut self, tokens: &'ast TokenStream) {
+        self.scan_tokens(tokens.clone());
     }
 }
 
@@ -348,6 +381,15 @@ impl Graph {
             .find(|prefix| self.modules.contains(prefix))
     }
 
+    /// The wing of a module: that of the file its code is in (so an inline module of
+    /// `lib.rs` is the root's).
+    fn wing(&self, module: &[String]) -> Option<Wing> {
+        match self.files.get(module) {
+            Some(file) => Wing::of(&module_of(file)),
+            None => Wing::of(module),
+        }
+    }
+
     /// Every broken rule, one line each.
     fn violations(&self) -> Vec<String> {
         let name = |module: &[String]| match module {
@@ -356,7 +398,7 @@ impl Graph {
         };
         let mut found = self.defects.clone();
         for module in &self.modules {
-            if Wing::of(module).is_none() {
+            if self.wing(module).is_none() {
                 found.push(format!(
                     "{} is in no wing (sim, io, lab) nor at the door",
                     name(module)
@@ -364,7 +406,7 @@ impl Graph {
             }
         }
         for edge in &self.edges {
-            let (Some(from), Some(to)) = (Wing::of(&edge.from), Wing::of(&edge.to)) else {
+            let (Some(from), Some(to)) = (self.wing(&edge.from), self.wing(&edge.to)) else {
                 continue;
             };
             if !from.may_use(to) {
@@ -378,7 +420,7 @@ impl Graph {
             }
         }
         for module in self.reachable(&["bin:fluid".to_string()]) {
-            if Wing::of(&module) == Some(Wing::Lab) {
+            if self.wing(&module) == Some(Wing::Lab) {
                 found.push(format!("the fluid binary reaches {}", name(&module)));
             }
         }
@@ -466,7 +508,8 @@ fn the_source_keeps_the_layout_rules() {
 }
 
 /// A small crate in the real layout, for the checks below to break.
-const LIB: &str = "pub mod sim; pub mod io; pub mod lab; pub mod cli; pub use sim::grid::Grid;";
+const LIB: &str =
+    "pub mod sim; pub mod io; pub mod lab; pub mod cli; pub use sim::grid::Grid as BlockGrid;";
 const SIM: &str = "pub mod grid;";
 const IO: &str = "pub mod fld;";
 const LAB: &str = "pub mod scene;";
@@ -479,7 +522,8 @@ fn crate_with(extra: &[(&str, &str)]) -> Vec<String> {
         ("io/mod.rs", IO),
         ("io/fld.rs", "use crate::sim::grid::Grid;"),
         ("lab/mod.rs", LAB),
-        ("lab/scene.rs", "use crate::io::fld; use crate::Grid;"),
+        ("lab/scene.rs", "use crate::io::fld; use crate::BlockGrid;"),
+        ("bin/fluid-lab.rs", "fn main() { fluid::lab::run(); }"),
         ("cli.rs", "use crate::io::fld;"),
         ("main.rs", "fn main() { fluid::cli::run(); }"),
     ];
@@ -497,35 +541,34 @@ fn a_well_layered_crate_passes() {
 
 #[test]
 fn every_way_of_naming_another_wing_is_seen() {
+    let sim_uses = |what: &str, to: &str, wing: &str| {
+        format!("sim/grid.rs: sim::grid (Sim) uses {to} ({wing}) through {what}")
+    };
     let cases = [
-        ("sim/grid.rs", "use crate::lab::scene;"),
-        ("sim/grid.rs", "use crate::{sim::grid, io::{fld}};"),
-        ("sim/grid.rs", "use super::super::io::fld::*;"),
-        ("sim/grid.rs", "fn f() { let _ = crate::io::fld::read(); }"),
-        ("sim/grid.rs", "fn f(_: crate::lab::scene::Scene) {}"),
-        (
-            "sim/grid.rs",
-            "fn f() { println!(\"{}\", crate::lab::scene::name()); }",
-        ),
-        (
-            "sim/grid.rs",
-            "#[cfg(test)] mod tests { use crate::lab::scene::generate; }",
-        ),
-        ("sim/grid.rs", "use crate::cli;"),
-        ("io/fld.rs", "use crate::lab::scene;"),
-        ("io/fld.rs", "use crate::cli::run;"),
-        ("lab/scene.rs", "use crate::cli::place;"),
-        ("cli.rs", "use crate::lab::scene;"),
-        ("main.rs", "use fluid::lab::scene; fn main() {}"),
+        ("sim/grid.rs", "use crate::lab::scene;", sim_uses("crate::lab::scene", "lab::scene", "Lab")),
+        ("sim/grid.rs", "use crate::{sim::grid, io::{fld}};", sim_uses("crate::io::fld", "io::fld", "Io")),
+        ("sim/grid.rs", "use super::super::io::fld::*;", sim_uses("super::super::io::fld", "io::fld", "Io")),
+        ("sim/grid.rs", "fn f() { let _ = crate::io::fld::read(); }", sim_uses("crate::io::fld::read", "io::fld", "Io")),
+        ("sim/grid.rs", "fn f(_: crate::lab::scene::Scene) {}", sim_uses("crate::lab::scene::Scene", "lab::scene", "Lab")),
+        ("sim/grid.rs", "fn f() { println!(\"{}\", crate::lab::scene::name()); }", sim_uses("crate::lab::scene::name", "lab::scene", "Lab")),
+        ("sim/grid.rs", "#[derive(clap::Args)] struct A { #[arg(value_parser = crate::io::fld::parse)] a: u8 }", sim_uses("crate::io::fld::parse", "io::fld", "Io")),
+        ("sim/grid.rs", "#[cfg(test)] mod tests { use crate::lab::scene::generate; }", "sim/grid.rs: sim::grid::tests (Sim) uses lab::scene (Lab) through crate::lab::scene::generate".to_string()),
+        ("sim/grid.rs", "use crate::cli;", sim_uses("crate::cli", "cli", "Door")),
+        ("io/fld.rs", "use crate::lab::scene;", "io/fld.rs: io::fld (Io) uses lab::scene (Lab) through crate::lab::scene".to_string()),
+        ("io/fld.rs", "use crate::cli::run;", "io/fld.rs: io::fld (Io) uses cli (Door) through crate::cli::run".to_string()),
+        ("lab/scene.rs", "use crate::cli::run;", "lab/scene.rs: lab::scene (Lab) uses cli (Door) through crate::cli::run".to_string()),
+        ("cli.rs", "use crate::lab::scene;", "cli.rs: cli (Door) uses lab::scene (Lab) through crate::lab::scene".to_string()),
+        ("main.rs", "use fluid::lab::scene; fn main() {}", "main.rs: bin:fluid (Door) uses lab::scene (Lab) through fluid::lab::scene".to_string()),
+        ("bin/fluid-lab.rs", "fn main() { fluid::cli::run(); }", "bin/fluid-lab.rs: bin:fluid-lab (Lab) uses cli (Door) through fluid::cli::run".to_string()),
     ];
-    for (file, text) in cases {
+    for (file, text, expected) in cases {
         let found = crate_with(&[(file, text)]);
-        assert!(!found.is_empty(), "{file}: {text} broke no rule");
+        assert!(found.contains(&expected), "{file}: {text}: {found:?}");
     }
 }
 
 #[test]
-fn modules_outside_the_wings_and_path_attributes_are_refused() {
+fn modules_outside_the_wings_and_what_hides_code_are_refused() {
     let stray = crate_with(&[
         ("lib.rs", &format!("{LIB} pub mod stray;")),
         ("stray.rs", ""),
@@ -534,8 +577,25 @@ fn modules_outside_the_wings_and_path_attributes_are_refused() {
         stray,
         ["stray is in no wing (sim, io, lab) nor at the door"]
     );
-    let hidden = crate_with(&[("sim/mod.rs", "#[path = \"../lab/scene.rs\"] pub mod grid;")]);
-    assert_eq!(hidden, ["sim/mod.rs: #[path] on mod grid"]);
+    let root_tests = crate_with(&[("lib.rs", &format!("{LIB} #[cfg(test)] mod tests {{}}"))]);
+    assert_eq!(root_tests, Vec::<String>::new());
+    let refused = [
+        ("#[path = \"../lab/scene.rs\"] pub mod grid;", "#[path]"),
+        (
+            "#[cfg_attr(all(), path = \"../lab/scene.rs\")] pub mod grid;",
+            "#[cfg_attr]",
+        ),
+        ("include!(\"../lab/scene.rs\");", "include!"),
+        ("extern crate self as fluid;", "extern crate self"),
+        ("#[macro_use] mod grid;", "#[macro_use]"),
+    ];
+    for (text, what) in refused {
+        let found = crate_with(&[("sim/mod.rs", text)]);
+        assert!(
+            found.contains(&format!("sim/mod.rs: {what} is refused")),
+            "{text}: {found:?}"
+        );
+    }
 }
 
 #[test]
@@ -566,7 +626,7 @@ fn root_re_exports_resolve_to_their_module() {
         ("sim/mod.rs", SIM),
         ("sim/grid.rs", ""),
         ("lab/mod.rs", LAB),
-        ("lab/scene.rs", "use crate::Grid;"),
+        ("lab/scene.rs", "use crate::BlockGrid;"),
     ]);
     assert!(has_edge(&graph, "lab::scene", "sim::grid"));
 }

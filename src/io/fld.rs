@@ -1,5 +1,7 @@
 //! The `.fld` file format (SPEC.md section 2): reading a memory-mapped input and validating
-//! it (sections 1 and 8), and writing an output atomically (temporary file + rename).
+//! it (sections 1 and 8) in the contract's order, placing its particles for simulation
+//! ([`Scene::into_simulation`]), and writing an output atomically (temporary file +
+//! rename). Every failure is a [`FileError`] with the contract's message.
 
 use crate::io::gformat::format_g;
 use crate::sim::method::Method;
@@ -402,6 +404,26 @@ mod tests {
         records[0][3] = f32::NEG_INFINITY;
         let text = reason(parse(&file_bytes(204.0, 2, &records), "f"));
         assert_eq!(text, "particle 0 has a non-finite hvx (-inf)");
+    }
+
+    #[test]
+    fn a_scene_becomes_a_simulation_unless_its_ppm_admits_no_grid() {
+        let bytes = file_bytes(204.0, 2, &[record(0.0), record(1.0)]);
+        let simulation = parse(&bytes, "f").unwrap();
+        let simulation = simulation.into_simulation(Method::default(), "f").unwrap();
+        assert_eq!(simulation.particles().len(), 2);
+        assert_eq!(simulation.params().ppm, 204.0);
+        let dense = parse(&file_bytes(1e6, 1, &[record(0.0)]), "in.fld").unwrap();
+        match dense.into_simulation(Method::default(), "in.fld") {
+            Err(FileError::InvalidInput { file, reason }) => {
+                assert_eq!(file, "in.fld");
+                assert!(
+                    reason.starts_with("particles per meter 1e+06 gives "),
+                    "{reason}"
+                );
+            }
+            other => panic!("expected InvalidInput, got {other:?}"),
+        }
     }
 
     #[test]

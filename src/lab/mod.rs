@@ -31,7 +31,8 @@ pub struct Lab {
     command: Command,
 }
 
-/// The subcommands, each with its arguments (a module of `commands` each).
+// The subcommands, each with its arguments (a module of `commands` each). A plain comment:
+// clap would take a doc comment here as the command's `about`.
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Run a scene with a chosen model and kernel, timed; optionally write the final state.

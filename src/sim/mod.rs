@@ -1,6 +1,7 @@
 //! The model wing: the course model and everything one time step does, from the cell
-//! order to the motion of the particles. It reads and writes no file and knows nothing of
-//! the command lines; [`crate::io`], [`crate::lab`] and the `fluid` door build on it.
+//! order to the motion of the particles. It reads and writes no file and parses no
+//! argument (its `Model` and `Kernel` only derive `clap::ValueEnum`, so the workbench can
+//! offer them by name); [`crate::io`], [`crate::lab`] and the `fluid` door build on it.
 //!
 //! A step ([`simulation::Simulation::step`]) runs the [`stages`] in order: the [`cells`] sort the
 //! particles into cell order, the [`neighbours`] search lists the tiles of candidate

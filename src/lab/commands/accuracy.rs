@@ -12,6 +12,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::PathBuf;
 
+/// The arguments of `fluid-lab accuracy`.
 #[derive(Debug, Args)]
 pub struct AccuracyArgs {
     /// Input .fld file.
@@ -28,6 +29,7 @@ pub struct AccuracyArgs {
     models: Vec<Model>,
 }
 
+/// Runs every model and fast kernel against the reference and writes the CSV and charts.
 pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let steps = args.horizons.iter().copied().max().unwrap_or(0);
     if steps == 0 {

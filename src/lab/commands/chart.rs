@@ -7,6 +7,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::PathBuf;
 
+/// The arguments of `fluid-lab chart`.
 #[derive(Debug, Args)]
 pub struct ChartArgs {
     /// The CSV written by `fluid-lab sweep`.
@@ -16,6 +17,7 @@ pub struct ChartArgs {
     output_dir: Option<PathBuf>,
 }
 
+/// Reads the sweep CSV and draws its charts.
 pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let text = std::fs::read_to_string(&args.csv)
         .map_err(|error| format!("cannot read {}: {error}", args.csv.display()))?;

@@ -7,6 +7,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::PathBuf;
 
+/// The arguments of `fluid-lab compare`.
 #[derive(Debug, Args)]
 pub struct CompareArgs {
     /// The state measured.
@@ -15,6 +16,7 @@ pub struct CompareArgs {
     second: PathBuf,
 }
 
+/// Reads both states and prints the error of each field.
 pub fn exec(args: CompareArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let (first, second) = (fld::read(&args.first)?, fld::read(&args.second)?);
     let errors = accuracy::compare(&first.particles, &second.particles).map_err(|reason| {

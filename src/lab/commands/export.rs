@@ -1,6 +1,6 @@
 //! `fluid-lab export`: a state, or a run every k steps, as VTK (ParaView) or CSV files.
 
-use super::simulate::{load, run_visiting, Loaded, SimulationArgs};
+use super::simulation_args::{load, run_visiting, Loaded, SimulationArgs};
 use crate::io::export::Snapshot;
 use crate::io::fld::OutputFile;
 use clap::builder::RangedU64ValueParser;
@@ -9,6 +9,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::PathBuf;
 
+/// The arguments of `fluid-lab export`.
 #[derive(Debug, Args)]
 pub struct ExportArgs {
     #[command(flatten)]
@@ -32,6 +33,7 @@ pub enum ExportFormat {
     Csv,
 }
 
+/// Runs the scene and writes the states asked for, one file each.
 pub fn exec(args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let Loaded {
         stem,

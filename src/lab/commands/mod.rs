@@ -1,5 +1,5 @@
 //! The subcommands of `fluid-lab`, one module each: its arguments and its `exec`.
-//! [`simulate`] holds what the subcommands that simulate share.
+//! [`simulation_args`] holds what the subcommands that simulate share.
 
 pub mod accuracy;
 pub mod chart;
@@ -8,6 +8,6 @@ pub mod export;
 pub mod render;
 pub mod run;
 pub mod scene;
-pub mod simulate;
+pub mod simulation_args;
 pub mod stability;
 pub mod sweep;

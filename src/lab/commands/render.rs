@@ -1,6 +1,6 @@
 //! `fluid-lab render`: a state as a PNG, or a run as an animated GIF or a PNG series.
 
-use super::simulate::{load, run_visiting, Loaded, SimulationArgs};
+use super::simulation_args::{load, run_visiting, Loaded, SimulationArgs};
 use crate::io::export::Snapshot;
 use crate::lab::render::{self, Animation, Colouring};
 use clap::builder::RangedU64ValueParser;
@@ -9,6 +9,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::PathBuf;
 
+/// The arguments of `fluid-lab render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
     #[command(flatten)]
@@ -30,6 +31,7 @@ pub struct RenderArgs {
     delay_ms: u32,
 }
 
+/// Runs the scene and draws the states asked for as PNG files or one GIF.
 pub fn exec(args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let Loaded {
         name,

@@ -1,7 +1,7 @@
 //! `fluid-lab run`: a timed run of a scene with a chosen model, kernel and time step;
 //! optionally per-step diagnostics and the final state.
 
-use super::simulate::{load, progress_bar, Loaded, SimulationArgs};
+use super::simulation_args::{load, progress_bar, Loaded, SimulationArgs};
 use crate::io::fld::{self, OutputFile};
 use crate::lab::diagnostics::{self, Diagnostics, Vitals};
 use crate::sim::simulation::Simulation;
@@ -12,6 +12,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
+/// The arguments of `fluid-lab run`.
 #[derive(Debug, Args)]
 pub struct RunArgs {
     #[command(flatten)]
@@ -27,6 +28,7 @@ pub struct RunArgs {
     every: u64,
 }
 
+/// Runs the scene, timed, and writes the timing line, the diagnostics and the final state.
 pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let steps = args.simulation.steps;
     let output = args.output.as_deref().map(OutputFile::create).transpose()?;

@@ -6,6 +6,7 @@ use clap::Args;
 use std::error::Error;
 use std::path::PathBuf;
 
+/// The arguments of `fluid-lab scene`.
 #[derive(Debug, Args)]
 pub struct SceneArgs {
     /// The scene.
@@ -24,6 +25,7 @@ pub struct SceneArgs {
     particles: Option<usize>,
 }
 
+/// Generates the scene and writes it as a `.fld` file.
 pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
     let output = OutputFile::create(&args.output)?;
     let particles = scene::generate(args.kind, args.ppm.into(), args.seed, args.particles)?;

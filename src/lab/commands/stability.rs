@@ -1,7 +1,7 @@
 //! `fluid-lab stability`: a scene over time steps and resolutions, each run watched until
 //! it fails; a CSV and the stability map.
 
-use super::simulate::is_time_step;
+use super::simulation_args::is_time_step;
 use crate::io::fld::OutputFile;
 use crate::lab::chart;
 use crate::lab::machine::Machine;
@@ -14,6 +14,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::PathBuf;
 
+/// The arguments of `fluid-lab stability`.
 #[derive(Debug, Args)]
 pub struct StabilityArgs {
     /// Folder for stability.csv and stability-map.{png,svg}.
@@ -39,6 +40,7 @@ pub struct StabilityArgs {
     duration: f64,
 }
 
+/// Watches every (model, ppm, time step) run and writes the CSV and the map.
 pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     for &factor in &args.dt_factors {
         if !is_time_step(factor * TIME_STEP) {

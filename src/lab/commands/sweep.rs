@@ -12,6 +12,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Duration;
 
+/// The arguments of `fluid-lab sweep`.
 #[derive(Debug, Args)]
 pub struct SweepArgs {
     /// Input .fld files.
@@ -38,6 +39,7 @@ pub struct SweepArgs {
     perf: PathBuf,
 }
 
+/// Measures every point of the sweep and writes the CSV.
 pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let idle = Duration::try_from_secs_f64(args.idle_seconds)
         .map_err(|_| format!("--idle-seconds {} is not a duration", args.idle_seconds))?;

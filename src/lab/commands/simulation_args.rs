@@ -96,7 +96,7 @@ pub fn run_visiting(
 }
 
 /// Parses a positive, finite time step.
-pub fn parse_time_step(text: &str) -> Result<f64, String> {
+fn parse_time_step(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(dt) if is_time_step(dt) => Ok(dt),
         _ => Err(format!("{text} is not a positive time step")),
