@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Cost of the pair loops: nanoseconds per pair closer than h (both passes, density and
+# acceleration, together) and per particle-step, for each kernel, on one scene.
+#
+# Each kernel runs once with `fluid-lab run --diagnostics --every K`: the run's own timing
+# covers only the simulation steps (diagnostics are computed outside it), and the
+# diagnostics count the pairs closer than h every K steps. The mean of those counts over
+# the steps run (steps 0, K, 2K, ... before the last) is the pairs per step; ns per pair
+# is the time per step divided by it. The time includes every stage, not only the pair
+# loops, so it is an upper bound of the pair loops' own cost.
+#
+# Usage: scripts/pair-cost.sh [--steps N] [--every K] [--model M] [INPUT] [KERNEL ...]
+#        defaults: --steps 1000 --every 10 --model fluidanimate data/in/large.fld simd scalar
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+steps=1000
+every=10
+model=fluidanimate
+while [ $# -gt 0 ]; do
+    case "$1" in
+    --steps) steps="$2"; shift 2 ;;
+    --every) every="$2"; shift 2 ;;
+    --model) model="$2"; shift 2 ;;
+    --*) echo "pair-cost.sh: unknown option $1" >&2; exit 2 ;;
+    *) break ;;
+    esac
+done
+for number in "$steps" "$every"; do
+    if ! [[ "$number" =~ ^[1-9][0-9]*$ ]]; then
+        echo "pair-cost.sh: --steps and --every take a whole number from 1, not '$number'" >&2
+        exit 2
+    fi
+done
+input="${1:-data/in/large.fld}"
+[ $# -gt 0 ] && shift
+kernels=("$@")
+[ ${#kernels[@]} -gt 0 ] || kernels=(simd scalar)
+
+cargo build --release --quiet --bin fluid-lab
+lab="$root/target/release/fluid-lab"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+
+echo "input model kernel particles steps seconds ns_per_particle_step pairs_per_step ns_per_pair"
+for kernel in "${kernels[@]}"; do
+    line="$("$lab" run --model "$model" --kernel "$kernel" --steps "$steps" "$input" \
+        --diagnostics "$work/diagnostics.csv" --every "$every")"
+    # The timing line: model=... kernel=... particles=N steps=N seconds=S ns_per_particle_step=T
+    particles="$(sed -n 's/.* particles=\([0-9]*\) .*/\1/p' <<<"$line")"
+    seconds="$(sed -n 's/.* seconds=\([0-9.]*\) .*/\1/p' <<<"$line")"
+    per_particle="$(sed -n 's/.* ns_per_particle_step=\([0-9.]*\).*/\1/p' <<<"$line")"
+    # Pairs of the states the steps ran on: every row but the last step's.
+    pairs="$(awk -F, -v last="$steps" 'NR > 1 && $1 < last { sum += $NF; n++ }
+        END { if (n > 0) printf "%.0f", sum / n }' "$work/diagnostics.csv")"
+    if [ -z "$particles" ] || [ -z "$seconds" ] || [ -z "${pairs:-}" ] || [ "$pairs" -eq 0 ]; then
+        echo "pair-cost.sh: $kernel: no timing or no pairs closer than h (run: $line)" >&2
+        exit 1
+    fi
+    per_pair="$(awk -v s="$seconds" -v n="$steps" -v p="$pairs" \
+        'BEGIN { printf "%.2f", s / n / p * 1e9 }')"
+    echo "$(basename "$input") $model $kernel $particles $steps $seconds $per_particle $pairs $per_pair"
+done
