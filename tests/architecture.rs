@@ -367,12 +367,14 @@ impl Graph {
                 rest = &rest[1..];
             }
         }
-        if absolute.is_empty() {
-            if let Some(target) = rest.first().and_then(|name| self.root_exports.get(name)) {
-                if !self.modules.contains(&vec![rest[0].clone()]) {
-                    return self.resolve(&[], &[["crate".to_string()].as_slice(), target].concat());
-                }
-            }
+        // A name the crate root re-exports (and that is not a module) stands for its target.
+        let re_export = rest
+            .first()
+            .filter(|name| absolute.is_empty() && !self.modules.contains(&vec![name.to_string()]))
+            .and_then(|name| self.root_exports.get(name));
+        if let Some(target) = re_export {
+            absolute = target.clone();
+            rest = &rest[1..];
         }
         absolute.extend(rest.iter().cloned());
         (0..=absolute.len())
