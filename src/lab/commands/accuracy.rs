@@ -35,8 +35,7 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     if steps == 0 {
         return Err("--horizons needs a step after 0".into());
     }
-    std::fs::create_dir_all(&args.output_dir)
-        .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
+    super::create_output_dir(&args.output_dir)?;
     let scene = fld::read(&args.input)?;
     let particles = scene.particles.len();
     let name = args.input.display().to_string();

@@ -41,8 +41,7 @@ pub fn exec(args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
         mut simulation,
         ..
     } = load(&args.simulation)?;
-    std::fs::create_dir_all(&args.output_dir)
-        .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
+    super::create_output_dir(&args.output_dir)?;
     let steps = args.simulation.steps;
     run_visiting(&mut simulation, steps, args.every, |simulation, step| {
         let snapshot = Snapshot::of(simulation, step);

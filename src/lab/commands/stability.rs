@@ -49,8 +49,7 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
             );
         }
     }
-    std::fs::create_dir_all(&args.output_dir)
-        .map_err(|error| format!("cannot create {}: {error}", args.output_dir.display()))?;
+    super::create_output_dir(&args.output_dir)?;
     let mut rows = format!("{}\n", stability::CSV_HEADER);
     let mut outcomes = Vec::new();
     for &model in &args.models {
