@@ -140,26 +140,34 @@ pub enum Wall {
     High,
 }
 
-/// The slots of the particles whose block lies on each wall: `[axis][Low, High]`.
+/// The walls of each slot's block, one [`WallBits`] per slot in cell order.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct WallSlots {
-    /// Indexed by the bit of [`WallBits`]: 2 * axis + wall.
-    slots: [Vec<u32>; 6],
+pub struct Walls {
+    bits: Vec<WallBits>,
 }
 
-impl WallSlots {
-    /// The slots, ascending, of particles in blocks on `wall` of `axis`.
-    pub fn on(&self, axis: usize, wall: Wall) -> &[u32] {
-        &self.slots[2 * axis + wall as usize]
+impl Walls {
+    /// The walls of every slot: bit 2 * axis for the low wall, 2 * axis + 1 for the high.
+    pub fn bits(&self) -> &[WallBits] {
+        &self.bits
     }
 
-    fn clear(&mut self) {
-        self.slots.iter_mut().for_each(Vec::clear);
+    /// The slots, ascending, of particles in blocks on `wall` of `axis`.
+    pub fn on(&self, axis: usize, wall: Wall) -> Vec<u32> {
+        let bit = wall_bit(axis, wall);
+        (0..self.bits.len() as u32)
+            .filter(|&slot| self.bits[slot as usize] & bit != 0)
+            .collect()
     }
+}
+
+/// The [`WallBits`] bit of `wall` on `axis`.
+pub fn wall_bit(axis: usize, wall: Wall) -> WallBits {
+    1 << (2 * axis + wall as usize)
 }
 
 /// Bit 2d (low) or 2d + 1 (high) for each axis d whose block coordinate is on a wall.
-type WallBits = u8;
+pub type WallBits = u8;
 
 /// The walls of the block holding a cell (or of a block itself), as SPEC.md stages 6 and 8
 /// pick them: coordinate 0 (after clamping) is the low wall, otherwise n - 1 the high wall.
@@ -183,7 +191,7 @@ pub struct CellOrder {
     keys: Vec<u64>,
     /// The previous slot of each slot.
     order: Vec<u32>,
-    walls: WallSlots,
+    walls: Walls,
     // Reused buffers.
     cells: Vec<Cell>,
     wall_bits: Vec<WallBits>,
@@ -257,14 +265,9 @@ impl CellOrder {
             self.radix_sort();
         }
         self.keys.extend([u64::MAX; SENTINELS]);
-        self.walls.clear();
-        for (slot, &old) in self.order.iter().enumerate() {
-            let mut bits = self.wall_bits[old as usize];
-            while bits != 0 {
-                self.walls.slots[bits.trailing_zeros() as usize].push(slot as u32);
-                bits &= bits - 1;
-            }
-        }
+        self.walls.bits.clear();
+        let walls = self.order.iter().map(|&old| self.wall_bits[old as usize]);
+        self.walls.bits.extend(walls);
         moved
     }
 
@@ -323,8 +326,8 @@ impl CellOrder {
         &self.order
     }
 
-    /// The particles of each wall.
-    pub fn walls(&self) -> &WallSlots {
+    /// The walls of each slot.
+    pub fn walls(&self) -> &Walls {
         &self.walls
     }
 }

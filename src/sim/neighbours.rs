@@ -83,6 +83,44 @@ pub struct TileSearch {
     cell_keys: Vec<u64>,
     /// First slot of each occupied cell, then the particle count ([`SENTINELS`] times).
     cell_starts: Vec<u32>,
+    /// The keys near occupied cells, for scenes of mostly lone particles.
+    near: NearKeys,
+}
+
+/// A filter of the keys within 1 of an occupied cell's key: bit `k % 64` of the word at
+/// a hash of `k / 64` is set for each such key `k`. It never misses such a key and rarely
+/// holds another (its table has about 8 words per cell), so one probe settles a forward
+/// row x-1..x+1 of a cell, whose keys are contiguous, for the usual far particle.
+#[derive(Debug, Clone, Default)]
+struct NearKeys {
+    words: Vec<u64>,
+    /// 64 minus the table's index bits.
+    shift: u32,
+}
+
+impl NearKeys {
+    /// Fills the filter with the keys within 1 of each of `cell_keys`.
+    fn fill(&mut self, cell_keys: &[u64]) {
+        let index_bits = cell_keys.len().max(64).next_power_of_two().ilog2();
+        self.shift = u64::BITS - index_bits;
+        self.words.clear();
+        self.words.resize(1 << index_bits, 0);
+        for &key in cell_keys {
+            for k in [key.wrapping_sub(1), key, key + 1] {
+                let word = self.word(k);
+                self.words[word] |= 1 << (k % 64);
+            }
+        }
+    }
+
+    fn word(&self, key: u64) -> usize {
+        ((key / 64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> self.shift) as usize
+    }
+
+    /// Whether `key` may be within 1 of an occupied cell's key (surely not if false).
+    fn may_hold(&self, key: u64) -> bool {
+        self.words[self.word(key)] >> (key % 64) & 1 != 0
+    }
 }
 
 impl TileSearch {
@@ -101,11 +139,19 @@ impl TileSearch {
             tiles,
             cell_keys,
             cell_starts,
+            near,
         } = self;
         tiles.clear();
         let cells = cell_keys.len() - SENTINELS;
+        let particles = cell_starts[cells] as usize;
+        // Mostly lone particles (far from the box): probe the filter for each row.
+        let sparse = 2 * cells > particles;
+        if sparse {
+            near.fill(&cell_keys[..cells]);
+        }
         let [ex, ey, ez] = layout.extent();
         let [_, shift_y, shift_z] = layout.shift();
+        let (row, plane) = (1u64 << shift_y, 1u64 << shift_z);
         let mut cursors = [0usize; FORWARD_ROWS.len()];
         let mut plane_cursor = 0;
         for cell in 0..cells {
@@ -121,18 +167,34 @@ impl TileSearch {
                 tiles.push(tile(start, end));
             }
             let [x, y, z] = layout.unpack(key);
-            let (x1, y1) = ((x + 1).min(ex), (y + 1).min(ey));
-            // Cheap tests first: a forward neighbour in plane z has a key up to that of
-            // (x+1, y+1, z), so the next cell tells; plane z+1 has one forward-only cursor
-            // over the cells of its rows y-1..y+1.
-            let in_plane = cell_keys[cell + 1] <= layout.pack([x1, y1, z]);
-            let in_next_plane = z < ez && {
-                let low = layout.pack([x.saturating_sub(1), y.saturating_sub(1), z + 1]);
-                plane_cursor = first_not_below(cell_keys, plane_cursor, low);
-                cell_keys[plane_cursor] <= layout.pack([x1, y1, z + 1])
+            // Which forward rows may hold a cell: bit r for row r of FORWARD_ROWS.
+            let candidates = if sparse {
+                // The row x+1 of (y, z) is the next cell or none.
+                u8::from(cell_keys[cell + 1] == key + 1)
+                    | u8::from(near.may_hold(key + row)) << 1
+                    | u8::from(near.may_hold((key + plane).wrapping_sub(row))) << 2
+                    | u8::from(near.may_hold(key + plane)) << 3
+                    | u8::from(near.may_hold(key + plane + row)) << 4
+            } else {
+                let (x1, y1) = ((x + 1).min(ex), (y + 1).min(ey));
+                // Cheap tests first: a forward neighbour in plane z has a key up to that
+                // of (x+1, y+1, z), so the next cell tells; plane z+1 has one forward-only
+                // cursor over the cells of its rows y-1..y+1.
+                let in_plane = cell_keys[cell + 1] <= layout.pack([x1, y1, z]);
+                let in_next_plane = z < ez && {
+                    let low = layout.pack([x.saturating_sub(1), y.saturating_sub(1), z + 1]);
+                    plane_cursor = first_not_below(cell_keys, plane_cursor, low);
+                    cell_keys[plane_cursor] <= layout.pack([x1, y1, z + 1])
+                };
+                (u8::from(in_plane) * 0b00011) | (u8::from(in_next_plane) * 0b11100)
             };
-            for (cursor, &(single, dy, dz)) in cursors.iter_mut().zip(&FORWARD_ROWS) {
-                if !(if dz == 0 { in_plane } else { in_next_plane }) {
+            if candidates == 0 {
+                continue;
+            }
+            for (r, (cursor, &(single, dy, dz))) in
+                cursors.iter_mut().zip(&FORWARD_ROWS).enumerate()
+            {
+                if candidates >> r & 1 == 0 || (dz == 1 && z == ez) {
                     continue;
                 }
                 let Ok(ny) = u32::try_from(i64::from(y) + dy) else {
@@ -209,8 +271,9 @@ mod tests {
     }
 
     /// A deterministic cloud: half in the box, half scattered up to `spread` metres out,
-    /// with clusters so that some far particles are within h of each other.
-    fn cloud(n: usize, spread: f64) -> Vec<[f64; 3]> {
+    /// in clusters of `cluster` particles (so that far particles of a cluster are within h
+    /// of each other).
+    fn cloud(n: usize, spread: f64, cluster: usize) -> Vec<[f64; 3]> {
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = move || {
             state ^= state << 13;
@@ -222,7 +285,7 @@ mod tests {
         while points.len() < n {
             let scale = if points.len() % 2 == 0 { 0.12 } else { spread };
             let centre = [next(), next(), next()].map(|u| (u - 0.5) * scale);
-            for _ in 0..4 {
+            for _ in 0..cluster {
                 points.push([next(), next(), next()].map(|u| (u - 0.5) * 0.01));
                 let last = points.last_mut().unwrap();
                 for d in 0..3 {
@@ -237,8 +300,9 @@ mod tests {
     fn tiles_visit_every_close_pair_once_and_only_adjacent_cells() {
         let params = Params::new(204.0);
         let grid = Grid::new(params.h).unwrap();
-        for spread in [0.12, 5.0, 500.0] {
-            let points = cloud(2000, spread);
+        // Clusters of 4 make dense cells; lone particles far out make the sparse search.
+        for (spread, cluster) in [(0.12, 4), (5.0, 4), (500.0, 4), (5.0, 1), (50.0, 1)] {
+            let points = cloud(2000, spread, cluster);
             let mut particles = Particles::zeroed(points.len());
             particles.p = std::array::from_fn(|d| points.iter().map(|p| p[d]).collect());
             let mut cells = CellOrder::default();
@@ -271,6 +335,18 @@ mod tests {
                 "spread {spread}: only {close} close pairs tested"
             );
         }
+    }
+
+    #[test]
+    fn the_near_key_filter_holds_every_key_within_one_of_a_cell() {
+        let cells: Vec<u64> = (0..500u64).map(|k| k * k * 7919 % 100_003 + 1).collect();
+        let mut near = NearKeys::default();
+        near.fill(&cells);
+        for &key in &cells {
+            assert!(near.may_hold(key - 1) && near.may_hold(key) && near.may_hold(key + 1));
+        }
+        let far = (0..100_000u64).filter(|&k| near.may_hold(k)).count();
+        assert!(far < 10 * 3 * cells.len(), "{far} keys pass the filter");
     }
 
     #[test]

@@ -154,13 +154,18 @@ impl Simulation {
         }
     }
 
-    /// Runs one time step: all stages in order (stage 2 is part of stage 1's reordering).
+    /// Runs one time step: all stages in order (stage 2 is part of stage 1's reordering,
+    /// and stages 6-8 run as one pass).
     pub fn step(&mut self) {
-        for stage in Stage::ALL {
-            if stage != Stage::InitAccelerations {
-                self.run_stage(stage);
-            }
+        for stage in [
+            Stage::Reposition,
+            Stage::IncrementDensities,
+            Stage::TransformDensities,
+            Stage::TransferAccelerations,
+        ] {
+            self.run_stage(stage);
         }
+        stages::advance(self.cells.walls(), self.params.dt, &mut self.particles);
     }
 
     /// Runs one stage alone (for trace comparisons and stage benchmarks).

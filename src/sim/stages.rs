@@ -3,9 +3,10 @@
 //! reordering ([`Particles::reset_densities_and_accelerations`]), and the pair stages 3-5
 //! are the [`crate::sim::kernel`].
 
-use crate::sim::cells::{Wall, WallSlots};
+use crate::sim::cells::{wall_bit, Wall, WallBits, Walls};
 use crate::sim::params::{BOX_MAX, BOX_MIN, COLLISION_STIFFNESS, DAMPING, PARTICLE_SIZE};
 use crate::sim::particles::Particles;
+use wide::{f64x4, i32x4};
 
 /// The eight stages of a time step, in execution order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -56,85 +57,184 @@ impl Stage {
     }
 }
 
-/// Calls `visit(axis, wall, slots)` for the particles of each wall.
-fn for_each_wall(walls: &WallSlots, mut visit: impl FnMut(usize, Wall, &[u32])) {
-    for axis in 0..3 {
-        for wall in [Wall::Low, Wall::High] {
-            visit(axis, wall, walls.on(axis, wall));
+/// Slots per group of the per-particle stages.
+const LANES: usize = 4;
+
+/// Masks of the lanes whose block is on the low wall of `axis`, and on the high wall.
+#[inline(always)]
+fn wall_masks(bits: [WallBits; LANES], axis: usize) -> (f64x4, f64x4) {
+    let bits = i32x4::from(bits.map(i32::from));
+    let on = |wall| {
+        let bit = i32x4::splat(i32::from(wall_bit(axis, wall)));
+        f64x4::from_i32x4(bits & bit).simd_ne(f64x4::ZERO)
+    };
+    (on(Wall::Low), on(Wall::High))
+}
+
+/// Stage 6 on one axis of four particles: the acceleration after the wall repulsion and
+/// damping of their blocks' walls, judged by where each particle would be after dt at
+/// its half-step velocity (SPEC.md erratum 5). Lanes off the walls keep `a` unchanged.
+#[inline(always)]
+fn collide(axis: usize, walls: (f64x4, f64x4), dt: f64, [p, hv, v, a]: [f64x4; 4]) -> f64x4 {
+    let (low, high) = walls;
+    let (min, max) = (f64x4::splat(BOX_MIN[axis]), f64x4::splat(BOX_MAX[axis]));
+    let (size, stiffness, damping) = (
+        f64x4::splat(PARTICLE_SIZE),
+        f64x4::splat(COLLISION_STIFFNESS),
+        f64x4::splat(DAMPING),
+    );
+    let threshold = f64x4::splat(1e-10);
+    let x = p + hv * dt;
+    let low_depth = size - (x - min);
+    let high_depth = size - (max - x);
+    let pushed_up = a + (stiffness * low_depth - damping * v);
+    let pushed_down = a - (stiffness * high_depth + damping * v);
+    let a = (high & high_depth.simd_gt(threshold)).select(pushed_down, a);
+    (low & low_depth.simd_gt(threshold)).select(pushed_up, a)
+}
+
+/// Stage 7 on one axis of four particles: the new [p, hv, v] of
+/// p += hv dt + a dt^2; v = hv + a dt / 2; hv += a dt (old hv on the right).
+#[inline(always)]
+fn motion(dt: f64, [p, hv, _, a]: [f64x4; 4]) -> [f64x4; 3] {
+    let dt = f64x4::splat(dt);
+    [
+        p + (hv * dt + a * (dt * dt)),
+        hv + a * dt,
+        hv + a * dt / 2.0,
+    ]
+}
+
+/// Stage 8 on one axis of four particles: [p, hv, v], mirrored back with both
+/// velocities reversed where a particle ended beyond a wall of its block.
+#[inline(always)]
+fn bounce(axis: usize, walls: (f64x4, f64x4), [p, hv, v]: [f64x4; 3]) -> [f64x4; 3] {
+    let (low, high) = walls;
+    let (min, max) = (f64x4::splat(BOX_MIN[axis]), f64x4::splat(BOX_MAX[axis]));
+    let below = low & (p - min).simd_lt(f64x4::ZERO);
+    let above = high & (max - p).simd_lt(f64x4::ZERO);
+    let p = below.select(min - (p - min), above.select(max + (max - p), p));
+    let crossed = below | above;
+    [p, crossed.select(-hv, hv), crossed.select(-v, v)]
+}
+
+/// The fields of one axis that the per-particle stages read and write.
+struct AxisFields<'a> {
+    p: &'a mut [f64],
+    hv: &'a mut [f64],
+    v: &'a mut [f64],
+    a: &'a mut [f64],
+}
+
+/// Calls `update(wall masks, [p, hv, v, a])` on every group of four slots of `0..n` of
+/// one axis and stores the fields it returns (of the last group, only its slots below
+/// `n`). The masks are those of `axis` from `walls` (one entry per slot; none if empty).
+#[inline(always)]
+fn for_each_group(
+    n: usize,
+    walls: &[WallBits],
+    axis: usize,
+    fields: AxisFields,
+    mut update: impl FnMut((f64x4, f64x4), [f64x4; 4]) -> [f64x4; 4],
+) {
+    let AxisFields { p, hv, v, a } = fields;
+    let bits = |at: usize, count: usize| {
+        let mut group = [0; LANES];
+        if !walls.is_empty() {
+            group[..count].copy_from_slice(&walls[at..at + count]);
+        }
+        group
+    };
+    let mut arrays = [&mut p[..n], &mut hv[..n], &mut v[..n], &mut a[..n]];
+    let full = n - n % LANES;
+    for at in (0..full).step_by(LANES) {
+        let group = std::array::from_fn(|k| lanes_at(arrays[k], at));
+        let updated = update(wall_masks(bits(at, LANES), axis), group);
+        for (array, lanes) in arrays.iter_mut().zip(updated) {
+            array[at..at + LANES].copy_from_slice(lanes.as_array());
+        }
+    }
+    if full < n {
+        // The last, partial group, through zero-filled lanes.
+        let count = n - full;
+        let group = std::array::from_fn(|k| {
+            let mut lanes = [0.0; LANES];
+            lanes[..count].copy_from_slice(&arrays[k][full..]);
+            f64x4::from(lanes)
+        });
+        let updated = update(wall_masks(bits(full, count), axis), group);
+        for (array, lanes) in arrays.iter_mut().zip(updated) {
+            array[full..].copy_from_slice(&lanes.as_array()[..count]);
         }
     }
 }
 
-/// Stage 6: wall repulsion and damping for particles of boundary blocks, judged by where
-/// the particle would be after dt at its half-step velocity (SPEC.md erratum 5).
-pub fn collide_with_walls(walls: &WallSlots, dt: f64, particles: &mut Particles) {
-    let Particles { p, hv, v, a, .. } = particles;
-    for_each_wall(walls, |axis, wall, slots| {
-        let (p, hv, v, a) = (&p[axis], &hv[axis], &v[axis], &mut a[axis]);
-        for &s in slots {
-            let s = s as usize;
-            let x = p[s] + hv[s] * dt;
-            match wall {
-                Wall::Low => {
-                    let depth = PARTICLE_SIZE - (x - BOX_MIN[axis]);
-                    if depth > 1e-10 {
-                        a[s] += COLLISION_STIFFNESS * depth - DAMPING * v[s];
-                    }
-                }
-                Wall::High => {
-                    let depth = PARTICLE_SIZE - (BOX_MAX[axis] - x);
-                    if depth > 1e-10 {
-                        a[s] -= COLLISION_STIFFNESS * depth + DAMPING * v[s];
-                    }
-                }
-            }
-        }
-    });
+/// The four values of `values` from `at` on.
+#[inline(always)]
+fn lanes_at(values: &[f64], at: usize) -> f64x4 {
+    f64x4::from(<[f64; LANES]>::try_from(&values[at..at + LANES]).expect("four slots"))
 }
 
-/// Stage 7: p += hv dt + a dt^2; v = hv + a dt / 2; hv += a dt (old hv on the right).
+/// The [`AxisFields`] of `axis`.
+fn axis_fields(particles: &mut Particles, axis: usize) -> AxisFields<'_> {
+    let Particles { p, hv, v, a, .. } = particles;
+    AxisFields {
+        p: &mut p[axis],
+        hv: &mut hv[axis],
+        v: &mut v[axis],
+        a: &mut a[axis],
+    }
+}
+
+/// Stage 6: wall repulsion and damping for particles of boundary blocks (walls from
+/// stage 1, one entry per slot).
+pub fn collide_with_walls(walls: &Walls, dt: f64, particles: &mut Particles) {
+    let n = particles.len();
+    for axis in 0..3 {
+        let fields = axis_fields(particles, axis);
+        for_each_group(n, walls.bits(), axis, fields, |masks, [p, hv, v, a]| {
+            [p, hv, v, collide(axis, masks, dt, [p, hv, v, a])]
+        });
+    }
+}
+
+/// Stage 7: leapfrog integration of every particle.
 pub fn move_particles(dt: f64, particles: &mut Particles) {
     let n = particles.len();
-    let Particles { p, hv, v, a, .. } = particles;
     for axis in 0..3 {
-        let slots = p[axis][..n]
-            .iter_mut()
-            .zip(&mut hv[axis][..n])
-            .zip(&mut v[axis][..n])
-            .zip(&a[axis][..n]);
-        for (((p, hv), v), &a) in slots {
-            *p += *hv * dt + a * (dt * dt);
-            *v = *hv + a * dt / 2.0;
-            *hv += a * dt;
-        }
+        let fields = axis_fields(particles, axis);
+        for_each_group(n, &[], axis, fields, |_, group| {
+            let [p, hv, v] = motion(dt, group);
+            [p, hv, v, group[3]]
+        });
     }
 }
 
 /// Stage 8: particles of boundary blocks (blocks from stage 1, not recomputed) that ended
 /// beyond their wall are mirrored back and their velocities reversed on that axis.
-pub fn interact_with_boundary(walls: &WallSlots, particles: &mut Particles) {
-    let Particles { p, hv, v, .. } = particles;
-    for_each_wall(walls, |axis, wall, slots| {
-        let (p, hv, v) = (&mut p[axis], &mut hv[axis], &mut v[axis]);
-        for &s in slots {
-            let s = s as usize;
-            let crossed = match wall {
-                Wall::Low => {
-                    let excess = p[s] - BOX_MIN[axis];
-                    (excess < 0.0).then(|| BOX_MIN[axis] - excess)
-                }
-                Wall::High => {
-                    let excess = BOX_MAX[axis] - p[s];
-                    (excess < 0.0).then(|| BOX_MAX[axis] + excess)
-                }
-            };
-            if let Some(mirrored) = crossed {
-                p[s] = mirrored;
-                v[s] = -v[s];
-                hv[s] = -hv[s];
-            }
-        }
-    });
+pub fn interact_with_boundary(walls: &Walls, particles: &mut Particles) {
+    let n = particles.len();
+    for axis in 0..3 {
+        let fields = axis_fields(particles, axis);
+        for_each_group(n, walls.bits(), axis, fields, |masks, [p, hv, v, a]| {
+            let [p, hv, v] = bounce(axis, masks, [p, hv, v]);
+            [p, hv, v, a]
+        });
+    }
+}
+
+/// Stages 6, 7 and 8 in one pass over each axis (each stage is per particle and per axis,
+/// so the result is that of the three stages in turn).
+pub fn advance(walls: &Walls, dt: f64, particles: &mut Particles) {
+    let n = particles.len();
+    for axis in 0..3 {
+        let fields = axis_fields(particles, axis);
+        for_each_group(n, walls.bits(), axis, fields, |masks, [p, hv, v, a]| {
+            let a = collide(axis, masks, dt, [p, hv, v, a]);
+            let [p, hv, v] = bounce(axis, masks, motion(dt, [p, hv, v, a]));
+            [p, hv, v, a]
+        });
+    }
 }
 
 #[cfg(test)]
@@ -164,7 +264,7 @@ mod tests {
     }
 
     /// One particle, given the walls of the block at `coords` of a 3x3x3 grid over the box.
-    fn wall_particle(coords: [usize; 3], p: DVec3, hv: DVec3, v: DVec3) -> (WallSlots, Particles) {
+    fn wall_particle(coords: [usize; 3], p: DVec3, hv: DVec3, v: DVec3) -> (Walls, Particles) {
         let grid = Grid {
             dims: [3, 3, 3],
             block_size: (BOX_MAX - BOX_MIN) / 3.0,
@@ -230,6 +330,39 @@ mod tests {
         assert!((particles.p[0][0] - (1.0 + 2e-3 + 1e-3)).abs() < 1e-15);
         assert!((particles.v[0][0] - 2.5).abs() < 1e-15);
         assert!((particles.hv[0][0] - 3.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn advance_is_stages_six_seven_and_eight_in_turn() {
+        // Seven particles (a partial last group) around and beyond the walls, with the
+        // blocks a 3 x 3 x 3 grid gives their positions.
+        let grid = Grid {
+            dims: [3, 3, 3],
+            block_size: (BOX_MAX - BOX_MIN) / 3.0,
+        };
+        let mut particles = Particles::zeroed(7);
+        for slot in 0..7 {
+            let t = slot as f64 / 6.0;
+            for axis in 0..3 {
+                let span = BOX_MAX[axis] - BOX_MIN[axis];
+                particles.p[axis][slot] = BOX_MIN[axis] - 0.001 + (span + 0.002) * t;
+                particles.hv[axis][slot] = (t - 0.5) * (axis as f64 + 1.0);
+                particles.v[axis][slot] = 0.5 - t;
+                particles.a[axis][slot] = 3.0 * t - 1.0;
+            }
+        }
+        particles.pad();
+        let mut cells = CellOrder::default();
+        cells.sort(&grid, &particles);
+        let walls = cells.walls().clone();
+        let mut in_turn = particles.clone();
+        collide_with_walls(&walls, TIME_STEP, &mut in_turn);
+        move_particles(TIME_STEP, &mut in_turn);
+        interact_with_boundary(&walls, &mut in_turn);
+        advance(&walls, TIME_STEP, &mut particles);
+        assert_eq!(particles, in_turn);
+        assert!(walls.bits().iter().any(|&bits| bits != 0));
+        assert_ne!(particles.p[0][0], BOX_MIN.x - 0.001);
     }
 
     #[test]
