@@ -183,16 +183,90 @@ fn wall_bits(grid: &Grid, block: [i64; 3]) -> WallBits {
     })
 }
 
+/// A filter of the particles that have no other particle in their own or an adjacent
+/// coarse cell ("lone": no pair within h can involve them). Each particle is counted (up
+/// to 2) in a hashed table of 2x2x2 blocks of cells; the 27 cells around a particle's cell
+/// lie in 8 such blocks, so a particle is lone if those 8 count it alone. Hash collisions
+/// only ever add counts, so a particle it calls lone is lone.
+#[derive(Debug, Clone, Default)]
+struct LoneFilter {
+    /// Two bits per hashed block: bit 0 "one particle or more", bit 1 "two or more".
+    words: Vec<u64>,
+    /// 64 minus the table's index bits.
+    shift: u32,
+}
+
+/// Bits per block coordinate in a packed block; coordinates are offset to be positive.
+const BLOCK_BITS: u32 = 16;
+
+impl LoneFilter {
+    /// Sets `lone[k]` for each of `cells` (coarse cells) that is lone.
+    fn find(&mut self, cells: &[Cell], lone: &mut Vec<bool>) {
+        // About 64 blocks per particle: a block counts others by mistake rarely.
+        let index_bits = (64 * cells.len().max(1)).next_power_of_two().ilog2();
+        self.shift = u64::BITS - index_bits;
+        self.words.clear();
+        self.words.resize((1 << index_bits) / 32, 0);
+        for cell in cells {
+            let (word, bit) = self.slot(pack_block(cell.map(|c| c >> 1)));
+            let counts = &mut self.words[word];
+            *counts |= (*counts >> bit & 1) << (bit + 1) | 1 << bit;
+        }
+        // The 8 blocks holding the cells c-1..c+1 per axis: first = (c-1) >> 1 and the
+        // next one, on each axis; the particle's own block is the next one where c is even.
+        let offsets: [u64; 8] = std::array::from_fn(|k| {
+            (0..3).fold(0, |sum, d| {
+                sum | ((k as u64 >> d) & 1) << (BLOCK_BITS * d as u32)
+            })
+        });
+        lone.clear();
+        lone.extend(cells.iter().map(|cell| {
+            let first = pack_block(cell.map(|c| (c - 1) >> 1));
+            let own = (0..3).fold(0, |k, d| k | (usize::from(cell[d] & 1 == 0) << d));
+            let mut count = 0;
+            for (k, offset) in offsets.iter().enumerate() {
+                let (word, bit) = self.slot(first + offset);
+                let counts = self.words[word] >> bit;
+                count += (counts & 1) + (counts >> 1 & u64::from(k == own));
+            }
+            count == 1
+        }));
+    }
+
+    /// The word and bit of a packed block's counts.
+    #[inline(always)]
+    fn slot(&self, packed: u64) -> (usize, u32) {
+        let hash = (packed.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> self.shift) as usize;
+        (hash / 32, 2 * (hash % 32) as u32)
+    }
+}
+
+/// A block's coordinates in one integer, [`BLOCK_BITS`] each, offset so that each is
+/// positive and one more does not carry (coarse cells stay within +-2^15 / 2).
+#[inline(always)]
+fn pack_block(block: Cell) -> u64 {
+    let bias = 1 << (BLOCK_BITS - 1);
+    (0..3).fold(0, |packed, d| {
+        packed | (((block[d] + bias) as u64) << (BLOCK_BITS * d as u32))
+    })
+}
+
 /// The cell order of the particles after stage 1, and the buffers to recompute it.
 #[derive(Debug, Clone, Default)]
 pub struct CellOrder {
     layout: CellLayout,
-    /// Key of each slot in cell order, then [`SENTINELS`] times `u64::MAX`.
+    /// Key of each slot that may have a pair, in cell order, then [`SENTINELS`] times
+    /// `u64::MAX`.
     keys: Vec<u64>,
     /// The previous slot of each slot.
     order: Vec<u32>,
     walls: Walls,
+    /// Whether the last sort found mostly lone particles (more cells than half the
+    /// particles), so that this one filters them out first.
+    sparse: bool,
+    lone_filter: LoneFilter,
     // Reused buffers.
+    lone: Vec<bool>,
     cells: Vec<Cell>,
     wall_bits: Vec<WallBits>,
     spare_keys: Vec<u64>,
@@ -241,34 +315,57 @@ impl CellOrder {
         for cell in &mut self.cells {
             *cell = coarse_cell(grid, *cell);
         }
-        let (lowest, highest) =
-            self.cells
-                .iter()
-                .fold(([i32::MAX; 3], [i32::MIN; 3]), |(lo, hi), c| {
-                    (
-                        std::array::from_fn(|d| lo[d].min(c[d])),
-                        std::array::from_fn(|d| hi[d].max(c[d])),
-                    )
-                });
-        self.layout = if self.cells.is_empty() {
+        let n = self.cells.len();
+        self.order.clear();
+        if self.sparse {
+            self.lone_filter.find(&self.cells, &mut self.lone);
+            let lone = &self.lone;
+            self.order
+                .extend((0..n as u32).filter(|&slot| !lone[slot as usize]));
+        } else {
+            self.order.extend(0..n as u32);
+        }
+        let (lowest, highest) = self
+            .order
+            .iter()
+            .map(|&slot| self.cells[slot as usize])
+            .fold(([i32::MAX; 3], [i32::MIN; 3]), |(lo, hi), c| {
+                (
+                    std::array::from_fn(|d| lo[d].min(c[d])),
+                    std::array::from_fn(|d| hi[d].max(c[d])),
+                )
+            });
+        self.layout = if self.order.is_empty() {
             CellLayout::default()
         } else {
             CellLayout::covering(lowest, highest)
         };
         let layout = self.layout;
         self.keys.clear();
-        self.keys.extend(self.cells.iter().map(|&c| layout.key(c)));
-        self.order.clear();
-        self.order.extend(0..self.cells.len() as u32);
-        let moved = !self.keys.is_sorted();
-        if moved {
+        let keys = self
+            .order
+            .iter()
+            .map(|&slot| layout.key(self.cells[slot as usize]));
+        self.keys.extend(keys);
+        let paired = self.order.len();
+        if !self.keys.is_sorted() {
             self.radix_sort();
         }
+        if paired < n {
+            let lone = &self.lone;
+            self.order
+                .extend((0..n as u32).filter(|&slot| lone[slot as usize]));
+        }
+        let cells = n - paired + self.keys.chunk_by(|a, b| a == b).count();
+        self.sparse = 2 * cells > n;
         self.keys.extend([u64::MAX; SENTINELS]);
         self.walls.bits.clear();
         let walls = self.order.iter().map(|&old| self.wall_bits[old as usize]);
         self.walls.bits.extend(walls);
-        moved
+        self.order
+            .iter()
+            .enumerate()
+            .any(|(slot, &old)| slot != old as usize)
     }
 
     /// Stable LSD radix sort of `keys` (carrying `order`) in as few digits as the key
@@ -316,7 +413,9 @@ impl CellOrder {
         &self.layout
     }
 
-    /// The cell key of each slot, ascending, followed by [`SENTINELS`] times `u64::MAX`.
+    /// The cell key of each slot that may have a pair, ascending, followed by
+    /// [`SENTINELS`] times `u64::MAX`. These slots come first; the lone particles follow
+    /// them, in their previous order.
     pub fn keys(&self) -> &[u64] {
         &self.keys
     }
@@ -410,6 +509,13 @@ mod tests {
         assert_eq!(layout.key_bits(), 48);
         let extent = layout.extent();
         assert_eq!(layout.unpack(layout.key(highest)), extent);
+        // The lone filter's packed blocks (half a coarse cell, plus one) fit their bits.
+        let largest = highest
+            .iter()
+            .chain(&lowest)
+            .map(|c| c.unsigned_abs())
+            .max();
+        assert!(largest.unwrap() / 2 + 1 < 1 << (BLOCK_BITS - 1));
     }
 
     #[test]
@@ -459,6 +565,58 @@ mod tests {
         expected
             .sort_by_key(|&s| layout.key(coarse_cell(&grid, cell_of(&grid, points[s as usize]))));
         assert_eq!(cells.order(), expected);
+    }
+
+    #[test]
+    fn lone_particles_have_no_particle_in_an_adjacent_cell_and_go_last() {
+        let grid = grid();
+        // Lone particles spread over metres, and pairs of particles a few cells apart.
+        let mut state = 0x853c_49e6_748f_ea9bu64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 40.0 - 20.0
+        };
+        let mut points: Vec<[f64; 3]> = (0..3000).map(|_| [next(), next(), next()]).collect();
+        for k in 0..300 {
+            let p = points[k];
+            points.push([p[0] + 0.0001 * k as f64, p[1] - 0.05, p[2] + 0.01]);
+        }
+        let particles = positions(&points);
+        let mut cells = CellOrder::default();
+        cells.sort(&grid, &particles);
+        assert_eq!(cells.keys().len(), points.len() + SENTINELS);
+        cells.sort(&grid, &particles);
+        let paired = cells.keys().len() - SENTINELS;
+        let coarse: Vec<Cell> = points
+            .iter()
+            .map(|&p| coarse_cell(&grid, cell_of(&grid, p)))
+            .collect();
+        let adjacent = |a: Cell, b: Cell| (0..3).all(|d| a[d].abs_diff(b[d]) <= 1);
+        let order = cells.order();
+        let mut slots = order.to_vec();
+        slots.sort_unstable();
+        assert_eq!(slots, (0..points.len() as u32).collect::<Vec<_>>());
+        for &lone in &order[paired..] {
+            let cell = coarse[lone as usize];
+            let others = (0..points.len()).filter(|&s| s != lone as usize);
+            assert!(
+                others.into_iter().all(|s| !adjacent(cell, coarse[s])),
+                "slot {lone}"
+            );
+        }
+        // Lone particles keep their order; most of them are found (the filter counts
+        // particles two cells away too).
+        assert!(order[paired..].is_sorted());
+        let truly_lone = (0..points.len())
+            .filter(|&s| (0..points.len()).all(|t| t == s || !adjacent(coarse[s], coarse[t])))
+            .count();
+        assert!(
+            points.len() - paired > truly_lone * 4 / 5,
+            "{paired} of {truly_lone}"
+        );
+        assert!(cells.keys()[..paired].is_sorted());
     }
 
     #[test]
