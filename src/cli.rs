@@ -5,8 +5,9 @@ use crate::error::FluidError;
 use crate::io::fld::{self, OutputFile};
 use crate::io::gformat::format_g;
 use crate::progargs::ProgArgs;
+use crate::sim::grid::Grid;
 use crate::sim::method::Method;
-use crate::sim::simulation::Simulation;
+use crate::sim::params::Params;
 use std::ffi::OsString;
 use std::io::Write;
 
@@ -21,19 +22,25 @@ where
     let output = OutputFile::create(&args.output)?;
     let input_name = args.input.display().to_string();
     let scene = fld::parse(&input, &input_name)?;
-    drop(input);
     let ppm = scene.ppm;
-    let mut simulation = scene.into_simulation(Method::default(), &input_name)?;
-    let _ = stdout.write_all(parameter_report(&simulation).as_bytes());
+    let (params, grid) = scene.grid(&input_name)?;
+    let report = parameter_report(&params, &grid, scene.particles.len());
+    let _ = stdout.write_all(report.as_bytes());
     let _ = stdout.flush();
+    if args.steps == 0 {
+        // No step to run: the state after 0 steps is the input's, and a valid input's
+        // bytes are its own encoding (placing the particles would change nothing written).
+        return Ok(output.commit(&input)?);
+    }
+    drop(input);
+    let mut simulation = scene.into_simulation(Method::default(), &input_name)?;
     simulation.run(args.steps);
     Ok(output.commit(&fld::encode(ppm, simulation.particles()))?)
 }
 
-/// The seven lines printed before simulating, numbers in C++ default format.
-pub fn parameter_report(simulation: &Simulation) -> String {
-    let params = simulation.params();
-    let grid = simulation.grid();
+/// The seven lines printed before simulating, numbers in C++ default format, for
+/// `particles` particles.
+pub fn parameter_report(params: &Params, grid: &Grid, particles: usize) -> String {
     let [nx, ny, nz] = grid.dims;
     let [sx, sy, sz] = grid.block_size.to_array().map(format_g);
     format!(
@@ -44,7 +51,7 @@ pub fn parameter_report(simulation: &Simulation) -> String {
          Grid size: {nx} x {ny} x {nz}\n\
          Number of blocks: {}\n\
          Block size: {sx} x {sy} x {sz}\n",
-        simulation.particles().len(),
+        particles,
         format_g(params.ppm),
         format_g(params.h),
         format_g(params.mass),
@@ -55,13 +62,16 @@ pub fn parameter_report(simulation: &Simulation) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::particles::Particles;
+
+    fn report(ppm: f64, particles: usize) -> String {
+        let params = Params::new(ppm);
+        parameter_report(&params, &Grid::new(params.h).unwrap(), particles)
+    }
 
     #[test]
     fn report_for_the_small_input() {
-        let simulation = Simulation::new(204.0, Particles::zeroed(4800)).unwrap();
         assert_eq!(
-            parameter_report(&simulation),
+            report(204.0, 4800),
             "Number of particles: 4800\nParticles per meter: 204\nSmoothing length: 0.00830882\n\
              Particle mass: 0.00011779\nGrid size: 15 x 21 x 15\nNumber of blocks: 4725\n\
              Block size: 0.00866667 x 0.00857143 x 0.00866667\n"
@@ -70,8 +80,7 @@ mod tests {
 
     #[test]
     fn report_for_the_large_input_uses_scientific_mass() {
-        let simulation = Simulation::new(292.0, Particles::zeroed(15138)).unwrap();
-        let report = parameter_report(&simulation);
+        let report = report(292.0, 15138);
         assert!(report.contains("Particle mass: 4.01653e-05\n"), "{report}");
         assert!(report.contains("Smoothing length: 0.00580479\n"));
         assert!(report.contains("Grid size: 22 x 31 x 22\nNumber of blocks: 15004\n"));

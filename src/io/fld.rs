@@ -4,7 +4,9 @@
 //! rename). Every failure is a [`FileError`] with the contract's message.
 
 use crate::io::gformat::format_g;
+use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::method::Method;
+use crate::sim::params::Params;
 use crate::sim::particles::Particles;
 use crate::sim::simulation::Simulation;
 use memmap2::Mmap;
@@ -89,12 +91,24 @@ impl Scene {
     /// grid make the input invalid (exit 251 for `fluid`); `file` names it in the message.
     pub fn into_simulation(self, method: Method, file: &str) -> Result<Simulation, FileError> {
         let ppm = self.ppm;
-        Simulation::with_method(ppm.into(), self.particles, method).map_err(|e| {
-            FileError::InvalidInput {
-                file: file.to_string(),
-                reason: format!("particles per meter {} gives {e}", format_g(ppm.into())),
-            }
-        })
+        Simulation::with_method(ppm.into(), self.particles, method)
+            .map_err(|e| invalid_ppm(ppm, file, e))
+    }
+
+    /// The parameters and grid of this scene's particles per metre, with the error of
+    /// [`Self::into_simulation`] if they admit no grid.
+    pub fn grid(&self, file: &str) -> Result<(Params, Grid), FileError> {
+        let params = Params::new(self.ppm.into());
+        let grid = Grid::new(params.h).map_err(|e| invalid_ppm(self.ppm, file, e))?;
+        Ok((params, grid))
+    }
+}
+
+/// The error of particles per metre `ppm` in `file` that admit no grid.
+fn invalid_ppm(ppm: f32, file: &str, error: GridSizeError) -> FileError {
+    FileError::InvalidInput {
+        file: file.to_string(),
+        reason: format!("particles per meter {} gives {error}", format_g(ppm.into())),
     }
 }
 
@@ -105,7 +119,7 @@ pub fn map_input(path: &Path) -> Result<Mmap, FileError> {
     if !file.metadata().map_err(|_| cannot_open())?.is_file() {
         return Err(cannot_open());
     }
-    // SAFETY: the map is read-only and dropped right after parsing; as with any memory map,
+    // SAFETY: the map is read-only and dropped once parsed (or, for 0 steps, written); as with any memory map,
     // another process truncating the file meanwhile is outside what we can guard against.
     unsafe { Mmap::map(&file) }.map_err(|_| cannot_open())
 }
@@ -333,6 +347,31 @@ mod tests {
         let mut shuffled = Particles::default();
         shuffled.gather_kinematics(&scene.particles, &[2, 0, 1]);
         assert_eq!(encode(scene.ppm, &shuffled), bytes);
+    }
+
+    #[test]
+    fn every_valid_file_is_its_own_encoding() {
+        // fluid 0 writes a valid input's bytes as they are: that is its encoding, because
+        // every finite f32 survives the trip through f64.
+        let odd = [
+            -0.0,
+            f32::MIN_POSITIVE / 8.0,
+            f32::MAX,
+            -f32::MAX,
+            1e-30,
+            3.3,
+        ];
+        let mut records: Vec<[f32; 9]> = vec![record(1.0)];
+        records.push(std::array::from_fn(|k| odd[k % odd.len()]));
+        let mut files = vec![file_bytes(292.0, 2, &records)];
+        for input in ["small", "large"] {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("data/in/{input}.fld"));
+            files.push(std::fs::read(path).unwrap());
+        }
+        for bytes in files {
+            let scene = parse(&bytes, "f").unwrap();
+            assert_eq!(encode(scene.ppm, &scene.particles), bytes);
+        }
     }
 
     #[test]
