@@ -185,17 +185,24 @@ mod tests {
         let start = Simulation::new(150.0, particles).unwrap();
         let trajectories = sweep(&start, Model::Fluidanimate, &Kernel::FAST, 3);
         let kernels: Vec<Kernel> = trajectories.iter().map(|t| t.method.kernel).collect();
-        assert_eq!(kernels, [Kernel::Reference, Kernel::Scalar, Kernel::Simd]);
+        let mut expected = vec![Kernel::Reference];
+        expected.extend(Kernel::FAST);
+        assert_eq!(kernels, expected);
         for trajectory in &trajectories {
             assert_eq!(trajectory.errors.len(), 3);
             assert!(trajectory.seconds_per_step > 0.0);
+            let bound = if trajectory.method.kernel == Kernel::Mixed {
+                1e-6
+            } else {
+                1e-12
+            };
             for error in &trajectory.errors {
-                assert!(error.max < 1e-12, "{trajectory:?}");
+                assert!(error.max < bound, "{trajectory:?}");
             }
         }
         assert!(trajectories[0].errors.iter().all(|e| e.max == 0.0));
         let text = csv("corner.fld", 300, &trajectories);
-        assert_eq!(text.lines().count(), 9);
+        assert_eq!(text.lines().count(), 3 * expected.len());
         assert!(text.starts_with("corner.fld,300,fluidanimate,reference,1,"));
     }
 }

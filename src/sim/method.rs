@@ -1,6 +1,6 @@
 //! How a simulation is computed: which model (the course model or the stable
-//! fluidanimate variant) and which kernel (plain scalar loops, `f64x4` lanes, or the
-//! compensated reference) runs the pair interactions.
+//! fluidanimate variant) and which kernel (plain scalar loops, `f64x4` or `f64x8` lanes,
+//! mixed f64/f32 lanes, or the compensated reference) runs the pair interactions.
 
 /// The physical model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
@@ -15,14 +15,20 @@ pub enum Model {
 }
 
 /// The implementation of the pair loops (density increment, acceleration transfer).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Kernel {
     /// One pair at a time in plain f64: the reference path.
     Scalar,
     /// Four partners at a time in `wide::f64x4` lanes, with masks for the cut-off and the
     /// tail lanes.
-    #[default]
     Simd,
+    /// As [`Kernel::Simd`], eight partners at a time in `wide::f64x8` lanes (one AVX-512
+    /// register; two AVX2 registers elsewhere).
+    Simd8,
+    /// Mixed precision, eight partners at a time: each pair's differences computed in f64
+    /// and narrowed to f32, the pair terms in `wide::f32x8` lanes, the sums in f64. Not
+    /// held to the reference outputs (about 1e-6 relative per step); a workbench method.
+    Mixed,
     /// Each particle's sums on their own, over its partners in id order, with compensated
     /// (Neumaier) summation: the reference trajectory for accuracy measurements (slow).
     Reference,
@@ -52,18 +58,49 @@ impl Model {
 
 impl Kernel {
     /// Every kernel, in a fixed order.
-    pub const ALL: [Kernel; 3] = [Kernel::Scalar, Kernel::Simd, Kernel::Reference];
+    pub const ALL: [Kernel; 5] = [
+        Kernel::Scalar,
+        Kernel::Simd,
+        Kernel::Simd8,
+        Kernel::Mixed,
+        Kernel::Reference,
+    ];
+
+    /// The kernels that compute in f64 throughout, held to the reference outputs.
+    pub const F64: [Kernel; 4] = [
+        Kernel::Scalar,
+        Kernel::Simd,
+        Kernel::Simd8,
+        Kernel::Reference,
+    ];
 
     /// The kernels meant for speed (the reference is meant for accuracy).
-    pub const FAST: [Kernel; 2] = [Kernel::Scalar, Kernel::Simd];
+    pub const FAST: [Kernel; 4] = [Kernel::Scalar, Kernel::Simd, Kernel::Simd8, Kernel::Mixed];
+
+    /// The fastest f64 kernel for the CPU the crate is built for: [`Kernel::Simd8`] where
+    /// AVX-512 is enabled, [`Kernel::Simd`] otherwise. `fluid` runs it.
+    pub const NATIVE: Kernel = if cfg!(target_feature = "avx512f") {
+        Kernel::Simd8
+    } else {
+        Kernel::Simd
+    };
 
     /// The kernel's name in benchmark labels, command lines and CSV files.
     pub fn name(self) -> &'static str {
         match self {
             Kernel::Scalar => "scalar",
             Kernel::Simd => "simd",
+            Kernel::Simd8 => "simd8",
+            Kernel::Mixed => "mixed",
             Kernel::Reference => "reference",
         }
+    }
+}
+
+impl Default for Kernel {
+    /// [`Kernel::NATIVE`].
+    fn default() -> Self {
+        Kernel::NATIVE
     }
 }
 
@@ -77,7 +114,7 @@ mod tests {
         assert_eq!(Model::ALL.map(Model::name), ["course", "fluidanimate"]);
         assert_eq!(
             Kernel::ALL.map(Kernel::name),
-            ["scalar", "simd", "reference"]
+            ["scalar", "simd", "simd8", "mixed", "reference"]
         );
         for model in Model::ALL {
             assert_eq!(model.to_possible_value().unwrap().get_name(), model.name());
@@ -91,8 +128,15 @@ mod tests {
     }
 
     #[test]
-    fn the_default_is_the_course_model_on_simd_lanes() {
+    fn the_default_is_the_course_model_on_the_widest_lanes_the_cpu_has() {
         let method = Method::default();
-        assert_eq!((method.model, method.kernel), (Model::Course, Kernel::Simd));
+        assert_eq!(method.model, Model::Course);
+        let wide = std::arch::is_x86_feature_detected!("avx512f");
+        let expected = if cfg!(target_feature = "avx512f") && wide {
+            Kernel::Simd8
+        } else {
+            Kernel::Simd
+        };
+        assert_eq!(method.kernel, expected);
     }
 }

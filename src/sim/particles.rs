@@ -8,8 +8,8 @@ use glam::DVec3;
 pub type AxisArrays = [Vec<f64>; 3];
 
 /// Extra elements after the last particle in every `f64` array of a simulation's
-/// particles, so that four-lane loads starting at any particle stay in bounds.
-pub const PADDING: usize = 3;
+/// particles, so that eight-lane loads starting at any particle stay in bounds.
+pub const PADDING: usize = 7;
 
 /// The state of every particle, stored slot by slot (in cell order during a simulation,
 /// with [`PADDING`] extra elements after the last particle).
@@ -176,7 +176,8 @@ mod tests {
         particles.v[1][1] = 4.0;
         particles.pad();
         particles.pad();
-        assert_eq!(particles.v[1], [0.0, 4.0, 0.0, 0.0, 0.0]);
+        assert_eq!(particles.v[1][..4], [0.0, 4.0, 0.0, 0.0]);
+        assert_eq!(particles.v[1].len(), 2 + PADDING);
         assert_eq!(particles.rho.len(), 2 + PADDING);
         assert_eq!(particles.len(), 2);
     }

@@ -17,7 +17,7 @@ pub struct Simulation {
     params: Params,
     grid: Grid,
     method: Method,
-    /// The particles, stored cell after cell and padded for four-lane loads.
+    /// The particles, stored cell after cell and padded for the kernels' lane loads.
     particles: Particles,
     cells: CellOrder,
     search: TileSearch,

@@ -22,8 +22,8 @@ pub struct SimulationArgs {
     /// Physical model.
     #[arg(long, value_enum, default_value_t = Model::Course)]
     pub model: Model,
-    /// Pair-loop implementation.
-    #[arg(long, value_enum, default_value_t = Kernel::Simd)]
+    /// Pair-loop implementation (default: the widest f64 lanes the build's CPU has).
+    #[arg(long, value_enum, default_value_t = Kernel::NATIVE)]
     pub kernel: Kernel,
     /// Time step in seconds.
     #[arg(long, default_value_t = TIME_STEP, value_parser = parse_time_step)]

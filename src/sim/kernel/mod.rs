@@ -1,10 +1,12 @@
 //! The density and acceleration stages 3-5, whose pair loops are the hot part of a time
-//! step, over the tiles of the neighbour search. Three implementations compute the same
-//! pair terms. [`Kernel::Scalar`] (one pair at a time, the plain path) and
-//! [`Kernel::Simd`] (four partners at a time in `f64x4` lanes) differ only in the order in
-//! which terms are summed, which the reference outputs do not depend on (SPEC.md section
-//! 5). [`Kernel::Reference`] sums each particle's terms in id order with compensated
-//! summation, for accuracy measurements.
+//! step, over the tiles of the neighbour search. Four implementations compute the same
+//! pair terms. [`Kernel::Scalar`] (one pair at a time, the plain path), [`Kernel::Simd`]
+//! and [`Kernel::Simd8`] (four or eight partners at a time in `f64x4` or `f64x8` lanes,
+//! one generic loop) differ only in the order in which terms are summed, which the
+//! reference outputs do not depend on (SPEC.md section 5). [`Kernel::Reference`] sums each
+//! particle's terms in id order with compensated summation, for accuracy measurements.
+//! [`Kernel::Mixed`] runs the same loop with each pair's terms in f32 lanes (differences
+//! and sums in f64): faster and less exact, a workbench method.
 //!
 //! The density loop also records where the pairs closer than h are ([`ClosePairs`]): the
 //! acceleration loop, over the same positions, visits only those tiles and, on the SIMD
@@ -13,6 +15,8 @@
 mod reference;
 mod scalar;
 mod simd;
+
+use simd::{F64x4, F64x8, MixedF32x8};
 
 use crate::sim::method::{Kernel, Model};
 use crate::sim::neighbours::Tile;
@@ -27,11 +31,11 @@ const OVERFLOW_GROUP: usize = 63;
 pub struct ClosePairs {
     /// The tiles holding at least one such pair, in the order the loop visited them.
     pub tiles: Vec<Tile>,
-    /// On the SIMD kernel (empty on the scalar one), in the order the loop visits them:
+    /// On the SIMD kernels (empty on the others), in the order the loop visits them:
     /// cell by cell (a cell's tiles are consecutive and share their first slots), first
-    /// slot by first slot, tile by tile: bit k set if partners 4k..4k+4 (of
-    /// [`Tile::partners`]) hold such a pair; bit 63 stands for every group from the 63rd
-    /// on. The SIMD kernel keeps all tiles of a cell with any such pair.
+    /// slot by first slot, tile by tile: bit k set if partners kL..(k+1)L (of
+    /// [`Tile::partners`], L the kernel's lanes) hold such a pair; bit 63 stands for every
+    /// group from the 63rd on. The SIMD kernels keep all tiles of a cell with any such pair.
     pub groups: Vec<u64>,
 }
 
@@ -75,7 +79,9 @@ pub fn increment_densities(
     close.clear();
     match kernel {
         Kernel::Scalar => scalar::increment_densities(params, tiles, p, rho, &mut close.tiles),
-        Kernel::Simd => simd::increment_densities(params, tiles, p, rho, close),
+        Kernel::Simd => simd::increment_densities::<F64x4>(params, tiles, p, rho, close),
+        Kernel::Simd8 => simd::increment_densities::<F64x8>(params, tiles, p, rho, close),
+        Kernel::Mixed => simd::increment_densities::<MixedF32x8>(params, tiles, p, rho, close),
         Kernel::Reference => {
             reference::increment_densities(params, tiles, p, rho, id, &mut close.tiles)
         }
@@ -111,10 +117,22 @@ pub fn transfer_accelerations(
             scalar::transfer_accelerations::<true>(params, candidates.tiles(), p, v, rho, a)
         }
         (Kernel::Simd, Model::Course) => {
-            simd::transfer_accelerations::<false>(params, candidates, p, v, rho, a)
+            simd::transfer_accelerations::<F64x4, false>(params, candidates, p, v, rho, a)
         }
         (Kernel::Simd, Model::Fluidanimate) => {
-            simd::transfer_accelerations::<true>(params, candidates, p, v, rho, a)
+            simd::transfer_accelerations::<F64x4, true>(params, candidates, p, v, rho, a)
+        }
+        (Kernel::Simd8, Model::Course) => {
+            simd::transfer_accelerations::<F64x8, false>(params, candidates, p, v, rho, a)
+        }
+        (Kernel::Simd8, Model::Fluidanimate) => {
+            simd::transfer_accelerations::<F64x8, true>(params, candidates, p, v, rho, a)
+        }
+        (Kernel::Mixed, Model::Course) => {
+            simd::transfer_accelerations::<MixedF32x8, false>(params, candidates, p, v, rho, a)
+        }
+        (Kernel::Mixed, Model::Fluidanimate) => {
+            simd::transfer_accelerations::<MixedF32x8, true>(params, candidates, p, v, rho, a)
         }
         (Kernel::Reference, Model::Course) => {
             let tiles = candidates.tiles();
@@ -123,6 +141,76 @@ pub fn transfer_accelerations(
         (Kernel::Reference, Model::Fluidanimate) => {
             let tiles = candidates.tiles();
             reference::transfer_accelerations::<true>(params, tiles, p, v, rho, id, a)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::sim::method::{Kernel, Method, Model};
+    use crate::sim::params::BOX_MIN;
+    use crate::sim::particles::Particles;
+    use crate::sim::simulation::Simulation;
+    use crate::sim::stages::Stage;
+
+    /// A jittered lattice of 20 x 20 x 20 particles one spacing (1 / ppm) apart in the
+    /// box's lower corner, with small random velocities.
+    fn dense_block(ppm: f64) -> Particles {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut particles = Particles::zeroed(20 * 20 * 20);
+        for slot in 0..particles.len() {
+            let lattice = [slot % 20, slot / 20 % 20, slot / 400];
+            for axis in 0..3 {
+                let offset = (lattice[axis] as f64 + 1.0 + 0.2 * next()) / ppm;
+                particles.p[axis][slot] = BOX_MIN[axis] + offset;
+                particles.v[axis][slot] = 0.2 * next();
+            }
+        }
+        particles
+    }
+
+    #[test]
+    fn mixed_precision_stays_within_1e_5_of_the_f64_kernels_on_a_dense_step() {
+        let ppm = 292.0;
+        for model in Model::ALL {
+            let pair_stages = |kernel| {
+                let method = Method { model, kernel };
+                let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
+                for stage in [
+                    Stage::IncrementDensities,
+                    Stage::TransformDensities,
+                    Stage::TransferAccelerations,
+                ] {
+                    sim.run_stage(stage);
+                }
+                sim.particles().clone()
+            };
+            let mixed = pair_stages(Kernel::Mixed);
+            for kernel in [Kernel::Simd, Kernel::Simd8, Kernel::Scalar] {
+                let exact = pair_stages(kernel);
+                let n = exact.len();
+                let density_error = (0..n)
+                    .map(|s| (mixed.rho[s] - exact.rho[s]).abs() / exact.rho[s])
+                    .fold(0.0, f64::max);
+                let largest = (0..n)
+                    .map(|s| exact.acceleration(s).length())
+                    .fold(0.0, f64::max);
+                let acceleration_error = (0..n)
+                    .map(|s| (mixed.acceleration(s) - exact.acceleration(s)).length() / largest)
+                    .fold(0.0, f64::max);
+                println!("{model:?} vs {kernel:?}: {density_error:.2e} {acceleration_error:.2e}");
+                assert!(
+                    density_error < 1e-5 && density_error > 0.0,
+                    "{density_error}"
+                );
+                assert!(acceleration_error < 1e-5 && acceleration_error > 0.0);
+            }
         }
     }
 }

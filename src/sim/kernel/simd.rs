@@ -1,10 +1,10 @@
-//! The vectorised pair loops: for each particle of a tile, its partners four at a time in
-//! `f64x4` lanes. A lane counts only if it holds a partner (tail mask) closer than h
-//! (cut-off mask); other lanes add exactly +0. A particle visits all the tiles of its cell
-//! in one pass, its own sums in registers, added once; the partners' sums are updated
-//! lane-wise in memory.
+//! The vectorised pair loops, on any width of f64 lanes ([`Lanes`]: `f64x4` or `f64x8`):
+//! for each particle of a tile, its partners a lane-width at a time. A lane counts only if
+//! it holds a partner (tail mask) closer than h (cut-off mask); other lanes add exactly
+//! +0. A particle visits all the tiles of its cell in one pass, its own sums in
+//! registers, added once; the partners' sums are updated lane-wise in memory.
 //!
-//! Loads of the last, partial group of four read up to three slots past the range: the
+//! Loads of the last, partial group read up to `LANES - 1` slots past the range: the
 //! particle arrays carry [`PADDING`] extra elements so those reads stay in bounds, and the
 //! masked lanes write back exactly what they read. Each loop checks the padding of every
 //! array once, against the largest slot its tiles reach; the loads and stores inside
@@ -18,48 +18,312 @@ const OVERFLOW_BIT: u64 = 1 << OVERFLOW_GROUP;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::{AxisArrays, PADDING};
-use wide::f64x4;
+use std::ops::{Add, BitAnd, Div, Mul, Neg, Sub};
+use wide::{f32x8, f64x4, f64x8};
 
-const LANES: usize = 4;
-
-/// `values[at..at + 4]`.
-///
-/// # Safety
-/// `at + 4 <= values.len()`.
-#[inline(always)]
-unsafe fn load(values: &[f64], at: usize) -> f64x4 {
-    debug_assert!(at + LANES <= values.len());
-    // SAFETY: the caller guarantees the four elements are in bounds; any alignment works.
-    f64x4::from(unsafe {
-        values
-            .as_ptr()
-            .add(at)
-            .cast::<[f64; LANES]>()
-            .read_unaligned()
-    })
+/// The lanes the pair loops run on: how a group of `LANES` partners is loaded from the
+/// f64 particle arrays, computed in the vector type `V`, and added back. [`F64x4`] and
+/// [`F64x8`] compute in f64 throughout. [`MixedF32x8`] computes each pair's differences
+/// in f64, narrows them to f32 and computes the pair terms in `f32x8` lanes; its sums
+/// stay in f64.
+pub(super) trait Lanes {
+    /// Partners per group.
+    const LANES: usize;
+    /// The vector the pair terms are computed in.
+    type V: Copy
+        + Add<Output = Self::V>
+        + Sub<Output = Self::V>
+        + Mul<Output = Self::V>
+        + Div<Output = Self::V>
+        + BitAnd<Output = Self::V>
+        + Neg<Output = Self::V>;
+    /// A first particle's running sum, lane by lane.
+    type Sum: Copy;
+    /// A sum of zero.
+    const ZERO_SUM: Self::Sum;
+    /// Every lane `value`.
+    fn splat(value: f64) -> Self::V;
+    /// A mask of every lane.
+    fn all() -> Self::V;
+    /// A mask of the first `count` lanes (all for `count >= LANES`).
+    fn first(count: usize) -> Self::V;
+    /// The mask of lanes of `a` below `b`.
+    fn lt(a: Self::V, b: Self::V) -> Self::V;
+    /// Whether any lane of a mask is set.
+    fn any(mask: Self::V) -> bool;
+    /// The lane-wise maximum.
+    fn max(a: Self::V, b: Self::V) -> Self::V;
+    /// The lane-wise square root.
+    fn sqrt(a: Self::V) -> Self::V;
+    /// `values[at..at + LANES]`.
+    ///
+    /// # Safety
+    /// `at + LANES <= values.len()`.
+    unsafe fn load(values: &[f64], at: usize) -> Self::V;
+    /// `center - values[at..at + LANES]`, subtracted in f64.
+    ///
+    /// # Safety
+    /// As for [`Self::load`].
+    unsafe fn offsets(values: &[f64], at: usize, center: f64) -> Self::V;
+    /// `(rho + values[at..at + LANES]) - 2 * FLUID_DENSITY`, computed in f64.
+    ///
+    /// # Safety
+    /// As for [`Self::load`].
+    unsafe fn excess_density(rho: f64, values: &[f64], at: usize) -> Self::V;
+    /// `values[at..at + LANES] += terms`, in f64.
+    ///
+    /// # Safety
+    /// As for [`Self::load`].
+    unsafe fn add_to(values: &mut [f64], at: usize, terms: Self::V);
+    /// `values[at..at + LANES] -= terms`, in f64.
+    ///
+    /// # Safety
+    /// As for [`Self::load`].
+    unsafe fn subtract_from(values: &mut [f64], at: usize, terms: Self::V);
+    /// Adds `terms` to `sum`.
+    fn accumulate(sum: &mut Self::Sum, terms: Self::V);
+    /// The total of a sum's lanes.
+    fn total(sum: Self::Sum) -> f64;
 }
 
-/// `values[at..at + 4] = lanes`.
+/// `values[at..at + N]` as an array.
 ///
 /// # Safety
-/// `at + 4 <= values.len()`.
+/// `at + N <= values.len()`.
 #[inline(always)]
-unsafe fn store(values: &mut [f64], at: usize, lanes: f64x4) {
-    debug_assert!(at + LANES <= values.len());
-    // SAFETY: as for `load`.
+unsafe fn read<const N: usize>(values: &[f64], at: usize) -> [f64; N] {
+    debug_assert!(at + N <= values.len());
+    // SAFETY: the caller guarantees the elements are in bounds; any alignment works.
+    unsafe { values.as_ptr().add(at).cast::<[f64; N]>().read_unaligned() }
+}
+
+/// `values[at..at + N] = lanes`.
+///
+/// # Safety
+/// `at + N <= values.len()`.
+#[inline(always)]
+unsafe fn write<const N: usize>(values: &mut [f64], at: usize, lanes: [f64; N]) {
+    debug_assert!(at + N <= values.len());
+    // SAFETY: as for `read`.
     unsafe {
         values
             .as_mut_ptr()
             .add(at)
-            .cast::<[f64; LANES]>()
-            .write_unaligned(lanes.to_array())
+            .cast::<[f64; N]>()
+            .write_unaligned(lanes)
     }
 }
 
-/// The group bits covering `partners` partners: one per four, the last bit standing for
-/// every group from [`OVERFLOW_GROUP`] on.
-fn all_groups(partners: usize) -> u64 {
-    let groups = partners.div_ceil(LANES);
+/// The f64 lanes of `wide::f64x4`: the design card's kernel, portable.
+pub(super) struct F64x4;
+/// The f64 lanes of `wide::f64x8`: one AVX-512 register, two AVX2 ones.
+pub(super) struct F64x8;
+
+macro_rules! f64_lanes {
+    ($name:ident, $type:ty, $lanes:literal) => {
+        impl Lanes for $name {
+            const LANES: usize = $lanes;
+            type V = $type;
+            type Sum = $type;
+            const ZERO_SUM: $type = <$type>::ZERO;
+
+            #[inline(always)]
+            fn splat(value: f64) -> $type {
+                <$type>::splat(value)
+            }
+
+            #[inline(always)]
+            fn all() -> $type {
+                <$type>::new([f64::from_bits(u64::MAX); $lanes])
+            }
+
+            #[inline(always)]
+            fn first(count: usize) -> $type {
+                let lanes: [f64; $lanes] = std::array::from_fn(|k| k as f64);
+                <$type>::new(lanes).simd_lt(<$type>::splat(count as f64))
+            }
+
+            #[inline(always)]
+            fn lt(a: $type, b: $type) -> $type {
+                a.simd_lt(b)
+            }
+
+            #[inline(always)]
+            fn any(mask: $type) -> bool {
+                mask.any()
+            }
+
+            #[inline(always)]
+            fn max(a: $type, b: $type) -> $type {
+                a.max(b)
+            }
+
+            #[inline(always)]
+            fn sqrt(a: $type) -> $type {
+                a.sqrt()
+            }
+
+            #[inline(always)]
+            unsafe fn load(values: &[f64], at: usize) -> $type {
+                // SAFETY: guaranteed by the caller.
+                <$type>::from(unsafe { read::<$lanes>(values, at) })
+            }
+
+            #[inline(always)]
+            unsafe fn offsets(values: &[f64], at: usize, center: f64) -> $type {
+                // SAFETY: guaranteed by the caller.
+                unsafe { <$type>::splat(center) - Self::load(values, at) }
+            }
+
+            #[inline(always)]
+            unsafe fn excess_density(rho: f64, values: &[f64], at: usize) -> $type {
+                let twice_rest_density = <$type>::splat(2.0 * FLUID_DENSITY);
+                // SAFETY: guaranteed by the caller.
+                <$type>::splat(rho) + unsafe { Self::load(values, at) } - twice_rest_density
+            }
+
+            #[inline(always)]
+            unsafe fn add_to(values: &mut [f64], at: usize, terms: $type) {
+                // SAFETY: guaranteed by the caller.
+                unsafe { write(values, at, (Self::load(values, at) + terms).to_array()) }
+            }
+
+            #[inline(always)]
+            unsafe fn subtract_from(values: &mut [f64], at: usize, terms: $type) {
+                // SAFETY: guaranteed by the caller.
+                unsafe { write(values, at, (Self::load(values, at) - terms).to_array()) }
+            }
+
+            #[inline(always)]
+            fn accumulate(sum: &mut $type, terms: $type) {
+                *sum += terms;
+            }
+
+            #[inline(always)]
+            fn total(sum: $type) -> f64 {
+                sum.reduce_add()
+            }
+        }
+    };
+}
+
+f64_lanes!(F64x4, f64x4, 4);
+f64_lanes!(F64x8, f64x8, 8);
+
+/// Mixed precision: differences in f64, narrowed to f32; pair terms in `wide::f32x8`;
+/// sums in f64. A workbench method, never `fluid`'s.
+pub(super) struct MixedF32x8;
+
+/// Eight f64 values narrowed to f32 lanes.
+#[inline(always)]
+fn narrow(values: [f64; 8]) -> f32x8 {
+    f32x8::from(values.map(|v| v as f32))
+}
+
+/// Eight f32 lanes widened to f64.
+#[inline(always)]
+fn widen(lanes: f32x8) -> [f64; 8] {
+    lanes.to_array().map(f64::from)
+}
+
+impl Lanes for MixedF32x8 {
+    const LANES: usize = 8;
+    type V = f32x8;
+    type Sum = [f64x4; 2];
+    const ZERO_SUM: [f64x4; 2] = [f64x4::ZERO; 2];
+
+    #[inline(always)]
+    fn splat(value: f64) -> f32x8 {
+        f32x8::splat(value as f32)
+    }
+
+    #[inline(always)]
+    fn all() -> f32x8 {
+        f32x8::new([f32::from_bits(u32::MAX); 8])
+    }
+
+    #[inline(always)]
+    fn first(count: usize) -> f32x8 {
+        let lanes: [f32; 8] = std::array::from_fn(|k| k as f32);
+        f32x8::new(lanes).simd_lt(f32x8::splat(count.min(8) as f32))
+    }
+
+    #[inline(always)]
+    fn lt(a: f32x8, b: f32x8) -> f32x8 {
+        a.simd_lt(b)
+    }
+
+    #[inline(always)]
+    fn any(mask: f32x8) -> bool {
+        mask.any()
+    }
+
+    #[inline(always)]
+    fn max(a: f32x8, b: f32x8) -> f32x8 {
+        a.max(b)
+    }
+
+    #[inline(always)]
+    fn sqrt(a: f32x8) -> f32x8 {
+        a.sqrt()
+    }
+
+    #[inline(always)]
+    unsafe fn load(values: &[f64], at: usize) -> f32x8 {
+        // SAFETY: guaranteed by the caller.
+        narrow(unsafe { read::<8>(values, at) })
+    }
+
+    #[inline(always)]
+    unsafe fn offsets(values: &[f64], at: usize, center: f64) -> f32x8 {
+        // SAFETY: guaranteed by the caller.
+        let values = unsafe { read::<8>(values, at) };
+        narrow(values.map(|v| center - v))
+    }
+
+    #[inline(always)]
+    unsafe fn excess_density(rho: f64, values: &[f64], at: usize) -> f32x8 {
+        // SAFETY: guaranteed by the caller.
+        let values = unsafe { read::<8>(values, at) };
+        narrow(values.map(|v| rho + v - 2.0 * FLUID_DENSITY))
+    }
+
+    #[inline(always)]
+    unsafe fn add_to(values: &mut [f64], at: usize, terms: f32x8) {
+        let terms = widen(terms);
+        // SAFETY: guaranteed by the caller.
+        let old = unsafe { read::<8>(values, at) };
+        // SAFETY: as above.
+        unsafe { write::<8>(values, at, std::array::from_fn(|k| old[k] + terms[k])) }
+    }
+
+    #[inline(always)]
+    unsafe fn subtract_from(values: &mut [f64], at: usize, terms: f32x8) {
+        let terms = widen(terms);
+        // SAFETY: guaranteed by the caller.
+        let old = unsafe { read::<8>(values, at) };
+        // SAFETY: as above.
+        unsafe { write::<8>(values, at, std::array::from_fn(|k| old[k] - terms[k])) }
+    }
+
+    #[inline(always)]
+    fn accumulate(sum: &mut [f64x4; 2], terms: f32x8) {
+        let terms = widen(terms);
+        for (half, sum) in sum.iter_mut().enumerate() {
+            *sum += f64x4::from(<[f64; 4]>::try_from(&terms[4 * half..4 * half + 4]).unwrap());
+        }
+    }
+
+    #[inline(always)]
+    fn total(sum: [f64x4; 2]) -> f64 {
+        (sum[0] + sum[1]).reduce_add()
+    }
+}
+
+/// The group bits covering `partners` partners: one per `L::LANES`, the last bit standing
+/// for every group from [`OVERFLOW_GROUP`] on.
+fn all_groups<L: Lanes>(partners: usize) -> u64 {
+    let groups = partners.div_ceil(L::LANES);
     if groups > OVERFLOW_GROUP {
         u64::MAX
     } else {
@@ -67,20 +331,16 @@ fn all_groups(partners: usize) -> u64 {
     }
 }
 
-/// A mask of all four lanes.
-const ALL_LANES: f64x4 = f64x4::new([f64::from_bits(u64::MAX); LANES]);
-
-/// A mask of the first `count` lanes (all four for `count >= 4`).
-#[inline(always)]
-fn first_lanes(count: usize) -> f64x4 {
-    f64x4::new([0.0, 1.0, 2.0, 3.0]).simd_lt(f64x4::splat(count as f64))
-}
-
-/// Panics unless every array leaves room for four-lane loads at the last slot `n - 1`.
-fn assert_padded(n: usize, arrays: &[&[f64]]) {
+/// Panics unless every array leaves room for loads of `lanes` lanes at the last slot
+/// `n - 1`.
+fn assert_padded(n: usize, lanes: usize, arrays: &[&[f64]]) {
+    assert!(
+        PADDING + 1 >= lanes,
+        "{lanes} lanes need more than {PADDING} padding"
+    );
     assert!(
         arrays.iter().all(|a| a.len() >= n + PADDING),
-        "particle arrays must be padded by {PADDING} elements for the SIMD kernel"
+        "particle arrays must be padded by {PADDING} elements for the SIMD kernels"
     );
 }
 
@@ -92,7 +352,8 @@ fn slots_used(tiles: &[Tile]) -> usize {
         .unwrap_or(0)
 }
 
-pub(super) fn increment_densities(
+/// Stage 3 on `L` lanes.
+pub(super) fn increment_densities<L: Lanes>(
     params: &Params,
     tiles: &[Tile],
     p: &AxisArrays,
@@ -100,46 +361,39 @@ pub(super) fn increment_densities(
     close: &mut ClosePairs,
 ) {
     let [x, y, z] = p;
-    assert_padded(slots_used(tiles), &[x, y, z, rho]);
-    let h2 = f64x4::splat(params.h2);
+    assert_padded(slots_used(tiles), L::LANES, &[x, y, z, rho]);
+    let h2 = L::splat(params.h2);
     for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
         let groups_before = close.groups.len();
         let mut cell_groups = 0u64;
         for i in cell_tiles[0].firsts() {
-            let (xi, yi, zi) = (f64x4::splat(x[i]), f64x4::splat(y[i]), f64x4::splat(z[i]));
-            let mut sum = f64x4::ZERO;
+            let first = [x[i], y[i], z[i]];
+            let mut sum = L::ZERO_SUM;
             for tile in cell_tiles {
                 let (mut groups, mut group_bit) = (0u64, 1u64);
                 let partners = tile.partners(i);
-                // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded checked
-                // that every array holds slots_used(tiles) + PADDING elements, so j + 4 <= len.
-                let mut group = |j: usize, lanes: f64x4| {
-                    // SAFETY: see above.
-                    let load = |values: &[f64]| unsafe { load(values, j) };
-                    let (dx, dy, dz) = (xi - load(x), yi - load(y), zi - load(z));
-                    let r2 = dx * dx + dy * dy + dz * dz;
-                    let close = r2.simd_lt(h2) & lanes;
-                    let q = h2 - r2;
-                    let t = (q * q * q) & close;
-                    sum += t;
-                    let rho_j = load(rho) + t;
-                    // SAFETY: see above.
-                    unsafe { store(rho, j, rho_j) };
-                    groups |= group_bit & 0u64.wrapping_sub(u64::from(close.to_bitmask() != 0));
-                    group_bit = (group_bit << 1) | (group_bit & OVERFLOW_BIT);
-                };
                 let mut j = partners.start;
-                while j + LANES <= partners.end {
-                    group(j, ALL_LANES);
-                    j += LANES;
-                }
-                if j < partners.end {
-                    group(j, first_lanes(partners.end - j));
+                while j < partners.end {
+                    let lanes = if j + L::LANES <= partners.end {
+                        L::all()
+                    } else {
+                        L::first(partners.end - j)
+                    };
+                    // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded
+                    // checked that every array holds slots_used(tiles) + PADDING elements,
+                    // PADDING >= LANES - 1, so j + LANES <= len.
+                    let (t, close) = unsafe { density_group::<L>(p, first, h2, j, lanes) };
+                    L::accumulate(&mut sum, t);
+                    // SAFETY: as above.
+                    unsafe { L::add_to(rho, j, t) };
+                    groups |= group_bit & 0u64.wrapping_sub(u64::from(L::any(close)));
+                    group_bit = (group_bit << 1) | (group_bit & OVERFLOW_BIT);
+                    j += L::LANES;
                 }
                 close.groups.push(groups);
                 cell_groups |= groups;
             }
-            rho[i] += sum.reduce_add();
+            rho[i] += L::total(sum);
         }
         if cell_groups == 0 {
             close.groups.truncate(groups_before);
@@ -149,67 +403,100 @@ pub(super) fn increment_densities(
     }
 }
 
-/// The particle whose partners a group loop visits, and the constants of the model.
+/// The density terms (h^2 - r^2)^3 of the particle at `first` with partners j..j+LANES,
+/// zero (all bits clear) in lanes outside `lanes` or not closer than h, and the mask of
+/// the lanes closer than h.
+///
+/// # Safety
+/// `j + LANES` is within every array of `p`.
+#[inline(always)]
+unsafe fn density_group<L: Lanes>(
+    p: &AxisArrays,
+    first: [f64; 3],
+    h2: L::V,
+    j: usize,
+    lanes: L::V,
+) -> (L::V, L::V) {
+    // SAFETY: guaranteed by the caller.
+    let offset = |axis: usize| unsafe { L::offsets(&p[axis], j, first[axis]) };
+    let (dx, dy, dz) = (offset(0), offset(1), offset(2));
+    let r2 = dx * dx + dy * dy + dz * dz;
+    let close = L::lt(r2, h2) & lanes;
+    let q = h2 - r2;
+    ((q * q * q) & close, close)
+}
+
+/// The particle whose partners a group loop visits.
 struct First {
-    p: [f64x4; 3],
-    v: [f64x4; 3],
-    rho: f64x4,
+    p: [f64; 3],
+    v: [f64; 3],
+    rho: f64,
 }
 
 /// The arrays and constants of the acceleration transfer.
-struct Transfer<'a, const FLUIDANIMATE: bool> {
+struct Transfer<'a, L: Lanes, const FLUIDANIMATE: bool> {
     p: [&'a [f64]; 3],
     v: [&'a [f64]; 3],
     rho: &'a [f64],
-    h: f64x4,
-    h2: f64x4,
-    min_distance_squared: f64x4,
-    pressure_factor: f64x4,
-    viscosity_factor: f64x4,
-    twice_rest_density: f64x4,
+    h: L::V,
+    h2: L::V,
+    min_distance_squared: L::V,
+    pressure_factor: L::V,
+    viscosity_factor: L::V,
 }
 
-impl<const FLUIDANIMATE: bool> Transfer<'_, FLUIDANIMATE> {
-    /// The acceleration terms of `first` with partners j..j+4 (lanes before `end`; zero
-    /// in lanes that are not a pair closer than h), or `None` if no lane is.
+impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
+    /// The acceleration terms of `first` with partners j..j+LANES (lanes before `end`;
+    /// zero in lanes that are not a pair closer than h), or `None` if no lane is.
     ///
     /// # Safety
-    /// `j + 4` is within every array.
+    /// `j + LANES` is within every array.
     #[inline(always)]
-    unsafe fn group(&self, first: &First, j: usize, end: usize) -> Option<[f64x4; 3]> {
-        let lanes = if j + LANES <= end {
-            ALL_LANES
+    unsafe fn group(&self, first: &First, j: usize, end: usize) -> Option<[L::V; 3]> {
+        let lanes = if j + L::LANES <= end {
+            L::all()
         } else {
-            first_lanes(end - j)
+            L::first(end - j)
         };
         // SAFETY: guaranteed by the caller.
-        let load = |values: &[f64]| unsafe { load(values, j) };
-        let d = [0, 1, 2].map(|axis| first.p[axis] - load(self.p[axis]));
+        let offset = |values: &[f64], center| unsafe { L::offsets(values, j, center) };
+        let d = [
+            offset(self.p[0], first.p[0]),
+            offset(self.p[1], first.p[1]),
+            offset(self.p[2], first.p[2]),
+        ];
         let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        let close = r2.simd_lt(self.h2) & lanes;
-        if !close.any() {
+        let close = L::lt(r2, self.h2) & lanes;
+        if !L::any(close) {
             return None;
         }
-        let dist = r2.max(self.min_distance_squared).sqrt();
+        let dist = L::sqrt(L::max(r2, self.min_distance_squared));
         let q = self.h - dist;
-        let rho_j = load(self.rho);
-        let pressure =
-            self.pressure_factor * q * q / dist * (first.rho + rho_j - self.twice_rest_density);
-        let density_product = first.rho * rho_j;
-        Some([0, 1, 2].map(|axis| {
-            let mut viscosity = (load(self.v[axis]) - first.v[axis]) * self.viscosity_factor;
+        // SAFETY: guaranteed by the caller.
+        let (rho_j, excess) = unsafe {
+            let excess = L::excess_density(first.rho, self.rho, j);
+            (L::load(self.rho, j), excess)
+        };
+        let pressure = self.pressure_factor * q * q / dist * excess;
+        let density_product = L::splat(first.rho) * rho_j;
+        let term = |axis: usize| {
+            // The partner's velocity minus the first's.
+            let dv = -offset(self.v[axis], first.v[axis]);
+            let mut viscosity = dv * self.viscosity_factor;
             if FLUIDANIMATE {
-                viscosity *= q;
+                viscosity = viscosity * q;
             }
             ((d[axis] * pressure + viscosity) / density_product) & close
-        }))
+        };
+        // Three calls, not an array map: the map's closure is not always inlined.
+        Some([term(0), term(1), term(2)])
     }
 }
 
-/// `FLUIDANIMATE` multiplies the viscosity term by (h - dist). With `close`, only the
-/// tiles and groups of four partners where the density loop found a pair closer than h
-/// are visited.
-pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
+/// Stage 5 on `L` lanes. `FLUIDANIMATE` multiplies the viscosity term by (h - dist).
+/// With `close`, only the tiles and groups of partners where the density loop found a
+/// pair closer than h are visited.
+pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     params: &Params,
     candidates: Candidates,
     p: &AxisArrays,
@@ -220,17 +507,17 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
     let tiles = candidates.tiles();
     let ([x, y, z], [vx, vy, vz]) = (p, v);
     let [ax, ay, az] = a;
-    assert_padded(slots_used(tiles), &[x, y, z, vx, vy, vz, rho, ax, ay, az]);
-    let transfer = Transfer::<FLUIDANIMATE> {
+    let arrays = [&x[..], y, z, vx, vy, vz, rho, ax, ay, az];
+    assert_padded(slots_used(tiles), L::LANES, &arrays);
+    let transfer = Transfer::<L, FLUIDANIMATE> {
         p: [x, y, z],
         v: [vx, vy, vz],
         rho,
-        h: f64x4::splat(params.h),
-        h2: f64x4::splat(params.h2),
-        min_distance_squared: f64x4::splat(MIN_DISTANCE_SQUARED),
-        pressure_factor: f64x4::splat(params.pressure_factor),
-        viscosity_factor: f64x4::splat(params.viscosity_factor),
-        twice_rest_density: f64x4::splat(2.0 * FLUID_DENSITY),
+        h: L::splat(params.h),
+        h2: L::splat(params.h2),
+        min_distance_squared: L::splat(MIN_DISTANCE_SQUARED),
+        pressure_factor: L::splat(params.pressure_factor),
+        viscosity_factor: L::splat(params.viscosity_factor),
     };
     let mut recorded_groups = match candidates {
         Candidates::Close(close) if !close.groups.is_empty() => Some(close.groups.iter()),
@@ -240,43 +527,45 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
     for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
         for i in cell_tiles[0].firsts() {
             let first = First {
-                p: [x[i], y[i], z[i]].map(f64x4::splat),
-                v: [vx[i], vy[i], vz[i]].map(f64x4::splat),
-                rho: f64x4::splat(rho[i]),
+                p: [x[i], y[i], z[i]],
+                v: [vx[i], vy[i], vz[i]],
+                rho: rho[i],
             };
-            let mut sum = [f64x4::ZERO; 3];
+            let mut sum = [L::ZERO_SUM; 3];
             for tile in cell_tiles {
                 let partners = tile.partners(i);
-                let mut visit = |j: usize| {
-                    // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded checked
-                    // that every array holds slots_used(tiles) + PADDING elements.
-                    unsafe {
-                        if let Some(da) = transfer.group(&first, j, partners.end) {
-                            for axis in 0..3 {
-                                sum[axis] += da[axis];
-                                let old = load(a[axis], j);
-                                store(a[axis], j, old - da[axis]);
-                            }
-                        }
-                    }
-                };
                 let mut groups = match recorded_groups.as_mut() {
                     Some(groups) => *groups.next().expect("a recorded group set per tile"),
-                    None => all_groups(partners.len()),
+                    None => all_groups::<L>(partners.len()),
                 };
                 while groups != 0 {
                     let group = groups.trailing_zeros() as usize;
                     groups &= groups - 1;
-                    let from = partners.start + group * LANES;
-                    if group < OVERFLOW_GROUP {
-                        visit(from);
+                    // One group, or every group from the overflow bit's on.
+                    let mut j = partners.start + group * L::LANES;
+                    let end = if group < OVERFLOW_GROUP {
+                        j + 1
                     } else {
-                        (from..partners.end).step_by(LANES).for_each(&mut visit);
+                        partners.end
+                    };
+                    while j < end {
+                        // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded
+                        // checked that every array holds slots_used(tiles) + PADDING
+                        // elements.
+                        unsafe {
+                            if let Some(da) = transfer.group(&first, j, partners.end) {
+                                for axis in 0..3 {
+                                    L::accumulate(&mut sum[axis], da[axis]);
+                                    L::subtract_from(a[axis], j, da[axis]);
+                                }
+                            }
+                        }
+                        j += L::LANES;
                     }
                 }
             }
             for axis in 0..3 {
-                a[axis][i] += sum[axis].reduce_add();
+                a[axis][i] += L::total(sum[axis]);
             }
         }
     }
