@@ -43,6 +43,25 @@ fn cell_coordinate(p: f64, min: f64, size: f64) -> i32 {
     ((p - min) / size).floor().clamp(-CELL_LIMIT, CELL_LIMIT) as i32
 }
 
+/// [`coarsen`] of [`cell_coordinate`], computed from the float: for a coordinate of
+/// magnitude m >= 2^`exact_bits`, the exponent of m is its octave and the leading bits of
+/// its mantissa are the bits `coarsen` keeps, so shifting the bits of m right by
+/// 52 - `exact_bits` gives both at once.
+#[inline(always)]
+fn coarse_coordinate(p: f64, min: f64, size: f64, exact_bits: u32) -> i32 {
+    let cell = ((p - min) / size).floor().clamp(-CELL_LIMIT, CELL_LIMIT);
+    let magnitude = cell.abs();
+    let exponent_and_leading = (magnitude.to_bits() >> (52 - exact_bits)) as i64;
+    let far = (exponent_and_leading - ((1022 + i64::from(exact_bits)) << exact_bits)) as i32;
+    let far = if cell < 0.0 { -far } else { far };
+    // NaN is not far, and becomes 0 as cell_coordinate makes it.
+    if magnitude >= f64::from(1u32 << exact_bits) {
+        far
+    } else {
+        cell as i32
+    }
+}
+
 /// Merges cells far from the box: coordinates below 2^`exact_bits` in magnitude are kept,
 /// and each further octave [2^e, 2^(e+1)) is mapped onto 2^`exact_bits` coordinates, like
 /// the exponent and leading mantissa bits of a float. The map is monotone and never grows
@@ -283,7 +302,7 @@ impl CellOrder {
         let walls = self.cells.iter().map(|c| wall_bits(grid, c.map(i64::from)));
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
-        self.finish(grid)
+        self.finish()
     }
 
     /// As [`Self::sort`], but the walls come from given blocks (linear indices, one per
@@ -295,26 +314,25 @@ impl CellOrder {
             .map(|&b| wall_bits(grid, grid.coords(b as usize).map(|c| c as i64)));
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
-        self.finish(grid)
+        self.finish()
     }
 
+    /// The coarse cell of every particle.
     fn compute_cells(&mut self, grid: &Grid, particles: &Particles) {
         let n = particles.len();
         self.cells.clear();
         self.cells.resize(n, [0; 3]);
-        // One axis at a time, so that the divisions vectorise.
+        // One axis at a time and without branches, so that the loop vectorises.
+        let exact = exact_bits(grid);
         for (d, axis) in particles.p.iter().enumerate() {
             let (min, size) = (BOX_MIN[d], grid.block_size[d]);
             for (cell, &p) in self.cells.iter_mut().zip(&axis[..n]) {
-                cell[d] = cell_coordinate(p, min, size);
+                cell[d] = coarse_coordinate(p, min, size, exact[d]);
             }
         }
     }
 
-    fn finish(&mut self, grid: &Grid) -> bool {
-        for cell in &mut self.cells {
-            *cell = coarse_cell(grid, *cell);
-        }
+    fn finish(&mut self) -> bool {
         let n = self.cells.len();
         self.order.clear();
         if self.sparse {
@@ -479,6 +497,34 @@ mod tests {
             let coarse = coarsen(c, 5);
             assert!(coarse - previous == 0 || coarse - previous == 1, "at {c}");
             previous = coarse;
+        }
+    }
+
+    #[test]
+    fn coarse_coordinates_from_the_float_are_those_of_the_integers() {
+        let grid = grid();
+        let exact = exact_bits(&grid);
+        let size = grid.block_size.x;
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut values = vec![f64::NAN, 0.0, -0.0, 1e300, -1e300, BOX_MIN.x];
+        for k in 0..100_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let unit = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            values.push(unit * 10f64.powi(k % 12 - 3));
+        }
+        for e in 1..=31 {
+            values.push(BOX_MIN.x + f64::from(1u32 << e.min(30)) * size);
+            values.push(BOX_MIN.x - f64::from(1u32 << e.min(30)) * size - 1e-9);
+        }
+        for p in values {
+            let cell = cell_coordinate(p, BOX_MIN.x, size);
+            assert_eq!(
+                coarse_coordinate(p, BOX_MIN.x, size, exact[0]),
+                coarsen(cell, exact[0]),
+                "at {p}"
+            );
         }
     }
 
