@@ -10,7 +10,7 @@
 # loops, so it is an upper bound of the pair loops' own cost.
 #
 # Usage: scripts/pair-cost.sh [--steps N] [--every K] [--model M] [INPUT] [KERNEL ...]
-#        defaults: --steps 1000 --every 10 --model fluidanimate data/in/large.fld simd scalar
+#        defaults: --steps 1000 --every 10 --model fluidanimate data/in/large.fld simd simd8 mixed scalar
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -35,7 +35,7 @@ done
 input="${1:-data/in/large.fld}"
 [ $# -gt 0 ] && shift
 kernels=("$@")
-[ ${#kernels[@]} -gt 0 ] || kernels=(simd scalar)
+[ ${#kernels[@]} -gt 0 ] || kernels=(simd simd8 mixed scalar)
 
 cargo build --release --quiet --bin fluid-lab
 lab="$root/target/release/fluid-lab"

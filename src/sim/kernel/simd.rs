@@ -18,7 +18,7 @@ const OVERFLOW_BIT: u64 = 1 << OVERFLOW_GROUP;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::{AxisArrays, PADDING};
-use std::ops::{Add, BitAnd, Div, Mul, Neg, Sub};
+use std::ops::{Add, BitAnd, Div, Mul, Sub};
 use wide::{f32x8, f64x4, f64x8};
 
 /// The lanes the pair loops run on: how a group of `LANES` partners is loaded from the
@@ -35,8 +35,7 @@ pub(super) trait Lanes {
         + Sub<Output = Self::V>
         + Mul<Output = Self::V>
         + Div<Output = Self::V>
-        + BitAnd<Output = Self::V>
-        + Neg<Output = Self::V>;
+        + BitAnd<Output = Self::V>;
     /// A first particle's running sum, lane by lane.
     type Sum: Copy;
     /// A sum of zero.
@@ -65,6 +64,11 @@ pub(super) trait Lanes {
     /// # Safety
     /// As for [`Self::load`].
     unsafe fn offsets(values: &[f64], at: usize, center: f64) -> Self::V;
+    /// `values[at..at + LANES] - center`, subtracted in f64.
+    ///
+    /// # Safety
+    /// As for [`Self::load`].
+    unsafe fn differences(values: &[f64], at: usize, center: f64) -> Self::V;
     /// `(rho + values[at..at + LANES]) - 2 * FLUID_DENSITY`, computed in f64.
     ///
     /// # Safety
@@ -176,6 +180,12 @@ macro_rules! f64_lanes {
             }
 
             #[inline(always)]
+            unsafe fn differences(values: &[f64], at: usize, center: f64) -> $type {
+                // SAFETY: guaranteed by the caller.
+                unsafe { Self::load(values, at) - <$type>::splat(center) }
+            }
+
+            #[inline(always)]
             unsafe fn excess_density(rho: f64, values: &[f64], at: usize) -> $type {
                 let twice_rest_density = <$type>::splat(2.0 * FLUID_DENSITY);
                 // SAFETY: guaranteed by the caller.
@@ -282,6 +292,13 @@ impl Lanes for MixedF32x8 {
     }
 
     #[inline(always)]
+    unsafe fn differences(values: &[f64], at: usize, center: f64) -> f32x8 {
+        // SAFETY: guaranteed by the caller.
+        let values = unsafe { read::<8>(values, at) };
+        narrow(values.map(|v| v - center))
+    }
+
+    #[inline(always)]
     unsafe fn excess_density(rho: f64, values: &[f64], at: usize) -> f32x8 {
         // SAFETY: guaranteed by the caller.
         let values = unsafe { read::<8>(values, at) };
@@ -373,22 +390,22 @@ pub(super) fn increment_densities<L: Lanes>(
                 let (mut groups, mut group_bit) = (0u64, 1u64);
                 let partners = tile.partners(i);
                 let mut j = partners.start;
-                while j < partners.end {
-                    let lanes = if j + L::LANES <= partners.end {
-                        L::all()
-                    } else {
-                        L::first(partners.end - j)
-                    };
+                let mut visit = |j: usize, lanes: L::V| {
                     // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded
                     // checked that every array holds slots_used(tiles) + PADDING elements,
                     // PADDING >= LANES - 1, so j + LANES <= len.
-                    let (t, close) = unsafe { density_group::<L>(p, first, h2, j, lanes) };
-                    L::accumulate(&mut sum, t);
-                    // SAFETY: as above.
-                    unsafe { L::add_to(rho, j, t) };
-                    groups |= group_bit & 0u64.wrapping_sub(u64::from(L::any(close)));
+                    let close =
+                        unsafe { density_group::<L>(p, rho, first, h2, j, lanes, &mut sum) };
+                    groups |= group_bit & 0u64.wrapping_sub(u64::from(close));
                     group_bit = (group_bit << 1) | (group_bit & OVERFLOW_BIT);
+                };
+                // Full groups, then the partial last one.
+                while j + L::LANES <= partners.end {
+                    visit(j, L::all());
                     j += L::LANES;
+                }
+                if j < partners.end {
+                    visit(j, L::first(partners.end - j));
                 }
                 close.groups.push(groups);
                 cell_groups |= groups;
@@ -403,27 +420,33 @@ pub(super) fn increment_densities<L: Lanes>(
     }
 }
 
-/// The density terms (h^2 - r^2)^3 of the particle at `first` with partners j..j+LANES,
-/// zero (all bits clear) in lanes outside `lanes` or not closer than h, and the mask of
-/// the lanes closer than h.
+/// Adds the density terms (h^2 - r^2)^3 of the particle at `first` with partners
+/// j..j+LANES (lanes of `lanes` closer than h; exactly 0 in the others) to `sum` and to
+/// the partners' `rho`, and returns whether any lane is closer than h.
 ///
 /// # Safety
-/// `j + LANES` is within every array of `p`.
+/// `j + LANES` is within `rho` and every array of `p`.
 #[inline(always)]
 unsafe fn density_group<L: Lanes>(
     p: &AxisArrays,
+    rho: &mut [f64],
     first: [f64; 3],
     h2: L::V,
     j: usize,
     lanes: L::V,
-) -> (L::V, L::V) {
+    sum: &mut L::Sum,
+) -> bool {
     // SAFETY: guaranteed by the caller.
     let offset = |axis: usize| unsafe { L::offsets(&p[axis], j, first[axis]) };
     let (dx, dy, dz) = (offset(0), offset(1), offset(2));
     let r2 = dx * dx + dy * dy + dz * dz;
     let close = L::lt(r2, h2) & lanes;
     let q = h2 - r2;
-    ((q * q * q) & close, close)
+    let t = (q * q * q) & close;
+    L::accumulate(sum, t);
+    // SAFETY: guaranteed by the caller.
+    unsafe { L::add_to(rho, j, t) };
+    L::any(close)
 }
 
 /// The particle whose partners a group loop visits.
@@ -480,8 +503,8 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
         let pressure = self.pressure_factor * q * q / dist * excess;
         let density_product = L::splat(first.rho) * rho_j;
         let term = |axis: usize| {
-            // The partner's velocity minus the first's.
-            let dv = -offset(self.v[axis], first.v[axis]);
+            // SAFETY: guaranteed by the caller.
+            let dv = unsafe { L::differences(self.v[axis], j, first.v[axis]) };
             let mut viscosity = dv * self.viscosity_factor;
             if FLUIDANIMATE {
                 viscosity = viscosity * q;
@@ -490,6 +513,32 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
         };
         // Three calls, not an array map: the map's closure is not always inlined.
         Some([term(0), term(1), term(2)])
+    }
+}
+
+impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
+    /// Adds the acceleration terms of `first` with partners j..j+LANES (lanes before
+    /// `end`) to `sum` and subtracts them from the partners' `a`.
+    ///
+    /// # Safety
+    /// `j + LANES` is within every array.
+    #[inline(always)]
+    unsafe fn visit(
+        &self,
+        first: &First,
+        j: usize,
+        end: usize,
+        a: &mut [&mut Vec<f64>; 3],
+        sum: &mut [L::Sum; 3],
+    ) {
+        // SAFETY: guaranteed by the caller.
+        if let Some(da) = unsafe { self.group(first, j, end) } {
+            for axis in 0..3 {
+                L::accumulate(&mut sum[axis], da[axis]);
+                // SAFETY: guaranteed by the caller.
+                unsafe { L::subtract_from(a[axis], j, da[axis]) };
+            }
+        }
     }
 }
 
@@ -523,7 +572,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         Candidates::Close(close) if !close.groups.is_empty() => Some(close.groups.iter()),
         _ => None,
     };
-    let a = [ax, ay, az];
+    let mut a = [ax, ay, az];
     for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
         for i in cell_tiles[0].firsts() {
             let first = First {
@@ -538,29 +587,19 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
                     Some(groups) => *groups.next().expect("a recorded group set per tile"),
                     None => all_groups::<L>(partners.len()),
                 };
+                let mut visit = |j: usize| {
+                    // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded checked
+                    // that every array holds slots_used(tiles) + PADDING elements.
+                    unsafe { transfer.visit(&first, j, partners.end, &mut a, &mut sum) };
+                };
                 while groups != 0 {
                     let group = groups.trailing_zeros() as usize;
                     groups &= groups - 1;
-                    // One group, or every group from the overflow bit's on.
-                    let mut j = partners.start + group * L::LANES;
-                    let end = if group < OVERFLOW_GROUP {
-                        j + 1
+                    let from = partners.start + group * L::LANES;
+                    if group < OVERFLOW_GROUP {
+                        visit(from);
                     } else {
-                        partners.end
-                    };
-                    while j < end {
-                        // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded
-                        // checked that every array holds slots_used(tiles) + PADDING
-                        // elements.
-                        unsafe {
-                            if let Some(da) = transfer.group(&first, j, partners.end) {
-                                for axis in 0..3 {
-                                    L::accumulate(&mut sum[axis], da[axis]);
-                                    L::subtract_from(a[axis], j, da[axis]);
-                                }
-                            }
-                        }
-                        j += L::LANES;
+                        (from..partners.end).step_by(L::LANES).for_each(&mut visit);
                     }
                 }
             }
