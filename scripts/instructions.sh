@@ -38,7 +38,7 @@ echo "input state model kernel instructions_per_step"
 inputs=("$@")
 [ ${#inputs[@]} -gt 0 ] || inputs=(data/in/small.fld data/in/large.fld)
 for input in "${inputs[@]}"; do
-    for kernel in scalar simd; do
+    for kernel in scalar simd simd8 mixed; do
         # Dense: the first step of the course model; steps 50-52 of the stable model,
         # which stays in the box. Blown up: steps 50-60 of the course model.
         echo "$input dense course $kernel $(per_step "$input" 0 1 course "$kernel")"
