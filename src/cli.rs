@@ -21,21 +21,38 @@ where
     let input = fld::map_input(&args.input)?;
     let output = OutputFile::create(&args.output)?;
     let input_name = args.input.display().to_string();
-    let scene = fld::parse(&input, &input_name)?;
-    let ppm = scene.ppm;
-    let (params, grid) = scene.grid(&input_name)?;
-    let report = parameter_report(&params, &grid, scene.particles.len());
-    let _ = stdout.write_all(report.as_bytes());
-    let _ = stdout.flush();
     if args.steps == 0 {
         // No step to run: the state after 0 steps is the input's, and a valid input's
-        // bytes are its own encoding (placing the particles would change nothing written).
+        // bytes are its own encoding, so the input is validated, not decoded or placed.
+        let header = fld::validate(&input, &input_name)?;
+        print_report(&header, &input_name, stdout)?;
         return Ok(output.commit(&input)?);
     }
+    let scene = fld::parse(&input, &input_name)?;
     drop(input);
+    let ppm = scene.ppm;
+    let header = fld::Header {
+        ppm,
+        particles: scene.particles.len(),
+    };
+    print_report(&header, &input_name, stdout)?;
     let mut simulation = scene.into_simulation(Method::default(), &input_name)?;
     simulation.run(args.steps);
     Ok(output.commit(&fld::encode(ppm, simulation.particles()))?)
+}
+
+/// Prints the parameter report of a valid input (stdout errors are ignored: the run goes
+/// on), or returns the error of particles per metre that admit no grid.
+fn print_report(
+    header: &fld::Header,
+    file: &str,
+    stdout: &mut impl Write,
+) -> Result<(), FluidError> {
+    let (params, grid) = header.grid(file)?;
+    let report = parameter_report(&params, &grid, header.particles);
+    let _ = stdout.write_all(report.as_bytes());
+    let _ = stdout.flush();
+    Ok(())
 }
 
 /// The seven lines printed before simulating, numbers in C++ default format, for

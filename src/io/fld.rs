@@ -94,9 +94,20 @@ impl Scene {
         Simulation::with_method(ppm.into(), self.particles, method)
             .map_err(|e| invalid_ppm(ppm, file, e))
     }
+}
 
-    /// The parameters and grid of this scene's particles per metre, with the error of
-    /// [`Self::into_simulation`] if they admit no grid.
+/// The header of a valid `.fld` file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Header {
+    /// Particles per metre, as stored.
+    pub ppm: f32,
+    /// Number of particles.
+    pub particles: usize,
+}
+
+impl Header {
+    /// The parameters and grid of these particles per metre, with the error of
+    /// [`Scene::into_simulation`] if they admit no grid.
     pub fn grid(&self, file: &str) -> Result<(Params, Grid), FileError> {
         let params = Params::new(self.ppm.into());
         let grid = Grid::new(params.h).map_err(|e| invalid_ppm(self.ppm, file, e))?;
@@ -134,19 +145,51 @@ fn read_f32(bytes: &[u8], at: usize) -> f32 {
     f32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"))
 }
 
-/// Validates and decodes the bytes of an `.fld` file named `file` (for messages).
-/// Checks, in order: header length, np > 0 (rule 6), whole records == np (rule 7),
+/// Validates the bytes of an `.fld` file named `file` (for messages) without decoding
+/// them. Checks, in order: header length, np > 0 (rule 6), whole records == np (rule 7),
 /// no partial record, finite ppm > 0, finite fields (section 8).
+pub fn validate(bytes: &[u8], file: &str) -> Result<Header, FileError> {
+    let header = check_header(bytes, file)?;
+    for (id, record) in bytes[HEADER_BYTES..].chunks_exact(RECORD_BYTES).enumerate() {
+        check_record(id, record, file)?;
+    }
+    Ok(header)
+}
+
+/// Validates (as [`validate`]) and decodes the bytes of an `.fld` file named `file`.
 pub fn parse(bytes: &[u8], file: &str) -> Result<Scene, FileError> {
-    let invalid = |reason: String| FileError::InvalidInput {
+    let header = check_header(bytes, file)?;
+    let mut particles = Particles::zeroed(header.particles);
+    for (id, record) in bytes[HEADER_BYTES..].chunks_exact(RECORD_BYTES).enumerate() {
+        let values = check_record(id, record, file)?;
+        for axis in 0..3 {
+            particles.p[axis][id] = values[axis].into();
+            particles.hv[axis][id] = values[3 + axis].into();
+            particles.v[axis][id] = values[6 + axis].into();
+        }
+    }
+    Ok(Scene {
+        ppm: header.ppm,
+        particles,
+    })
+}
+
+/// The input-file error of `file` for `reason`.
+fn invalid(file: &str, reason: String) -> FileError {
+    FileError::InvalidInput {
         file: file.to_string(),
         reason,
-    };
+    }
+}
+
+/// The header checks of [`validate`], all but the fields'.
+fn check_header(bytes: &[u8], file: &str) -> Result<Header, FileError> {
     if bytes.len() < HEADER_BYTES {
         let size = bytes.len();
-        return Err(invalid(format!(
-            "it is {size} bytes long, shorter than the {HEADER_BYTES}-byte header"
-        )));
+        return Err(invalid(
+            file,
+            format!("it is {size} bytes long, shorter than the {HEADER_BYTES}-byte header"),
+        ));
     }
     let ppm = read_f32(bytes, 0);
     let np = i32::from_le_bytes(bytes[4..8].try_into().expect("4 bytes"));
@@ -163,32 +206,40 @@ pub fn parse(bytes: &[u8], file: &str) -> Result<Scene, FileError> {
     }
     let extra = body.len() % RECORD_BYTES;
     if extra != 0 {
-        return Err(invalid(format!(
-            "{extra} stray bytes after the last of its {np} {RECORD_BYTES}-byte particle records"
-        )));
+        return Err(invalid(
+            file,
+            format!(
+                "{extra} stray bytes after the last of its {np} {RECORD_BYTES}-byte particle records"
+            ),
+        ));
     }
     if !(ppm.is_finite() && ppm > 0.0) {
-        return Err(invalid(format!(
-            "particles per meter is {}, not a finite number > 0",
-            format_g(ppm.into())
-        )));
+        return Err(invalid(
+            file,
+            format!(
+                "particles per meter is {}, not a finite number > 0",
+                format_g(ppm.into())
+            ),
+        ));
     }
-    let mut particles = Particles::zeroed(found);
-    for (id, record) in body.chunks_exact(RECORD_BYTES).enumerate() {
-        let values: [f32; 9] = std::array::from_fn(|field| read_f32(record, 4 * field));
-        if let Some(field) = values.iter().position(|value| !value.is_finite()) {
-            let (name, value) = (FIELD_NAMES[field], values[field]);
-            return Err(invalid(format!(
-                "particle {id} has a non-finite {name} ({value})"
-            )));
-        }
-        for axis in 0..3 {
-            particles.p[axis][id] = values[axis].into();
-            particles.hv[axis][id] = values[3 + axis].into();
-            particles.v[axis][id] = values[6 + axis].into();
-        }
+    Ok(Header {
+        ppm,
+        particles: found,
+    })
+}
+
+/// The nine values of particle `id`'s record, or the error of its first non-finite one.
+#[inline(always)]
+fn check_record(id: usize, record: &[u8], file: &str) -> Result<[f32; 9], FileError> {
+    let values: [f32; 9] = std::array::from_fn(|field| read_f32(record, 4 * field));
+    if let Some(field) = values.iter().position(|value| !value.is_finite()) {
+        let (name, value) = (FIELD_NAMES[field], values[field]);
+        return Err(invalid(
+            file,
+            format!("particle {id} has a non-finite {name} ({value})"),
+        ));
     }
-    Ok(Scene { ppm, particles })
+    Ok(values)
 }
 
 /// Encodes particles (in any slot order) as an `.fld` file: each particle is written at
@@ -347,6 +398,38 @@ mod tests {
         let mut shuffled = Particles::default();
         shuffled.gather_kinematics(&scene.particles, &[2, 0, 1]);
         assert_eq!(encode(scene.ppm, &shuffled), bytes);
+    }
+
+    #[test]
+    fn validation_alone_gives_the_header_and_the_errors_of_parse() {
+        let mut files = vec![
+            file_bytes(204.0, 2, &[record(1.0), record(-2.0)]),
+            file_bytes(204.0, 3, &[record(1.0), record(-2.0)]),
+            file_bytes(f32::NAN, 1, &[record(1.0)]),
+            file_bytes(204.0, 0, &[]),
+            vec![1, 2, 3],
+        ];
+        let mut bad_field = record(1.0);
+        bad_field[4] = f32::INFINITY;
+        files.push(file_bytes(204.0, 2, &[record(1.0), bad_field]));
+        let mut stray = file_bytes(204.0, 1, &[record(1.0)]);
+        stray.push(0);
+        files.push(stray);
+        for bytes in files {
+            let parsed = parse(&bytes, "f.fld").map(|scene| Header {
+                ppm: scene.ppm,
+                particles: scene.particles.len(),
+            });
+            assert_eq!(validate(&bytes, "f.fld"), parsed);
+        }
+        let header = validate(&file_bytes(204.0, 2, &[record(1.0), record(2.0)]), "f");
+        assert_eq!(
+            header,
+            Ok(Header {
+                ppm: 204.0,
+                particles: 2
+            })
+        );
     }
 
     #[test]
