@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Time per particle-step against scene size: blocks of fluid at 800 particles per metre
-# (the box then holds 1,245,000) of 3,000 to 1,000,000 particles (fluid-lab scene), 100
+# (the box then holds 1,557,504) of 3,000 to 1,000,000 particles (fluid-lab scene), 100
 # steps of the stable fluidanimate model each (fluid-lab run), the median of 3 runs per size.
 #
 # Usage: scripts/scaling.sh [STEPS] [KERNEL]      (defaults: 100 simd)

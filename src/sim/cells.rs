@@ -261,10 +261,15 @@ impl LoneFilter {
 }
 
 /// A block's coordinates in one integer, [`BLOCK_BITS`] each, offset so that each is
-/// positive and one more does not carry (coarse cells stay within +-2^15 / 2).
+/// positive and one more does not carry: coarse coordinates stay within +-21,504 for every
+/// grid of at most [`crate::sim::grid::MAX_BLOCKS`] blocks, so blocks (halves) stay within
+/// +-2^14 (tested with the finest grid).
 #[inline(always)]
 fn pack_block(block: Cell) -> u64 {
     let bias = 1 << (BLOCK_BITS - 1);
+    debug_assert!(block
+        .iter()
+        .all(|b| b.unsigned_abs() < 1 << (BLOCK_BITS - 2)));
     (0..3).fold(0, |packed, d| {
         packed | (((block[d] + bias) as u64) << (BLOCK_BITS * d as u32))
     })

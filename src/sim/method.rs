@@ -27,7 +27,7 @@ pub enum Kernel {
     Simd8,
     /// Mixed precision, eight partners at a time: each pair's differences computed in f64
     /// and narrowed to f32, the pair terms in `wide::f32x8` lanes, the sums in f64. Not
-    /// held to the reference outputs (about 1e-6 relative per step); a workbench method.
+    /// held to the reference outputs (within 5e-7 relative on a dense step); a workbench method.
     Mixed,
     /// Each particle's sums on their own, over its partners in id order, with compensated
     /// (Neumaier) summation: the reference trajectory for accuracy measurements (slow).

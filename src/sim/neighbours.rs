@@ -89,7 +89,7 @@ pub struct TileSearch {
 
 /// A filter of the keys within 1 of an occupied cell's key: bit `k % 64` of the word at
 /// a hash of `k / 64` is set for each such key `k`. It never misses such a key and rarely
-/// holds another (its table has about 8 words per cell), so one probe settles a forward
+/// holds another (its table has a word or two per cell), so one probe settles a forward
 /// row x-1..x+1 of a cell, whose keys are contiguous, for the usual far particle.
 #[derive(Debug, Clone, Default)]
 struct NearKeys {

@@ -1,16 +1,18 @@
 //! The density and acceleration stages 3-5, whose pair loops are the hot part of a time
-//! step, over the tiles of the neighbour search. Four implementations compute the same
-//! pair terms. [`Kernel::Scalar`] (one pair at a time, the plain path), [`Kernel::Simd`]
+//! step, over the tiles of the neighbour search. Four f64 implementations compute the
+//! same pair terms. [`Kernel::Scalar`] (one pair at a time, the plain path), [`Kernel::Simd`]
 //! and [`Kernel::Simd8`] (four or eight partners at a time in `f64x4` or `f64x8` lanes,
 //! one generic loop) differ only in the order in which terms are summed, which the
 //! reference outputs do not depend on (SPEC.md section 5). [`Kernel::Reference`] sums each
 //! particle's terms in id order with compensated summation, for accuracy measurements.
-//! [`Kernel::Mixed`] runs the same loop with each pair's terms in f32 lanes (differences
-//! and sums in f64): faster and less exact, a workbench method.
+//! A fifth, [`Kernel::Mixed`], runs the SIMD loop with each pair's terms in f32 lanes
+//! (differences and sums in f64): less exact (within 5e-7 relative on a dense step), a
+//! workbench method.
 //!
 //! The density loop also records where the pairs closer than h are ([`ClosePairs`]): the
 //! acceleration loop, over the same positions, visits only those tiles and, on the SIMD
-//! kernel, only those groups of four partners, without testing the others again.
+//! kernels, only those groups of partners (a lane-width each), without testing the others
+//! again.
 
 mod reference;
 mod scalar;

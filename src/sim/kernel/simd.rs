@@ -6,7 +6,7 @@
 //!
 //! Loads of the last, partial group read up to `LANES - 1` slots past the range: the
 //! particle arrays carry [`PADDING`] extra elements so those reads stay in bounds, and the
-//! masked lanes write back exactly what they read. Each loop checks the padding of every
+//! masked lanes add +0 (exact for the densities, which start at +0, and the accelerations). Each loop checks the padding of every
 //! array once, against the largest slot its tiles reach; the loads and stores inside
 //! then skip the per-access bounds checks, which otherwise cost more instructions than
 //! the arithmetic.
