@@ -40,7 +40,13 @@ pub fn cell_of(grid: &Grid, p: [f64; 3]) -> Cell {
 
 #[inline(always)]
 fn cell_coordinate(p: f64, min: f64, size: f64) -> i32 {
-    ((p - min) / size).floor().clamp(-CELL_LIMIT, CELL_LIMIT) as i32
+    cell_float(p, min, size) as i32
+}
+
+/// The cell coordinate of [`cell_coordinate`] as a float (an integer, or NaN).
+#[inline(always)]
+fn cell_float(p: f64, min: f64, size: f64) -> f64 {
+    ((p - min) / size).floor().clamp(-CELL_LIMIT, CELL_LIMIT)
 }
 
 /// [`coarsen`] of [`cell_coordinate`], computed from the float: for a coordinate of
@@ -49,7 +55,7 @@ fn cell_coordinate(p: f64, min: f64, size: f64) -> i32 {
 /// 52 - `exact_bits` gives both at once.
 #[inline(always)]
 fn coarse_coordinate(p: f64, min: f64, size: f64, exact_bits: u32) -> i32 {
-    let cell = ((p - min) / size).floor().clamp(-CELL_LIMIT, CELL_LIMIT);
+    let cell = cell_float(p, min, size);
     let magnitude = cell.abs();
     let exponent_and_leading = (magnitude.to_bits() >> (52 - exact_bits)) as i64;
     let far = (exponent_and_leading - ((1022 + i64::from(exact_bits)) << exact_bits)) as i32;
@@ -463,6 +469,17 @@ mod tests {
         Grid::new(Params::new(204.0).h).unwrap()
     }
 
+    /// A deterministic xorshift sequence of numbers in [0, 1) from `seed`.
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     fn positions(points: &[[f64; 3]]) -> Particles {
         let mut particles = Particles::zeroed(points.len());
         particles.p = std::array::from_fn(|d| points.iter().map(|p| p[d]).collect());
@@ -510,13 +527,10 @@ mod tests {
         let grid = grid();
         let exact = exact_bits(&grid);
         let size = grid.block_size.x;
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = uniform(0x9e37_79b9_7f4a_7c15);
         let mut values = vec![f64::NAN, 0.0, -0.0, 1e300, -1e300, BOX_MIN.x];
         for k in 0..100_000 {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let unit = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            let unit = next() - 0.5;
             values.push(unit * 10f64.powi(k % 12 - 3));
         }
         for e in 1..=31 {
@@ -600,13 +614,8 @@ mod tests {
     fn radix_sort_agrees_with_a_stable_sort_over_many_digits() {
         let grid = grid();
         // A deterministic cloud spread over kilometres: keys of three radix digits.
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 4000.0 - 2000.0
-        };
+        let mut unit = uniform(0x2545_f491_4f6c_dd1d);
+        let mut next = || unit() * 4000.0 - 2000.0;
         let points: Vec<[f64; 3]> = (0..3000).map(|_| [next(), next(), next()]).collect();
         let mut cells = CellOrder::default();
         cells.sort(&grid, &positions(&points));
@@ -622,13 +631,8 @@ mod tests {
     fn lone_particles_have_no_particle_in_an_adjacent_cell_and_go_last() {
         let grid = grid();
         // Lone particles spread over metres, and pairs of particles a few cells apart.
-        let mut state = 0x853c_49e6_748f_ea9bu64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 40.0 - 20.0
-        };
+        let mut unit = uniform(0x853c_49e6_748f_ea9b);
+        let mut next = || unit() * 40.0 - 20.0;
         let mut points: Vec<[f64; 3]> = (0..3000).map(|_| [next(), next(), next()]).collect();
         for k in 0..300 {
             let p = points[k];

@@ -18,7 +18,7 @@ mod reference;
 mod scalar;
 mod simd;
 
-use simd::{F64x4, F64x8, MixedF32x8};
+use simd::{F64x4, F64x8, Lanes, MixedF32x8};
 
 use crate::sim::method::{Kernel, Model};
 use crate::sim::neighbours::Tile;
@@ -118,24 +118,9 @@ pub fn transfer_accelerations(
         (Kernel::Scalar, Model::Fluidanimate) => {
             scalar::transfer_accelerations::<true>(params, candidates.tiles(), p, v, rho, a)
         }
-        (Kernel::Simd, Model::Course) => {
-            simd::transfer_accelerations::<F64x4, false>(params, candidates, p, v, rho, a)
-        }
-        (Kernel::Simd, Model::Fluidanimate) => {
-            simd::transfer_accelerations::<F64x4, true>(params, candidates, p, v, rho, a)
-        }
-        (Kernel::Simd8, Model::Course) => {
-            simd::transfer_accelerations::<F64x8, false>(params, candidates, p, v, rho, a)
-        }
-        (Kernel::Simd8, Model::Fluidanimate) => {
-            simd::transfer_accelerations::<F64x8, true>(params, candidates, p, v, rho, a)
-        }
-        (Kernel::Mixed, Model::Course) => {
-            simd::transfer_accelerations::<MixedF32x8, false>(params, candidates, p, v, rho, a)
-        }
-        (Kernel::Mixed, Model::Fluidanimate) => {
-            simd::transfer_accelerations::<MixedF32x8, true>(params, candidates, p, v, rho, a)
-        }
+        (Kernel::Simd, _) => lanes_transfer::<F64x4>(model, params, candidates, p, v, rho, a),
+        (Kernel::Simd8, _) => lanes_transfer::<F64x8>(model, params, candidates, p, v, rho, a),
+        (Kernel::Mixed, _) => lanes_transfer::<MixedF32x8>(model, params, candidates, p, v, rho, a),
         (Kernel::Reference, Model::Course) => {
             let tiles = candidates.tiles();
             reference::transfer_accelerations::<false>(params, tiles, p, v, rho, id, a)
@@ -143,6 +128,24 @@ pub fn transfer_accelerations(
         (Kernel::Reference, Model::Fluidanimate) => {
             let tiles = candidates.tiles();
             reference::transfer_accelerations::<true>(params, tiles, p, v, rho, id, a)
+        }
+    }
+}
+
+/// Stage 5 of a SIMD kernel on lanes `L`, for `model`.
+fn lanes_transfer<L: Lanes>(
+    model: Model,
+    params: &Params,
+    candidates: Candidates,
+    p: &AxisArrays,
+    v: &AxisArrays,
+    rho: &[f64],
+    a: &mut AxisArrays,
+) {
+    match model {
+        Model::Course => simd::transfer_accelerations::<L, false>(params, candidates, p, v, rho, a),
+        Model::Fluidanimate => {
+            simd::transfer_accelerations::<L, true>(params, candidates, p, v, rho, a)
         }
     }
 }
