@@ -53,6 +53,74 @@ fn a_run_reports_its_method_and_timing() {
         "{report}"
     );
     assert!(report.contains(" ns_per_particle_step="), "{report}");
+    assert!(report.contains(" simulated_s=0.003000 "), "{report}");
+}
+
+#[test]
+fn an_adaptive_run_reports_every_step_it_took() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("steps.csv");
+    let small = input("small");
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--model".as_ref(),
+        "fluidanimate".as_ref(),
+        "--adaptive".as_ref(),
+        "0.3".as_ref(),
+        "--steps".as_ref(),
+        "20".as_ref(),
+        "--diagnostics".as_ref(),
+        csv.as_os_str(),
+        small.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "stderr: {}", stderr(&output));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|&c| c == name).unwrap();
+    let (time, dt, limit) = (column("time_s"), column("dt_s"), column("dt_limit"));
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 21);
+    assert_eq!((rows[0][dt], rows[0][limit]), ("", ""));
+    let mut elapsed = 0.0;
+    let mut lengths = Vec::new();
+    for row in &rows[1..] {
+        let length: f64 = row[dt].parse().unwrap();
+        assert!(length > 0.0 && length < 2e-3, "{text}");
+        assert!(
+            ["force", "speed", "damping"].contains(&row[limit]),
+            "{text}"
+        );
+        elapsed += length;
+        lengths.push(length);
+        let written: f64 = row[time].parse().unwrap();
+        assert!(
+            (written - elapsed).abs() < 1e-6,
+            "{written} against {elapsed}"
+        );
+    }
+    assert!(lengths.iter().any(|&l| l != lengths[0]), "{lengths:?}");
+    let report = stdout(&output);
+    assert!(
+        report.contains(&format!(" simulated_s={elapsed:.6} ")),
+        "{report} against {elapsed}"
+    );
+
+    for bad in [
+        &["--adaptive", "0"][..],
+        &["--adaptive", "1.5"],
+        &["--adaptive", "nan"],
+        &["--adaptive", "0.3", "--dt", "0.001"],
+    ] {
+        let mut args: Vec<&std::ffi::OsStr> = vec!["run".as_ref()];
+        args.extend(bad.iter().map(|&a| std::ffi::OsStr::new(a)));
+        args.push(small.as_os_str());
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 2, "{bad:?}: {}", stderr(&output));
+    }
 }
 
 #[test]

@@ -6,11 +6,13 @@
 use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
 use crate::sim::particles::vector_at;
 use crate::sim::simulation::Simulation;
+use crate::sim::timestep::Limit;
 use std::fmt;
 
 /// The CSV header of [`Diagnostics::csv_row`].
 pub const CSV_HEADER: &str = "step,time_s,max_speed_m_s,outside,kinetic_j,potential_j,\
-                              total_j,mean_density_error,max_density_error,pairs_within_h";
+                              total_j,mean_density_error,max_density_error,pairs_within_h,\
+                              dt_s,dt_limit";
 
 /// What one scan of the particles tells, without densities: cheap enough to check a run
 /// after every step.
@@ -71,8 +73,10 @@ impl Vitals {
 pub struct Diagnostics {
     /// Steps run.
     pub step: u64,
-    /// Simulated time, steps times dt.
+    /// Simulated time, the sum of the steps' lengths.
     pub time: f64,
+    /// The last step's length and the criterion that set it (none at step 0).
+    pub last_step: Option<(f64, Limit)>,
     /// Speed, particles outside, energies, non-finite values.
     pub vitals: Vitals,
     /// Mean of |rho - rho_0| / rho_0.
@@ -93,7 +97,8 @@ impl Diagnostics {
         let n = particles.len();
         let mut diagnostics = Diagnostics {
             step,
-            time: step as f64 * params.dt,
+            time: simulation.time(),
+            last_step: simulation.last_step(),
             vitals: Vitals::of(&copy),
             mean_density_error: 0.0,
             max_density_error: 0.0,
@@ -124,7 +129,7 @@ impl Diagnostics {
     /// One CSV row, in the order of [`CSV_HEADER`].
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{:.6},{},{},{},{},{},{},{},{}",
+            "{},{:.6},{},{},{},{},{},{},{},{},{},{}",
             self.step,
             self.time,
             self.vitals.max_speed,
@@ -134,7 +139,10 @@ impl Diagnostics {
             self.total_energy(),
             self.mean_density_error,
             self.max_density_error,
-            self.pairs
+            self.pairs,
+            self.last_step
+                .map_or(String::new(), |(dt, _)| dt.to_string()),
+            self.last_step.map_or("", |(_, limit)| limit.name()),
         )
     }
 }
@@ -214,6 +222,7 @@ impl Checks {
 mod tests {
     use super::*;
     use crate::sim::particles::Particles;
+    use crate::sim::timestep::TimeStep;
     use glam::DVec3;
 
     fn simulation(points: &[(DVec3, DVec3)]) -> Simulation {
@@ -241,7 +250,7 @@ mod tests {
         let params = state.params();
         let m = params.mass;
         assert_eq!(diagnostics.step, 7);
-        assert_eq!(diagnostics.time, 7.0 * 1e-3);
+        assert_eq!((diagnostics.time, diagnostics.last_step), (0.0, None));
         let vitals = diagnostics.vitals;
         assert_eq!(vitals, Vitals::of(&state));
         assert_eq!(vitals.max_speed, 5.0);
@@ -258,11 +267,34 @@ mod tests {
         let alone = params.h6 * params.density_factor;
         let error = (FLUID_DENSITY - alone) / FLUID_DENSITY;
         assert!((diagnostics.max_density_error - error).abs() < 1e-12);
-        assert!(diagnostics.csv_row().starts_with("7,0.007000,5,1,"));
+        assert!(diagnostics.csv_row().starts_with("7,0.000000,5,1,"));
+        assert!(diagnostics.csv_row().ends_with(",1,,"));
         assert_eq!(
             CSV_HEADER.split(',').count(),
             diagnostics.csv_row().split(',').count()
         );
+    }
+
+    #[test]
+    fn time_and_step_lengths_follow_the_run() {
+        let mut state = simulation(&[(BOX_MIN + 0.05, DVec3::ZERO)]);
+        state.set_time_step(TimeStep::Fixed(2e-3));
+        state.run(3);
+        let fixed = Diagnostics::of(&state, 3);
+        assert!((fixed.time - 6e-3).abs() < 1e-15);
+        assert!(
+            fixed.csv_row().ends_with(",0.002,fixed"),
+            "{}",
+            fixed.csv_row()
+        );
+        state.set_time_step(TimeStep::Adaptive { courant: 0.3 });
+        state.step();
+        let adaptive = Diagnostics::of(&state, 4);
+        let (dt, limit) = adaptive.last_step.unwrap();
+        assert!((adaptive.time - (6e-3 + dt)).abs() < 1e-15);
+        assert!(adaptive
+            .csv_row()
+            .ends_with(&format!(",{dt},{}", limit.name())));
     }
 
     #[test]

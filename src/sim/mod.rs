@@ -6,9 +6,9 @@
 //! A step ([`simulation::Simulation::step`]) runs the [`stages`] in order: the [`cells`] sort the
 //! particles into cell order, the [`neighbours`] search lists the tiles of candidate
 //! slots, a [`kernel`] runs the pair loops (density, acceleration), and the per-particle
-//! stages push particles off the walls and move them. [`params`] holds the constants,
-//! [`method`] which model and kernel run, [`grid`] the blocks of the box and
-//! [`particles`] the state as a structure of arrays.
+//! stages push particles off the walls and move them, for a length [`timestep`] chooses.
+//! [`params`] holds the constants, [`method`] which model and kernel run, [`grid`] the
+//! blocks of the box and [`particles`] the state as a structure of arrays.
 
 pub mod cells;
 pub mod grid;
@@ -19,3 +19,4 @@ pub mod params;
 pub mod particles;
 pub mod simulation;
 pub mod stages;
+pub mod timestep;

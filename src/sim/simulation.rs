@@ -10,6 +10,7 @@ use crate::sim::neighbours::{Tile, TileSearch};
 use crate::sim::params::Params;
 use crate::sim::particles::Particles;
 use crate::sim::stages::{self, Stage};
+use crate::sim::timestep::{self, Leapfrog, Limit, TimeStep};
 
 /// A running simulation.
 #[derive(Debug, Clone)]
@@ -27,6 +28,12 @@ pub struct Simulation {
     close_found: bool,
     /// Buffer reused by the reordering.
     spare: Particles,
+    /// How each step's length is chosen.
+    time_step: TimeStep,
+    /// Physical time simulated so far (s).
+    time: f64,
+    /// The last step's length and what set it (none before the first step).
+    last_step: Option<(f64, Limit)>,
 }
 
 impl Simulation {
@@ -86,6 +93,9 @@ impl Simulation {
             close: ClosePairs::default(),
             close_found: false,
             spare: Particles::default(),
+            time_step: TimeStep::Fixed(params.dt),
+            time: 0.0,
+            last_step: None,
         }
     }
 
@@ -127,9 +137,28 @@ impl Simulation {
         copy
     }
 
-    /// Changes the time step of the following steps.
-    pub fn set_time_step(&mut self, dt: f64) {
-        self.params.dt = dt;
+    /// Changes how the following steps' lengths are chosen (a fixed step also becomes the
+    /// `dt` of [`Self::params`], which the stages run alone use).
+    pub fn set_time_step(&mut self, time_step: TimeStep) {
+        if let TimeStep::Fixed(dt) = time_step {
+            self.params.dt = dt;
+        }
+        self.time_step = time_step;
+    }
+
+    /// How the steps' lengths are chosen.
+    pub fn time_step(&self) -> TimeStep {
+        self.time_step
+    }
+
+    /// Physical time simulated so far, the sum of the steps' lengths (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The last step's length and the criterion that set it (none before the first step).
+    pub fn last_step(&self) -> Option<(f64, Limit)> {
+        self.last_step
     }
 
     /// A copy whose densities are those of the current positions (stages 1, 3 and 4 run on
@@ -157,6 +186,21 @@ impl Simulation {
     /// Runs one time step: all stages in order (stage 2 is part of stage 1's reordering,
     /// and stages 6-8 run as one pass).
     pub fn step(&mut self) {
+        self.step_within(f64::INFINITY);
+    }
+
+    /// Runs time steps until the physical time reaches `end` (s); the last step is cut
+    /// short to land on it, unless its length is within 1e-9 of the time left. Runs no
+    /// step if `end` is not ahead of [`Self::time`].
+    pub fn run_until(&mut self, end: f64) {
+        while end - self.time > 1e-12 * end.abs() {
+            self.step_within(end - self.time);
+        }
+    }
+
+    /// One time step of the length the time-step rule chooses, cut to `longest` if it is
+    /// longer by more than 1e-9 relative.
+    fn step_within(&mut self, longest: f64) {
         for stage in [
             Stage::Reposition,
             Stage::IncrementDensities,
@@ -165,7 +209,25 @@ impl Simulation {
         ] {
             self.run_stage(stage);
         }
-        stages::advance(self.cells.walls(), self.params.dt, &mut self.particles);
+        let (chosen, limit) = match self.time_step {
+            TimeStep::Fixed(dt) => (dt, Limit::Fixed),
+            TimeStep::Adaptive { courant } => {
+                timestep::adaptive_step(&self.params, &self.particles, courant)
+            }
+        };
+        let dt = if chosen > longest * (1.0 + 1e-9) {
+            longest
+        } else {
+            chosen
+        };
+        let previous = self.last_step.map_or(dt, |(previous, _)| previous);
+        stages::advance(
+            self.cells.walls(),
+            Leapfrog::after(previous, dt),
+            &mut self.particles,
+        );
+        self.time += dt;
+        self.last_step = Some((dt, limit));
     }
 
     /// Runs one stage alone (for trace comparisons and stage benchmarks).
@@ -277,6 +339,61 @@ mod tests {
         let expected = y0 - 9.8 * 3.0 * 1e-6;
         assert!((sim.particles().p[1][0] - expected).abs() < 1e-15);
         assert!((sim.particles().hv[1][0] + 2.0 * 9.8e-3).abs() < 1e-15);
+    }
+
+    /// A lone particle from rest under gravity, its steps' lengths chosen by `time_step`,
+    /// until `end`: the leapfrog is exact for a constant acceleration, so y and v follow
+    /// y0 + v0 t - g t^2 / 2 with v0 = -g dt_0 / 2 (the input's hv is hv_{-1/2}) whatever
+    /// the steps' lengths.
+    fn assert_free_fall_until(time_step: TimeStep, end: f64) -> Vec<f64> {
+        let mut sim = Simulation::new(204.0, along_x(&[0.0])).unwrap();
+        sim.set_time_step(time_step);
+        let y0 = sim.particles().p[1][0];
+        let mut lengths = Vec::new();
+        while end - sim.time() > 1e-12 * end {
+            sim.step_within(end - sim.time());
+            lengths.push(sim.last_step().unwrap().0);
+        }
+        let g = 9.8;
+        let (t, v0) = (sim.time(), -g * lengths[0] / 2.0);
+        assert!((t - end).abs() < 1e-15, "{t} against {end}");
+        let y = sim.particles().p[1][0];
+        assert!((y - (y0 + v0 * t - g * t * t / 2.0)).abs() < 1e-14, "y {y}");
+        let before_last = t - lengths[lengths.len() - 1];
+        let v = sim.particles().v[1][0];
+        assert!((v - (v0 - g * before_last)).abs() < 1e-14, "v {v}");
+        lengths
+    }
+
+    #[test]
+    fn steps_of_any_length_keep_the_leapfrog_exact() {
+        // Fixed 0.3 ms steps until 1 ms: the last is cut to 0.1 ms.
+        let lengths = assert_free_fall_until(TimeStep::Fixed(3e-4), 1e-3);
+        assert_eq!(lengths.len(), 4);
+        assert!((lengths[3] - 1e-4).abs() < 1e-15);
+        // Adaptive: the fall speeds the particle up, so every step is shorter than the last.
+        let lengths = assert_free_fall_until(TimeStep::Adaptive { courant: 0.3 }, 0.05);
+        assert!(lengths.windows(2).all(|w| w[1] <= w[0]), "{lengths:?}");
+        assert!(
+            lengths[0] > 1.001 * lengths[lengths.len() - 2],
+            "{lengths:?}"
+        );
+    }
+
+    #[test]
+    fn run_until_lands_on_the_time_and_keeps_equal_steps_equal() {
+        // 1 ms steps until 5 ms: five steps, none cut, the same state as `run(5)`.
+        let xs = [0.0, 0.004, 0.0075, 0.0165];
+        let mut by_count = Simulation::new(204.0, along_x(&xs)).unwrap();
+        let mut by_time = by_count.clone();
+        by_count.run(5);
+        by_time.run_until(5e-3);
+        assert_eq!(by_time.particles(), by_count.particles());
+        assert!((by_time.time() - 5e-3).abs() < 1e-15);
+        assert_eq!(by_time.last_step(), Some((1e-3, Limit::Fixed)));
+        // A time already reached runs nothing.
+        by_time.run_until(1e-3);
+        assert_eq!(by_time.particles(), by_count.particles());
     }
 
     #[test]

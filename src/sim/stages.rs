@@ -6,6 +6,7 @@
 use crate::sim::cells::{wall_bit, Wall, WallBits, Walls};
 use crate::sim::params::{BOX_MAX, BOX_MIN, COLLISION_STIFFNESS, DAMPING, PARTICLE_SIZE};
 use crate::sim::particles::Particles;
+use crate::sim::timestep::Leapfrog;
 use wide::{f64x4, i32x4};
 
 /// The eight stages of a time step, in execution order.
@@ -94,14 +95,20 @@ fn collide(axis: usize, walls: (f64x4, f64x4), dt: f64, [p, hv, v, a]: [f64x4; 4
 }
 
 /// Stage 7 on one axis of four particles: the new [p, hv, v] of
-/// p += hv dt + a dt^2; v = hv + a dt / 2; hv += a dt (old hv on the right).
+/// p += hv dt + a kick dt; v = hv + a sync / 2; hv += a kick (old hv on the right), which
+/// for equal steps (kick = sync = dt) is SPEC.md's p += hv dt + a dt^2; v = hv + a dt / 2;
+/// hv += a dt.
 #[inline(always)]
-fn motion(dt: f64, [p, hv, _, a]: [f64x4; 4]) -> [f64x4; 3] {
-    let dt = f64x4::splat(dt);
+fn motion(step: Leapfrog, [p, hv, _, a]: [f64x4; 4]) -> [f64x4; 3] {
+    let (dt, kick, sync) = (
+        f64x4::splat(step.dt),
+        f64x4::splat(step.kick),
+        f64x4::splat(step.sync),
+    );
     [
-        p + (hv * dt + a * (dt * dt)),
-        hv + a * dt,
-        hv + a * dt / 2.0,
+        p + (hv * dt + a * (kick * dt)),
+        hv + a * kick,
+        hv + a * sync / 2.0,
     ]
 }
 
@@ -204,7 +211,7 @@ pub fn move_particles(dt: f64, particles: &mut Particles) {
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
         for_each_group(n, &[], axis, fields, |_, group| {
-            let [p, hv, v] = motion(dt, group);
+            let [p, hv, v] = motion(Leapfrog::fixed(dt), group);
             [p, hv, v, group[3]]
         });
     }
@@ -224,14 +231,15 @@ pub fn interact_with_boundary(walls: &Walls, particles: &mut Particles) {
 }
 
 /// Stages 6, 7 and 8 in one pass over each axis (each stage is per particle and per axis,
-/// so the result is that of the three stages in turn).
-pub fn advance(walls: &Walls, dt: f64, particles: &mut Particles) {
-    let n = particles.len();
+/// so the result is that of the three stages in turn), for a step of `step.dt` (the wall
+/// stage judges positions after it) after one of `step.sync`.
+pub fn advance(walls: &Walls, step: Leapfrog, particles: &mut Particles) {
+    let (n, dt) = (particles.len(), step.dt);
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
         for_each_group(n, walls.bits(), axis, fields, |masks, [p, hv, v, a]| {
             let a = collide(axis, masks, dt, [p, hv, v, a]);
-            let [p, hv, v] = bounce(axis, masks, motion(dt, [p, hv, v, a]));
+            let [p, hv, v] = bounce(axis, masks, motion(step, [p, hv, v, a]));
             [p, hv, v, a]
         });
     }
@@ -359,7 +367,7 @@ mod tests {
         collide_with_walls(&walls, TIME_STEP, &mut in_turn);
         move_particles(TIME_STEP, &mut in_turn);
         interact_with_boundary(&walls, &mut in_turn);
-        advance(&walls, TIME_STEP, &mut particles);
+        advance(&walls, Leapfrog::fixed(TIME_STEP), &mut particles);
         assert_eq!(particles, in_turn);
         assert!(walls.bits().iter().any(|&bits| bits != 0));
         assert_ne!(particles.p[0][0], BOX_MIN.x - 0.001);

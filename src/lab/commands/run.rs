@@ -74,13 +74,20 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
     progress.finish_and_clear();
     let particles = simulation.particles().len();
     let per_particle_step = seconds / (steps.max(1) as f64 * particles as f64);
+    let simulated = simulation.time();
+    let per_simulated_second = if simulated > 0.0 {
+        format!("{:.3}", seconds / simulated)
+    } else {
+        String::from("none")
+    };
     writeln!(
         stdout,
         "model={} kernel={} particles={particles} steps={steps} seconds={seconds:.6} \
-         ns_per_particle_step={:.3}",
+         ns_per_particle_step={:.3} simulated_s={simulated:.6} \
+         seconds_per_simulated_s={per_simulated_second}",
         args.simulation.model.name(),
         args.simulation.kernel.name(),
-        per_particle_step * 1e9
+        per_particle_step * 1e9,
     )?;
     if let Some(file) = diagnostics_file {
         file.commit(rows.as_bytes())?;

@@ -5,6 +5,7 @@ use crate::io::fld;
 use crate::sim::method::{Kernel, Method, Model};
 use crate::sim::params::TIME_STEP;
 use crate::sim::simulation::Simulation;
+use crate::sim::timestep::TimeStep;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::error::Error;
@@ -25,9 +26,23 @@ pub struct SimulationArgs {
     /// Pair-loop implementation (default: the widest f64 lanes the build's CPU has).
     #[arg(long, value_enum, default_value_t = Kernel::NATIVE)]
     pub kernel: Kernel,
-    /// Time step in seconds.
+    /// Time step in seconds (fixed).
     #[arg(long, default_value_t = TIME_STEP, value_parser = parse_time_step)]
     pub dt: f64,
+    /// Adaptive time step instead of a fixed one: each step C times the shortest of
+    /// sqrt(h/|a|), h/(c+|v|) and the wall damping's 1/d_v (C about 0.2-0.4).
+    #[arg(long, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
+    pub adaptive: Option<f64>,
+}
+
+impl SimulationArgs {
+    /// The time-step rule the arguments ask for.
+    pub fn time_step(&self) -> TimeStep {
+        match self.adaptive {
+            Some(courant) => TimeStep::Adaptive { courant },
+            None => TimeStep::Fixed(self.dt),
+        }
+    }
 }
 
 /// An input placed for simulation.
@@ -53,7 +68,7 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     let stem = args.input.file_stem().unwrap_or_default();
     let ppm = scene.ppm;
     let mut simulation = scene.into_simulation(method, &name)?;
-    simulation.set_time_step(args.dt);
+    simulation.set_time_step(args.time_step());
     Ok(Loaded {
         stem: stem.to_string_lossy().into_owned(),
         simulation,
@@ -100,6 +115,15 @@ fn parse_time_step(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(dt) if is_time_step(dt) => Ok(dt),
         _ => Err(format!("{text} is not a positive time step")),
+    }
+}
+
+/// Parses a Courant constant: finite, positive and at most 1 (beyond that a step outruns
+/// the time scale it is taken from).
+fn parse_courant(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(c) if c.is_finite() && c > 0.0 && c <= 1.0 => Ok(c),
+        _ => Err(format!("{text} is not a Courant constant in (0, 1]")),
     }
 }
 

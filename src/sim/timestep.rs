@@ -1,0 +1,199 @@
+//! The time step: fixed (the course's 1 ms, or any other), or adaptive from the state of
+//! each step in the form the SPH codes use (DualSPHysics, PySPH): a Courant constant C
+//! times the smallest of a force criterion, an acoustic one and the wall damping's
+//! explicit limit. And the leapfrog of a step whose length differs from the last one's.
+
+use crate::sim::params::{Params, DAMPING, PRESSURE_STIFFNESS};
+use crate::sim::particles::Particles;
+
+/// How each step's length is chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TimeStep {
+    /// Every step this long (seconds).
+    Fixed(f64),
+    /// Each step C times the shortest time scale of the state ([`adaptive_step`]).
+    Adaptive {
+        /// The Courant constant C (the SPH codes use about 0.2-0.4).
+        courant: f64,
+    },
+}
+
+/// Which time scale set an adaptive step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Limit {
+    /// A fixed step: no criterion.
+    Fixed,
+    /// sqrt(h / |a|) of the particle with the largest acceleration.
+    Force,
+    /// h / (c + |hv|) of the fastest particle, c the sound speed of the pressure law.
+    Speed,
+    /// 1 / d_v, the explicit limit of the walls' velocity damping.
+    Damping,
+}
+
+impl Limit {
+    /// The criterion's name in CSV files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Limit::Fixed => "fixed",
+            Limit::Force => "force",
+            Limit::Speed => "speed",
+            Limit::Damping => "damping",
+        }
+    }
+}
+
+/// The sound speed of the models' pressure law p = p_s (rho - rho_0): sqrt(p_s) m/s.
+pub fn sound_speed() -> f64 {
+    PRESSURE_STIFFNESS.sqrt()
+}
+
+/// The adaptive step of a state whose accelerations (pairs and gravity, stages 2-5) are
+/// computed: C * min(min_i sqrt(h / |a_i|), h / (c + max_i |hv_i|), 1 / d_v), and the
+/// criterion that set it. Non-finite values are skipped (the run's own checks report them).
+pub fn adaptive_step(params: &Params, particles: &Particles, courant: f64) -> (f64, Limit) {
+    let n = particles.len();
+    let squared = |arrays: &[Vec<f64>; 3], slot: usize| {
+        arrays[0][slot].powi(2) + arrays[1][slot].powi(2) + arrays[2][slot].powi(2)
+    };
+    let (mut largest_a2, mut largest_v2) = (0.0f64, 0.0f64);
+    for slot in 0..n {
+        let a2 = squared(&particles.a, slot);
+        let v2 = squared(&particles.hv, slot);
+        if a2.is_finite() {
+            largest_a2 = largest_a2.max(a2);
+        }
+        if v2.is_finite() {
+            largest_v2 = largest_v2.max(v2);
+        }
+    }
+    let criteria = [
+        (
+            (params.h / largest_a2.sqrt()).sqrt(), // infinite without accelerations
+            Limit::Force,
+        ),
+        (params.h / (sound_speed() + largest_v2.sqrt()), Limit::Speed),
+        (1.0 / DAMPING, Limit::Damping),
+    ];
+    let (scale, limit) =
+        criteria
+            .into_iter()
+            .fold((f64::INFINITY, Limit::Damping), |best, criterion| {
+                if criterion.0 < best.0 {
+                    criterion
+                } else {
+                    best
+                }
+            });
+    (courant * scale, limit)
+}
+
+/// The step lengths the leapfrog of one step uses, with the state (p_n, hv_{n-1/2},
+/// v_{n-1}) and a_n: v_n = hv + a sync / 2; hv_{n+1/2} = hv + a kick;
+/// p_{n+1} = p + hv_{n+1/2} dt, where sync is the last step's length and kick the mean of
+/// the two. With equal steps this is SPEC.md's stage 7 bit for bit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Leapfrog {
+    /// This step's length.
+    pub dt: f64,
+    /// (last step's length + dt) / 2: the half-step velocity's change per unit a.
+    pub kick: f64,
+    /// The last step's length: v_n = hv_{n-1/2} + a sync / 2.
+    pub sync: f64,
+}
+
+impl Leapfrog {
+    /// A step of `dt` after a step of the same length.
+    pub fn fixed(dt: f64) -> Leapfrog {
+        Leapfrog::after(dt, dt)
+    }
+
+    /// A step of `dt` after one of `previous`.
+    pub fn after(previous: f64, dt: f64) -> Leapfrog {
+        Leapfrog {
+            dt,
+            kick: (previous + dt) / 2.0,
+            sync: previous,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::params::TIME_STEP;
+
+    #[test]
+    fn equal_steps_kick_by_dt_exactly() {
+        for dt in [TIME_STEP, 0.1, 3e-7, 0.0025] {
+            assert_eq!(
+                Leapfrog::fixed(dt),
+                Leapfrog {
+                    dt,
+                    kick: dt,
+                    sync: dt
+                }
+            );
+        }
+        let step = Leapfrog::after(1e-3, 3e-3);
+        assert_eq!((step.kick, step.sync), (2e-3, 1e-3));
+    }
+
+    fn particles_with(a: [f64; 3], hv: [f64; 3]) -> Particles {
+        let mut particles = Particles::zeroed(2);
+        for axis in 0..3 {
+            particles.a[axis][1] = a[axis];
+            particles.hv[axis][1] = hv[axis];
+        }
+        particles
+    }
+
+    #[test]
+    fn each_criterion_can_set_the_step() {
+        let params = Params::new(292.0);
+        let c = sound_speed();
+        // At rest with gravity only: the acoustic time h / c is the shortest.
+        let (dt, limit) = adaptive_step(&params, &particles_with([0.0, -9.8, 0.0], [0.0; 3]), 0.3);
+        assert_eq!(limit, Limit::Speed);
+        assert!((dt - 0.3 * params.h / c).abs() < 1e-15);
+        // A violent state: |a| = 5e4 m/s^2 gives sqrt(h / |a|) well below h / c.
+        let (dt, limit) = adaptive_step(
+            &params,
+            &particles_with([3e4, -4e4, 0.0], [1.0, 0.0, 0.0]),
+            0.25,
+        );
+        assert_eq!(limit, Limit::Force);
+        assert!((dt - 0.25 * (params.h / 5e4).sqrt()).abs() < 1e-15);
+        // Fast particles shorten the acoustic time.
+        let (dt, limit) = adaptive_step(&params, &particles_with([0.0; 3], [0.0, 0.0, 10.0]), 1.0);
+        assert_eq!(limit, Limit::Speed);
+        assert!((dt - params.h / (c + 10.0)).abs() < 1e-15);
+        // Coarse particles at rest: the walls' damping limit is the shortest.
+        let coarse = Params::new(40.0);
+        let (dt, limit) = adaptive_step(&coarse, &particles_with([0.0; 3], [0.0; 3]), 0.5);
+        assert_eq!(limit, Limit::Damping);
+        assert_eq!(dt, 0.5 / DAMPING);
+    }
+
+    #[test]
+    fn a_calm_state_takes_longer_steps_than_a_violent_one() {
+        let params = Params::new(292.0);
+        let calm = adaptive_step(&params, &particles_with([0.0, -9.8, 0.0], [0.0; 3]), 0.3).0;
+        let violent = adaptive_step(
+            &params,
+            &particles_with([2e3, 0.0, 0.0], [0.0, 3.0, 0.0]),
+            0.3,
+        )
+        .0;
+        assert!(calm > 2.0 * violent, "{calm} against {violent}");
+    }
+
+    #[test]
+    fn non_finite_values_do_not_set_the_step() {
+        let params = Params::new(292.0);
+        let particles = particles_with([f64::NAN, 0.0, 0.0], [f64::INFINITY, 0.0, 0.0]);
+        let (dt, limit) = adaptive_step(&params, &particles, 0.3);
+        assert_eq!(limit, Limit::Speed);
+        assert!(dt.is_finite() && dt > 0.0);
+    }
+}
