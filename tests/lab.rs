@@ -288,45 +288,91 @@ fn compare_reports_errors_per_field_and_refuses_different_sizes() {
 }
 
 #[test]
-fn accuracy_measures_each_kernel_against_the_reference() {
+fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budget() {
     let dir = tempfile::tempdir().unwrap();
     let small = input("small");
     let output = run_lab(&[
         "accuracy".as_ref(),
         small.as_os_str(),
-        "--horizons".as_ref(),
-        "2,4".as_ref(),
-        "--models".as_ref(),
-        "fluidanimate".as_ref(),
+        "--kernels".as_ref(),
+        "simd,mixed".as_ref(),
+        "--dt-factors".as_ref(),
+        "1,2".as_ref(),
+        "--adaptive".as_ref(),
+        "0.3".as_ref(),
+        "--times".as_ref(),
+        "0.002,0.004".as_ref(),
+        "--budget".as_ref(),
+        "1,1e-30".as_ref(),
         "--output-dir".as_ref(),
         dir.path().as_os_str(),
     ]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let report = stdout(&output);
     for name in [
         "accuracy.csv",
         "accuracy-speed.png",
         "accuracy-speed.svg",
-        "error-growth.png",
-        "error-growth.svg",
+        "error-time.png",
+        "error-time.svg",
     ] {
-        assert!(stdout(&output).contains(&format!("{}\n", dir.path().join(name).display())));
+        assert!(report.contains(&format!("{}\n", dir.path().join(name).display())));
     }
+    assert!(report.contains("budget 1e0 m (median error): "), "{report}");
+    assert!(
+        report.contains("budget 1e-30 m (median error): no method stays within it"),
+        "{report}"
+    );
     let text = std::fs::read_to_string(dir.path().join("accuracy.csv")).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some(fluid::lab::accuracy::CSV_HEADER));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header.join(","), fluid::lab::accuracy::CSV_HEADER);
+    let column = |name: &str| header.iter().position(|&c| c == name).unwrap();
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), Kernel::ALL.len() * 4);
+    // The reference and six methods (two kernels, three rules), at two times each.
+    assert_eq!(rows.len(), 7 * 2);
+    let number = |row: &[&str], name: &str| row[column(name)].parse::<f64>().unwrap();
     for row in &rows {
         assert_eq!(&row[..3], ["small.fld", "4800", "fluidanimate"]);
-        let error: f64 = row[6].parse().unwrap();
-        match row[3] {
-            "reference" => assert_eq!(error, 0.0),
-            "scalar" | "simd" | "simd8" => assert!(error < 1e-12, "{row:?}"),
-            "mixed" => assert!(error > 1e-12 && error < 1e-6, "{row:?}"),
-            other => panic!("kernel {other}"),
+        assert!(
+            ["0.002", "0.004"].contains(&row[column("time_s")]),
+            "{row:?}"
+        );
+        assert!(number(row, "cpu_s_per_simulated_s") > 0.0);
+        assert!(number(row, "pairs_tested") >= number(row, "pairs_within_h"));
+        assert_eq!(row[column("failure")], "");
+        if row[column("kernel")] == "reference" {
+            assert_eq!(row[column("median_error_m")], "");
+            assert!(number(row, "dt_s") < 1e-3 / 8.0);
+        } else {
+            let (median, max) = (number(row, "median_error_m"), number(row, "max_error_m"));
+            assert!(median > 0.0 && median <= max && max < 0.01, "{row:?}");
         }
-        assert!(row[5].parse::<f64>().unwrap() > 0.0);
     }
+    // Twice the step, more error: at 4 ms, dt 2 ms against dt 1 ms.
+    let at = |method: &str| {
+        let row = rows
+            .iter()
+            .find(|r| r[column("method")] == method && r[column("time_s")] == "0.004")
+            .unwrap();
+        number(row, "median_error_m")
+    };
+    assert!(at("simd dt 2 ms") > 1.5 * at("simd dt 1 ms"));
+
+    let bad = run_lab(&[
+        "accuracy".as_ref(),
+        small.as_os_str(),
+        "--times".as_ref(),
+        "0.004,0.002".as_ref(),
+        "--output-dir".as_ref(),
+        dir.path().as_os_str(),
+    ]);
+    assert_eq!(exit_code(&bad), 1);
+    assert!(
+        stderr(&bad).contains("--times needs ascending"),
+        "{}",
+        stderr(&bad)
+    );
 }
 
 #[test]

@@ -1,14 +1,18 @@
 //! Accuracy: the error between two states (per field: largest and RMS distance, and the
-//! worst particle), and the accuracy-speed sweep, which runs every model and fast kernel
-//! against the reference trajectory (the compensated [`Kernel::Reference`]) and records
-//! time per step and position error at every step.
+//! worst particle), and the accuracy-speed sweep, which runs methods (kernels and
+//! time-step rules) to chosen physical times and measures each against the reference
+//! trajectory (the compensated [`Kernel::Reference`] at a finer fixed step): position
+//! errors, observables, and the CPU time each spent per simulated second.
 
+use crate::lab::diagnostics::{self, PairCounts, Vitals};
+use crate::lab::machine::Machine;
 use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::params::{FLUID_DENSITY, TIME_STEP};
 use crate::sim::particles::{vector_at, AxisArrays, Particles};
 use crate::sim::simulation::Simulation;
+use crate::sim::timestep::{Limit, TimeStep};
 use glam::DVec3;
 use std::fmt::Write;
-use std::time::Instant;
 
 /// How far one field of a state is from another's.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -78,77 +82,464 @@ pub fn positions_by_id(simulation: &Simulation) -> Vec<DVec3> {
     positions
 }
 
-/// The CSV header of the accuracy sweep.
-pub const CSV_HEADER: &str =
-    "input,particles,model,kernel,step,seconds_per_step,max_error_m,rms_error_m";
-
-/// One method's run against the reference: seconds per step and the error after each step.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Trajectory {
-    /// The method run.
-    pub method: Method,
-    /// Mean wall time of a step (errors are computed outside the timed steps).
-    pub seconds_per_step: f64,
-    /// The position error after steps 1, 2, ...
-    pub errors: Vec<FieldError>,
+/// A method the accuracy sweep compares: a kernel (its precision and lanes) and a
+/// time-step rule; the model is the scene's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    /// The pair-loop implementation.
+    pub kernel: Kernel,
+    /// How each step's length is chosen.
+    pub time_step: TimeStep,
 }
 
-/// Runs `model` from `start` for `steps` steps with the reference kernel and with each
-/// of `kernels`, and returns the reference (errors all 0) followed by the kernels, their
-/// position errors measured against the reference after every step.
-pub fn sweep(start: &Simulation, model: Model, kernels: &[Kernel], steps: u64) -> Vec<Trajectory> {
-    let run = |kernel: Kernel, reference: Option<&[Vec<DVec3>]>| {
-        let method = Method { model, kernel };
-        let mut simulation = start.clone_with_method(method);
-        let mut seconds = 0.0;
-        let mut states = Vec::new();
-        let mut errors = Vec::new();
-        for step in 0..steps as usize {
-            let started = Instant::now();
-            simulation.step();
-            seconds += started.elapsed().as_secs_f64();
-            let positions = positions_by_id(&simulation);
-            match reference {
-                Some(reference) => errors.push(FieldError::between(&positions, &reference[step])),
-                None => {
-                    errors.push(FieldError::ZERO);
-                    states.push(positions);
+impl Candidate {
+    /// The f64 default: `fluid`'s kernel at the course's fixed 1 ms.
+    pub const DEFAULT: Candidate = Candidate {
+        kernel: Kernel::NATIVE,
+        time_step: TimeStep::Fixed(TIME_STEP),
+    };
+
+    /// A short label: `simd dt 0.5 ms`, `mixed C 0.3`, `reference dt 23.93 µs`.
+    pub fn label(&self) -> String {
+        match self.time_step {
+            TimeStep::Fixed(dt) if dt < 1e-4 => {
+                format!("{} dt {:.2} µs", self.kernel.name(), dt * 1e6)
+            }
+            TimeStep::Fixed(dt) => {
+                let milliseconds = (dt * 1e7).round() / 1e4;
+                format!("{} dt {milliseconds} ms", self.kernel.name())
+            }
+            TimeStep::Adaptive { courant } => format!("{} C {courant}", self.kernel.name()),
+        }
+    }
+
+    /// The CSV cells `time_step,dt_s,courant`.
+    fn time_step_cells(&self) -> String {
+        match self.time_step {
+            TimeStep::Fixed(dt) => format!("fixed,{dt:e},"),
+            TimeStep::Adaptive { courant } => format!("adaptive,,{courant}"),
+        }
+    }
+
+    /// Every kernel with every fixed step and every adaptive constant, the default first
+    /// (added if the lists leave it out).
+    pub fn product(kernels: &[Kernel], fixed: &[f64], courants: &[f64]) -> Vec<Candidate> {
+        let rules = fixed.iter().map(|&dt| TimeStep::Fixed(dt)).chain(
+            courants
+                .iter()
+                .map(|&courant| TimeStep::Adaptive { courant }),
+        );
+        let mut candidates = vec![Candidate::DEFAULT];
+        for time_step in rules {
+            for &kernel in kernels {
+                let candidate = Candidate { kernel, time_step };
+                if !candidates.contains(&candidate) {
+                    candidates.push(candidate);
                 }
             }
         }
-        let trajectory = Trajectory {
-            method,
-            seconds_per_step: seconds / steps.max(1) as f64,
-            errors,
-        };
-        (trajectory, states)
-    };
-    let (reference, states) = run(Kernel::Reference, None);
-    let mut trajectories = vec![reference];
-    for &kernel in kernels {
-        trajectories.push(run(kernel, Some(&states)).0);
+        candidates
     }
-    trajectories
 }
 
-/// The trajectories as CSV rows (with [`CSV_HEADER`]), one per method and step.
-pub fn csv(input: &str, particles: usize, trajectories: &[Trajectory]) -> String {
-    let mut text = String::new();
-    for trajectory in trajectories {
-        for (step, error) in trajectory.errors.iter().enumerate() {
-            let _ = writeln!(
-                text,
-                "{input},{particles},{},{},{},{:e},{:e},{:e}",
-                trajectory.method.model.name(),
-                trajectory.method.kernel.name(),
-                step + 1,
-                trajectory.seconds_per_step,
-                error.max,
-                error.rms
-            );
+/// What a state is compared by: every particle's position and density (by id, densities
+/// of the current positions), and the observables a user reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Observed {
+    /// Positions by id.
+    pub positions: Vec<DVec3>,
+    /// Densities by id.
+    pub densities: Vec<f64>,
+    /// Centre of mass.
+    pub centre: DVec3,
+    /// Kinetic energy (J).
+    pub kinetic: f64,
+    /// The front ([`diagnostics::front`]), if the floor holds enough particles.
+    pub front: Option<f64>,
+}
+
+impl Observed {
+    /// Observes a state whose densities are those of its positions
+    /// ([`Simulation::with_fresh_densities`]).
+    pub fn of(fresh: &Simulation) -> Observed {
+        let particles = fresh.particles();
+        let n = particles.len();
+        let mut densities = vec![0.0; n];
+        for slot in 0..n {
+            densities[particles.id[slot] as usize] = particles.rho[slot];
+        }
+        let positions = positions_by_id(fresh);
+        let centre = positions.iter().sum::<DVec3>() / n.max(1) as f64;
+        Observed {
+            centre,
+            kinetic: Vitals::of(fresh).kinetic,
+            front: diagnostics::front(fresh),
+            positions,
+            densities,
         }
     }
-    text
+}
+
+/// How far a method's state is from the reference's at the same physical time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Errors {
+    /// Median distance of a particle from where the reference puts it (m).
+    pub median_position: f64,
+    /// Largest such distance (m).
+    pub max_position: f64,
+    /// Distance between the centres of mass (m).
+    pub centre: f64,
+    /// |K - K_ref| / K_ref of the kinetic energies.
+    pub kinetic: f64,
+    /// Mean of |rho - rho_ref| / rho_0 over the particles.
+    pub mean_density: f64,
+    /// Largest |rho - rho_ref| / rho_0.
+    pub max_density: f64,
+    /// |front - front_ref| (m), if both states have a front.
+    pub front: Option<f64>,
+}
+
+impl Errors {
+    /// The errors of `state` against `reference` (non-finite distances count as infinite).
+    pub fn between(state: &Observed, reference: &Observed) -> Errors {
+        let finite = |x: f64| if x.is_finite() { x } else { f64::INFINITY };
+        let mut distances: Vec<f64> = state
+            .positions
+            .iter()
+            .zip(&reference.positions)
+            .map(|(a, b)| finite(a.distance(*b)))
+            .collect();
+        distances.sort_unstable_by(f64::total_cmp);
+        let density_errors = state
+            .densities
+            .iter()
+            .zip(&reference.densities)
+            .map(|(a, b)| finite((a - b).abs() / FLUID_DENSITY));
+        let (sum, max_density) =
+            density_errors.fold((0.0, 0.0f64), |(sum, max), e| (sum + e, max.max(e)));
+        let n = distances.len().max(1);
+        Errors {
+            median_position: distances.get(distances.len() / 2).copied().unwrap_or(0.0),
+            max_position: distances.last().copied().unwrap_or(0.0),
+            centre: finite(state.centre.distance(reference.centre)),
+            kinetic: finite((state.kinetic - reference.kinetic).abs() / reference.kinetic),
+            mean_density: sum / n as f64,
+            max_density,
+            front: state
+                .front
+                .zip(reference.front)
+                .map(|(a, b)| finite((a - b).abs())),
+        }
+    }
+}
+
+/// Which position error a budget bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Metric {
+    /// The median particle's distance from the reference.
+    Median,
+    /// The largest particle distance from the reference.
+    Max,
+}
+
+impl Metric {
+    /// The metric's value among `errors`.
+    pub fn of(self, errors: &Errors) -> f64 {
+        match self {
+            Metric::Median => errors.median_position,
+            Metric::Max => errors.max_position,
+        }
+    }
+
+    /// Its name in messages and chart labels.
+    pub fn name(self) -> &'static str {
+        match self {
+            Metric::Median => "median",
+            Metric::Max => "largest",
+        }
+    }
+}
+
+/// One method's state at one of the sweep's times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sample {
+    /// The physical time (s).
+    pub time: f64,
+    /// Steps run to reach it.
+    pub steps: u64,
+    /// CPU seconds of this thread spent in those steps (observations excluded).
+    pub cpu_seconds: f64,
+    /// The shortest step taken so far (s), of those not cut short to land on a time.
+    pub shortest_step: f64,
+    /// The state's pair counts.
+    pub pairs: PairCounts,
+    /// Its errors against the reference (none for the reference itself).
+    pub errors: Option<Errors>,
+}
+
+impl Sample {
+    /// CPU seconds per simulated second.
+    pub fn cost(&self) -> f64 {
+        self.cpu_seconds / self.time
+    }
+}
+
+/// A method's run: its samples up to the time it failed, if it did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Run {
+    /// The method.
+    pub candidate: Candidate,
+    /// Its state at each time reached.
+    pub samples: Vec<Sample>,
+    /// Why it stopped before the last time, and when.
+    pub failure: Option<(f64, String)>,
+    /// The bytes the simulation held on the heap at the end.
+    pub heap_bytes: usize,
+}
+
+/// The accuracy sweep's result: the reference run and each method's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sweep {
+    /// The compensated kernel at a fixed step finer than every method's.
+    pub reference: Run,
+    /// The methods, in the order given.
+    pub runs: Vec<Run>,
+}
+
+/// Most steps a method may take per step of its own at the course's 1 ms, before its
+/// step is called collapsed.
+const STEP_BUDGET_PER_MS: f64 = 1000.0;
+
+/// Runs `candidate` on `model` from `start` through `times` (ascending, s), calling
+/// `observe` at each; stops at the first time whose state is not finite or whose steps
+/// exceed the budget.
+fn run(
+    start: &Simulation,
+    model: Model,
+    candidate: Candidate,
+    times: &[f64],
+    mut observe: impl FnMut(usize, &Simulation),
+) -> Run {
+    let mut simulation = start.clone_with_method(Method {
+        model,
+        kernel: candidate.kernel,
+    });
+    simulation.set_time_step(candidate.time_step);
+    let (mut cpu_seconds, mut steps, mut shortest) = (0.0, 0, f64::INFINITY);
+    let mut samples = Vec::new();
+    let mut failure = None;
+    for (k, &time) in times.iter().enumerate() {
+        let budget = ((time - simulation.time()) / TIME_STEP * STEP_BUDGET_PER_MS) as u64 + 1;
+        let mut taken = 0;
+        let started = cpu_time();
+        while taken < budget && !simulation.has_reached(time) {
+            simulation.step_towards(time);
+            taken += 1;
+            if let Some((dt, limit)) = simulation.last_step() {
+                if limit != Limit::Landing {
+                    shortest = shortest.min(dt);
+                }
+            }
+        }
+        cpu_seconds += cpu_time() - started;
+        steps += taken;
+        if !simulation.has_reached(time) {
+            failure = Some((simulation.time(), "the step collapsed".to_string()));
+            break;
+        }
+        if let Some(id) = Vitals::of(&simulation).non_finite {
+            failure = Some((time, format!("particle {id} is not finite")));
+            break;
+        }
+        let fresh = simulation.with_fresh_densities();
+        observe(k, &fresh);
+        samples.push(Sample {
+            time,
+            steps,
+            cpu_seconds,
+            shortest_step: shortest,
+            pairs: PairCounts::of(&fresh),
+            errors: None,
+        });
+    }
+    Run {
+        candidate,
+        samples,
+        failure,
+        heap_bytes: simulation.heap_bytes(),
+    }
+}
+
+/// Runs every candidate on `model` from `start` to each of `times` (ascending, s), then
+/// the compensated reference kernel at `reference_step` (or, if none, an eighth of the
+/// shortest step any candidate took), and measures each candidate against it.
+pub fn sweep(
+    start: &Simulation,
+    model: Model,
+    candidates: &[Candidate],
+    times: &[f64],
+    reference_step: Option<f64>,
+) -> Sweep {
+    let mut states: Vec<Vec<Observed>> = Vec::new();
+    let mut runs: Vec<Run> = candidates
+        .iter()
+        .map(|&candidate| {
+            let mut observed = Vec::new();
+            let run = run(start, model, candidate, times, |_, fresh| {
+                observed.push(Observed::of(fresh));
+            });
+            states.push(observed);
+            run
+        })
+        .collect();
+    let shortest = runs
+        .iter()
+        .flat_map(|run| run.samples.last())
+        .map(|sample| sample.shortest_step)
+        .fold(TIME_STEP, f64::min);
+    let step = reference_step.unwrap_or(shortest / 8.0);
+    let reference_candidate = Candidate {
+        kernel: Kernel::Reference,
+        time_step: TimeStep::Fixed(step),
+    };
+    let mut truths = Vec::new();
+    let reference = self::run(start, model, reference_candidate, times, |_, fresh| {
+        truths.push(Observed::of(fresh));
+    });
+    for (run, observed) in runs.iter_mut().zip(&states) {
+        for ((sample, state), truth) in run.samples.iter_mut().zip(observed).zip(&truths) {
+            sample.errors = Some(Errors::between(state, truth));
+        }
+    }
+    Sweep { reference, runs }
+}
+
+/// The CSV header of the accuracy sweep.
+pub const CSV_HEADER: &str = "scene,particles,model,method,kernel,time_step,dt_s,courant,\
+     time_s,steps,cpu_s,cpu_s_per_simulated_s,shortest_step_s,pairs_tested,pairs_within_h,\
+     heap_bytes,median_error_m,max_error_m,centre_error_m,kinetic_error,mean_density_error,\
+     max_density_error,front_error_m,failure,host,cpu_model,commit";
+
+impl Sweep {
+    /// The sweep as CSV rows (with [`CSV_HEADER`]): one per run and time reached, then
+    /// one per failed run saying when and why; the reference's errors are empty.
+    pub fn csv(&self, scene: &str, particles: usize, model: Model, machine: &Machine) -> String {
+        let mut text = String::new();
+        let machine_cells = format!(
+            "{},{},{}",
+            machine.host,
+            machine.cpu_model.replace(',', " "),
+            machine.commit
+        );
+        for run in std::iter::once(&self.reference).chain(&self.runs) {
+            let method = format!(
+                "{scene},{particles},{},{},{},{}",
+                model.name(),
+                run.candidate.label(),
+                run.candidate.kernel.name(),
+                run.candidate.time_step_cells()
+            );
+            for sample in &run.samples {
+                let errors = sample.errors.map_or(",,,,,,".to_string(), |e| {
+                    format!(
+                        "{:e},{:e},{:e},{:e},{:e},{:e},{}",
+                        e.median_position,
+                        e.max_position,
+                        e.centre,
+                        e.kinetic,
+                        e.mean_density,
+                        e.max_density,
+                        e.front.map_or(String::new(), |f| format!("{f:e}"))
+                    )
+                });
+                let _ = writeln!(
+                    text,
+                    "{method},{},{},{:e},{:e},{:e},{},{},{},{errors},,{machine_cells}",
+                    sample.time,
+                    sample.steps,
+                    sample.cpu_seconds,
+                    sample.cost(),
+                    sample.shortest_step,
+                    sample.pairs.tested,
+                    sample.pairs.within_h,
+                    run.heap_bytes,
+                );
+            }
+            if let Some((time, why)) = &run.failure {
+                let _ = writeln!(
+                    text,
+                    "{method},{time},,,,,,,{},,,,,,,,{why},{machine_cells}",
+                    run.heap_bytes
+                );
+            }
+        }
+        text
+    }
+
+    /// The fastest run (least CPU time per simulated second at the last time) whose
+    /// position error by `metric` stays within `budget` (m) at every time, if any does.
+    pub fn fastest_within(&self, budget: f64, metric: Metric) -> Option<&Run> {
+        let last = self.reference.samples.len();
+        self.runs
+            .iter()
+            .filter(|run| run.failure.is_none() && run.samples.len() == last)
+            .filter(|run| {
+                run.samples
+                    .iter()
+                    .all(|s| s.errors.is_some_and(|e| metric.of(&e) <= budget))
+            })
+            .min_by(|a, b| a.final_cost().total_cmp(&b.final_cost()))
+    }
+
+    /// The run of [`Candidate::DEFAULT`].
+    pub fn default_run(&self) -> Option<&Run> {
+        self.runs
+            .iter()
+            .find(|run| run.candidate == Candidate::DEFAULT)
+    }
+}
+
+impl Run {
+    /// CPU seconds per simulated second over the whole run (infinite if it failed).
+    pub fn final_cost(&self) -> f64 {
+        match (&self.failure, self.samples.last()) {
+            (None, Some(sample)) => sample.cost(),
+            _ => f64::INFINITY,
+        }
+    }
+}
+
+/// The points of `points` (cost, error) that no other point beats on both: the Pareto
+/// front, by ascending cost (points with a non-finite coordinate are left out).
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut sorted: Vec<(f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let mut front: Vec<(f64, f64)> = Vec::new();
+    for point in sorted {
+        if front.last().is_none_or(|last| point.1 < last.1) {
+            front.push(point);
+        }
+    }
+    front
+}
+
+/// This thread's CPU time (s).
+fn cpu_time() -> f64 {
+    let mut spec = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime writes one timespec to the pointer it is given.
+    let status = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut spec) };
+    assert_eq!(
+        status, 0,
+        "CLOCK_THREAD_CPUTIME_ID is always available on Linux"
+    );
+    spec.tv_sec as f64 + spec.tv_nsec as f64 * 1e-9
 }
 
 #[cfg(test)]
@@ -180,29 +571,190 @@ mod tests {
     }
 
     #[test]
-    fn the_sweep_measures_each_kernel_against_the_reference() {
+    fn candidates_are_every_kernel_with_every_rule_the_default_first() {
+        let candidates =
+            Candidate::product(&[Kernel::Mixed, Kernel::NATIVE], &[5e-4, TIME_STEP], &[0.3]);
+        assert_eq!(candidates[0], Candidate::DEFAULT);
+        assert_eq!(candidates.len(), 6, "{candidates:?}");
+        let labels: Vec<String> = candidates.iter().map(Candidate::label).collect();
+        assert!(
+            labels.contains(&"mixed dt 0.5 ms".to_string()),
+            "{labels:?}"
+        );
+        assert!(labels.contains(&"mixed C 0.3".to_string()), "{labels:?}");
+        let fine = Candidate {
+            kernel: Kernel::Reference,
+            time_step: TimeStep::Fixed(2.5e-5),
+        };
+        assert_eq!(fine.label(), "reference dt 25.00 µs");
+        // Without the default in the lists, it is added.
+        assert_eq!(
+            Candidate::product(&[Kernel::Mixed], &[], &[0.3])[0],
+            Candidate::DEFAULT
+        );
+    }
+
+    fn observed(
+        positions: &[DVec3],
+        densities: &[f64],
+        kinetic: f64,
+        front: Option<f64>,
+    ) -> Observed {
+        Observed {
+            positions: positions.to_vec(),
+            densities: densities.to_vec(),
+            centre: positions.iter().sum::<DVec3>() / positions.len() as f64,
+            kinetic,
+            front,
+        }
+    }
+
+    #[test]
+    fn errors_compare_particles_and_observables() {
+        let truth = observed(
+            &[DVec3::ZERO; 3],
+            &[1000.0, 1000.0, 1000.0],
+            2.0,
+            Some(0.05),
+        );
+        let state = observed(
+            &[DVec3::X * 0.001, DVec3::Y * 0.002, DVec3::Z * 0.006],
+            &[1010.0, 1000.0, 970.0],
+            2.5,
+            Some(0.04),
+        );
+        let errors = Errors::between(&state, &truth);
+        assert_eq!(
+            (errors.median_position, errors.max_position),
+            (0.002, 0.006)
+        );
+        assert!((errors.centre - DVec3::new(0.001, 0.002, 0.006).length() / 3.0).abs() < 1e-15);
+        assert_eq!(errors.kinetic, 0.25);
+        assert!((errors.mean_density - 0.04 / 3.0).abs() < 1e-15);
+        assert!((errors.max_density - 0.03).abs() < 1e-15);
+        assert!((errors.front.unwrap() - 0.01).abs() < 1e-15);
+        let broken = observed(&[DVec3::NAN; 3], &[f64::NAN; 3], f64::NAN, None);
+        let errors = Errors::between(&broken, &truth);
+        assert_eq!(errors.max_position, f64::INFINITY);
+        assert_eq!(errors.kinetic, f64::INFINITY);
+        assert_eq!(errors.front, None);
+        assert_eq!(Metric::Median.of(&errors), f64::INFINITY);
+    }
+
+    #[test]
+    fn the_pareto_front_keeps_the_points_nothing_beats() {
+        let points = [
+            (2.0, 1.0),
+            (1.0, 3.0),
+            (3.0, 0.5),
+            (2.5, 2.0),
+            (1.5, 3.0),
+            (f64::NAN, 0.1),
+        ];
+        assert_eq!(pareto_front(&points), [(1.0, 3.0), (2.0, 1.0), (3.0, 0.5)]);
+        assert!(pareto_front(&[]).is_empty());
+    }
+
+    #[test]
+    fn the_sweep_measures_methods_against_a_finer_reference_at_equal_times() {
         let particles = crate::lab::scene::corner_block(150.0, 300);
         let start = Simulation::new(150.0, particles).unwrap();
-        let trajectories = sweep(&start, Model::Fluidanimate, &Kernel::FAST, 3);
-        let kernels: Vec<Kernel> = trajectories.iter().map(|t| t.method.kernel).collect();
-        let mut expected = vec![Kernel::Reference];
-        expected.extend(Kernel::FAST);
-        assert_eq!(kernels, expected);
-        for trajectory in &trajectories {
-            assert_eq!(trajectory.errors.len(), 3);
-            assert!(trajectory.seconds_per_step > 0.0);
-            let bound = if trajectory.method.kernel == Kernel::Mixed {
-                1e-6
-            } else {
-                1e-12
-            };
-            for error in &trajectory.errors {
-                assert!(error.max < bound, "{trajectory:?}");
+        let simd = |time_step| Candidate {
+            kernel: Kernel::Simd,
+            time_step,
+        };
+        let candidates = [
+            simd(TimeStep::Fixed(1e-3)),
+            simd(TimeStep::Fixed(5e-4)),
+            Candidate {
+                kernel: Kernel::Mixed,
+                time_step: TimeStep::Fixed(1e-3),
+            },
+            simd(TimeStep::Adaptive { courant: 0.3 }),
+        ];
+        let times = [2e-3, 4e-3];
+        let sweep = sweep(&start, Model::Fluidanimate, &candidates, &times, None);
+        let TimeStep::Fixed(reference_step) = sweep.reference.candidate.time_step else {
+            panic!("a fixed reference step");
+        };
+        let shortest = sweep.runs.iter().map(|run| run.samples[1].shortest_step);
+        assert_eq!(reference_step, shortest.fold(f64::INFINITY, f64::min) / 8.0);
+        assert_eq!(sweep.reference.samples.len(), 2);
+        for (run, candidate) in sweep.runs.iter().zip(&candidates) {
+            assert_eq!(run.candidate, *candidate);
+            assert_eq!(run.failure, None);
+            let times_reached: Vec<f64> = run.samples.iter().map(|s| s.time).collect();
+            assert_eq!(times_reached, times);
+            assert!(run.heap_bytes > 300 * 13 * 8);
+            for sample in &run.samples {
+                assert!(sample.cost() > 0.0);
+                assert!(sample.pairs.tested >= sample.pairs.within_h && sample.pairs.within_h > 0);
+                assert!(sample.errors.unwrap().median_position > 0.0);
             }
         }
-        assert!(trajectories[0].errors.iter().all(|e| e.max == 0.0));
-        let text = csv("corner.fld", 300, &trajectories);
-        assert_eq!(text.lines().count(), 3 * expected.len());
-        assert!(text.starts_with("corner.fld,300,fluidanimate,reference,1,"));
+        assert_eq!(sweep.runs[0].samples[1].steps, 4);
+        assert_eq!(sweep.runs[1].samples[1].steps, 8);
+        // Halving the step shrinks the error; the mixed kernel's error is the f64 one's.
+        let error = |k: usize| sweep.runs[k].samples[1].errors.unwrap();
+        assert!(error(1).median_position < 0.75 * error(0).median_position);
+        assert!(
+            (error(2).max_position - error(0).max_position).abs() < 1e-6 * error(0).max_position
+        );
+        // The fastest within a budget that every run meets is the cheapest; none meets 1e-30.
+        let fastest = sweep.fastest_within(1.0, Metric::Max).unwrap();
+        let cheapest = sweep
+            .runs
+            .iter()
+            .map(Run::final_cost)
+            .fold(f64::INFINITY, f64::min);
+        assert_eq!(fastest.final_cost(), cheapest);
+        assert_eq!(sweep.fastest_within(1e-30, Metric::Median), None);
+        assert_eq!(sweep.default_run().unwrap().candidate, Candidate::DEFAULT);
+        let machine = Machine::this();
+        let text = sweep.csv("corner.fld", 300, Model::Fluidanimate, &machine);
+        assert_eq!(text.lines().count(), 5 * 2);
+        for line in text.lines() {
+            assert_eq!(
+                line.split(',').count(),
+                CSV_HEADER.split(',').count(),
+                "{line}"
+            );
+        }
+        assert!(text.starts_with("corner.fld,300,fluidanimate,reference dt "));
+    }
+
+    #[test]
+    fn runs_that_break_or_whose_step_collapses_stop_with_the_reason() {
+        let mut particles = crate::lab::scene::corner_block(150.0, 30);
+        let start = Simulation::new(150.0, particles.clone()).unwrap();
+        particles.hv[0][0] = 1e6; // an adaptive step of nanoseconds
+        let fast = Simulation::new(150.0, particles.clone()).unwrap();
+        particles.v[0][3] = f64::NAN;
+        let broken = Simulation::new(150.0, particles).unwrap();
+        let adaptive = Candidate {
+            kernel: Kernel::Simd,
+            time_step: TimeStep::Adaptive { courant: 0.3 },
+        };
+        let collapsed = run(&fast, Model::Fluidanimate, adaptive, &[1e-3], |_, _| {});
+        let (when, why) = collapsed.failure.unwrap();
+        assert_eq!(why, "the step collapsed");
+        assert!(when > 0.0 && when < 1e-3);
+        assert!(collapsed.samples.is_empty());
+        let failed = run(
+            &broken,
+            Model::Fluidanimate,
+            Candidate::DEFAULT,
+            &[1e-3],
+            |_, _| {},
+        );
+        assert!(failed
+            .failure
+            .as_ref()
+            .unwrap()
+            .1
+            .ends_with("is not finite"));
+        assert_eq!(failed.final_cost(), f64::INFINITY);
+        let fine = run(&start, Model::Fluidanimate, adaptive, &[1e-3], |_, _| {});
+        assert_eq!((fine.failure, fine.samples.len()), (None, 1));
     }
 }

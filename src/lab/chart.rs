@@ -4,6 +4,7 @@
 //! no system font library and no network are needed.
 
 use crate::lab::energy::Domain;
+use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -496,22 +497,28 @@ impl Drawing for Chart {
     }
 }
 
-/// A chart with a logarithmic y axis: lines (or points) of (x, y) with y > 0; points
-/// with y <= 0 or not finite are left out (a log axis cannot show them).
+/// A chart with a logarithmic y axis (and a linear or logarithmic x axis): lines (or
+/// points) of (x, y); points a log axis cannot show (not finite, or not positive) are
+/// left out.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogChart {
     /// The file stem.
     pub name: &'static str,
     /// The title.
     pub title: String,
-    /// The x axis' description (linear, from 0).
+    /// The x axis' description.
     pub x_label: String,
+    /// Whether the x axis is logarithmic (else linear, from 0).
+    pub x_log: bool,
     /// The y axis' description (logarithmic).
     pub y_label: String,
     /// The series: legend text and points.
     pub series: Vec<(String, Vec<(f64, f64)>)>,
     /// Whether to join each series' points with lines (else points only).
     pub lines: bool,
+    /// A line per series through other points of its own (its Pareto front, say), in its
+    /// colour; missing entries draw none.
+    pub fronts: Vec<Vec<(f64, f64)>>,
     /// Texts written beside points: (x, y, text).
     pub notes: Vec<(f64, f64, String)>,
     /// Where the legend goes.
@@ -521,18 +528,33 @@ pub struct LogChart {
 }
 
 impl LogChart {
-    /// The points drawn: those with a positive, finite y.
+    /// Whether the axes can show `point`.
+    fn shows(&self, (x, y): (f64, f64)) -> bool {
+        x.is_finite() && y.is_finite() && y > 0.0 && (!self.x_log || x > 0.0)
+    }
+
+    /// The points drawn: those the axes can show.
     fn drawn(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
         self.series
             .iter()
             .flat_map(|(_, points)| points.iter().copied())
-            .filter(|(_, y)| y.is_finite() && *y > 0.0)
+            .filter(|&point| self.shows(point))
     }
 
-    /// The x axis: from 0 to past the largest x.
+    /// The x axis: from 0 to past the largest x, or (logarithmic) from below the
+    /// smallest x to above the largest.
     pub fn x_range(&self) -> Range<f64> {
-        let largest = self.drawn().map(|(x, _)| x).fold(0.0, f64::max);
-        0.0..if largest > 0.0 { largest * 1.15 } else { 1.0 }
+        let (smallest, largest) = self
+            .drawn()
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), (x, _)| {
+                (lo.min(x), hi.max(x))
+            });
+        match (self.x_log, largest > 0.0) {
+            (false, true) => 0.0..largest * 1.15,
+            (false, false) => 0.0..1.0,
+            (true, true) => (smallest / 1.6).min(largest / 10.0)..largest * 1.6,
+            (true, false) => 0.1..1.0,
+        }
     }
 
     /// The y axis: from half the smallest y to twice the largest (decades apart at least).
@@ -562,31 +584,62 @@ impl Drawing for LogChart {
         DB::ErrorType: 'static,
     {
         let plot = plot_and_footer(&root, &self.footer)?;
-        let mut context = ChartBuilder::on(&plot)
+        let mut builder = ChartBuilder::on(&plot);
+        builder
             .caption(&self.title, ("sans-serif", 24))
             .margin(16)
             .x_label_area_size(44)
-            .y_label_area_size(80)
-            .build_cartesian_2d(self.x_range(), self.y_range().log_scale())?;
+            .y_label_area_size(80);
+        if self.x_log {
+            let context = builder
+                .build_cartesian_2d(self.x_range().log_scale(), self.y_range().log_scale())?;
+            self.draw_in(context, &|&x| {
+                let digits = (1 - x.log10().floor() as i32).max(0) as usize;
+                format!("{x:.digits$}")
+            })?;
+        } else {
+            let context = builder.build_cartesian_2d(self.x_range(), self.y_range().log_scale())?;
+            self.draw_in(context, &|x| match x.fract() == 0.0 {
+                true => format!("{x:.0}"),
+                false => format!("{x:.1}"),
+            })?;
+        }
+        root.present()?;
+        Ok(())
+    }
+}
+
+impl LogChart {
+    /// Draws the mesh, series, fronts, notes and legend in `context`, x labels by
+    /// `x_format`.
+    fn draw_in<'a, DB, X>(
+        &self,
+        mut context: ChartContext<'a, DB, Cartesian2d<X, LogCoord<f64>>>,
+        x_format: &dyn Fn(&f64) -> String,
+    ) -> Result<(), Box<dyn Error>>
+    where
+        DB: DrawingBackend + 'a,
+        DB::ErrorType: 'static,
+        X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    {
         context
             .configure_mesh()
             .x_desc(self.x_label.as_str())
             .y_desc(self.y_label.as_str())
-            .x_label_formatter(&|x| match x.fract() == 0.0 {
-                true => format!("{x:.0}"),
-                false => format!("{x:.1}"),
-            })
+            .x_label_formatter(x_format)
             .y_label_formatter(&|y| format!("{y:.0e}"))
             .label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", 16))
             .draw()?;
+        let count = self.series.len();
         for (index, (label, points)) in self.series.iter().enumerate() {
-            let color = COLOURS[index % COLOURS.len()];
-            let points: Vec<(f64, f64)> = points
-                .iter()
-                .copied()
-                .filter(|(_, y)| y.is_finite() && *y > 0.0)
-                .collect();
+            let color = colour(index, count);
+            if let Some(front) = self.fronts.get(index) {
+                let front = front.iter().copied().filter(|&p| self.shows(p));
+                context.draw_series(LineSeries::new(front, color.mix(0.6).stroke_width(2)))?;
+            }
+            let points: Vec<(f64, f64)> =
+                points.iter().copied().filter(|&p| self.shows(p)).collect();
             let markers = points.iter().map(|&p| Circle::new(p, 4, color.filled()));
             if self.lines {
                 context.draw_series(LineSeries::new(
@@ -599,11 +652,25 @@ impl Drawing for LogChart {
                 .label(label.as_str())
                 .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
         }
-        for (x, y, text) in &self.notes {
-            if y.is_finite() && *y > 0.0 {
-                let style = ("sans-serif", 13).into_font().color(&BLACK.mix(0.8));
-                context.draw_series(std::iter::once(Text::new(text.clone(), (*x, *y), style)))?;
+        // Notes in pixels, each moved down past the notes already placed that it would
+        // overlap (text about 7 pixels a character, 14 a line).
+        let area = context.plotting_area();
+        let (base_x, base_y) = area.get_base_pixel();
+        let pixels = area.strip_coord_spec();
+        let style = ("sans-serif", 13).into_font().color(&BLACK.mix(0.8));
+        let mut placed: Vec<(i32, i32, i32)> = Vec::new();
+        for (x, y, text) in self.notes.iter().filter(|(x, y, _)| self.shows((*x, *y))) {
+            let (px, mut py) = area.map_coordinate(&(*x, *y));
+            let (px, width) = (px - base_x, 7 * text.chars().count() as i32);
+            py -= base_y;
+            while placed
+                .iter()
+                .any(|&(qx, qy, w)| (py - qy).abs() < 14 && px < qx + w && qx < px + width)
+            {
+                py += 14;
             }
+            placed.push((px, py, width));
+            pixels.draw(&Text::new(text.clone(), (px, py - 6), style.clone()))?;
         }
         context
             .configure_series_labels()
@@ -612,9 +679,18 @@ impl Drawing for LogChart {
             .border_style(BLACK.mix(0.4))
             .position(self.legend.clone())
             .draw()?;
-        root.present()?;
         Ok(())
     }
+}
+
+/// The colour of series `index` of `count`: the palette's, or hues around the colour
+/// wheel where the palette is too short to tell them apart.
+fn colour(index: usize, count: usize) -> RGBColor {
+    if count <= COLOURS.len() {
+        return COLOURS[index];
+    }
+    let (r, g, b) = HSLColor(index as f64 / count as f64, 0.75, 0.42).rgb();
+    RGBColor(r, g, b)
 }
 
 /// Splits `text` into lines of at most about `width` characters, at spaces and newlines.

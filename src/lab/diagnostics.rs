@@ -92,7 +92,6 @@ impl Diagnostics {
     /// of the current positions (computed on a copy).
     pub fn of(simulation: &Simulation, step: u64) -> Diagnostics {
         let copy = simulation.with_fresh_densities();
-        let params = copy.params();
         let particles = copy.particles();
         let n = particles.len();
         let mut diagnostics = Diagnostics {
@@ -109,15 +108,7 @@ impl Diagnostics {
             diagnostics.mean_density_error += error / n as f64;
             diagnostics.max_density_error = diagnostics.max_density_error.max(error);
         }
-        for tile in copy.tiles() {
-            for i in tile.firsts() {
-                for j in tile.partners(i) {
-                    let r2 =
-                        (vector_at(&particles.p, i) - vector_at(&particles.p, j)).length_squared();
-                    diagnostics.pairs += u64::from(r2 < params.h2);
-                }
-            }
-        }
+        diagnostics.pairs = PairCounts::of(&copy).within_h;
         diagnostics
     }
 
@@ -145,6 +136,58 @@ impl Diagnostics {
             self.last_step.map_or("", |(_, limit)| limit.name()),
         )
     }
+}
+
+/// The candidate pairs a simulation's tiles hold, and how many of them are closer than h.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PairCounts {
+    /// Pairs the pair loops test (every partner of every first slot of every tile).
+    pub tested: u64,
+    /// Those closer than h at the current positions.
+    pub within_h: u64,
+}
+
+impl PairCounts {
+    /// Counts the pairs of the current tiles of `simulation`.
+    pub fn of(simulation: &Simulation) -> PairCounts {
+        let (particles, h2) = (simulation.particles(), simulation.params().h2);
+        let mut counts = PairCounts::default();
+        for tile in simulation.tiles() {
+            for i in tile.firsts() {
+                let partners = tile.partners(i);
+                counts.tested += partners.len() as u64;
+                for j in partners {
+                    let r2 =
+                        (vector_at(&particles.p, i) - vector_at(&particles.p, j)).length_squared();
+                    counts.within_h += u64::from(r2 < h2);
+                }
+            }
+        }
+        counts
+    }
+}
+
+/// Fewest particles near the floor for [`front`] to name a front.
+const FRONT_PARTICLES: usize = 10;
+
+/// The front of a fluid spreading along +x: the 95th percentile of x (measured from the
+/// box's low-x wall) among the particles within 2h of the floor, so that a few strays
+/// ahead of the fluid do not move it. `None` with fewer than [`FRONT_PARTICLES`] there.
+pub fn front(simulation: &Simulation) -> Option<f64> {
+    let (particles, h) = (simulation.particles(), simulation.params().h);
+    let mut xs: Vec<f64> = (0..particles.len())
+        .filter(|&slot| {
+            let y = particles.p[1][slot];
+            y.is_finite() && y < BOX_MIN.y + 2.0 * h
+        })
+        .map(|slot| particles.p[0][slot] - BOX_MIN.x)
+        .filter(|x| x.is_finite())
+        .collect();
+    if xs.len() < FRONT_PARTICLES {
+        return None;
+    }
+    xs.sort_unstable_by(f64::total_cmp);
+    Some(xs[(xs.len() - 1) * 95 / 100])
 }
 
 /// Why a run is called failed.

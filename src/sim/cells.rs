@@ -305,6 +305,21 @@ pub struct CellOrder {
 }
 
 impl CellOrder {
+    /// The bytes its buffers hold on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        use crate::sim::heap_bytes as bytes;
+        bytes(&self.keys)
+            + bytes(&self.order)
+            + bytes(&self.walls.bits)
+            + bytes(&self.lone_filter.words)
+            + bytes(&self.lone)
+            + bytes(&self.cells)
+            + bytes(&self.wall_bits)
+            + bytes(&self.spare_keys)
+            + bytes(&self.spare_order)
+            + bytes(&self.counts)
+    }
+
     /// Sorts `particles` (in their current slots) by cell; their walls are those of the
     /// blocks the grid gives their positions. Returns whether any particle changes slot
     /// (if not, [`Self::order`] is the identity).

@@ -20,3 +20,8 @@ pub mod particles;
 pub mod simulation;
 pub mod stages;
 pub mod timestep;
+
+/// The bytes `vector` holds on the heap (its capacity, not its length).
+pub(crate) fn heap_bytes<T>(vector: &Vec<T>) -> usize {
+    vector.capacity() * std::mem::size_of::<T>()
+}

@@ -124,6 +124,15 @@ impl NearKeys {
 }
 
 impl TileSearch {
+    /// The bytes its buffers hold on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        use crate::sim::heap_bytes as bytes;
+        bytes(&self.tiles)
+            + bytes(&self.cell_keys)
+            + bytes(&self.cell_starts)
+            + bytes(&self.near.words)
+    }
+
     /// The tiles found last. A cell's tiles are consecutive: its own (if it holds two
     /// particles or more), then its rows.
     pub fn tiles(&self) -> &[Tile] {

@@ -39,6 +39,18 @@ pub fn vector_at(arrays: &AxisArrays, slot: usize) -> DVec3 {
 }
 
 impl Particles {
+    /// The bytes its arrays hold on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        use crate::sim::heap_bytes as bytes;
+        let axes = |arrays: &AxisArrays| arrays.iter().map(bytes).sum::<usize>();
+        bytes(&self.id)
+            + axes(&self.p)
+            + axes(&self.hv)
+            + axes(&self.v)
+            + bytes(&self.rho)
+            + axes(&self.a)
+    }
+
     /// `n` particles with ids 0..n and every field zero.
     pub fn zeroed(n: usize) -> Self {
         Self {

@@ -124,6 +124,16 @@ impl Simulation {
         &self.cells
     }
 
+    /// The bytes the simulation holds on the heap: particles, the reordering's spare
+    /// copy, cell order, tiles and close pairs (capacities, so the peak of the run).
+    pub fn heap_bytes(&self) -> usize {
+        self.particles.heap_bytes()
+            + self.spare.heap_bytes()
+            + self.cells.heap_bytes()
+            + self.search.heap_bytes()
+            + self.close.heap_bytes()
+    }
+
     /// The tiles of candidate pairs of the current step.
     pub fn tiles(&self) -> &[Tile] {
         self.search.tiles()
@@ -186,21 +196,19 @@ impl Simulation {
     /// Runs one time step: all stages in order (stage 2 is part of stage 1's reordering,
     /// and stages 6-8 run as one pass).
     pub fn step(&mut self) {
-        self.step_within(f64::INFINITY);
+        self.step_towards(f64::INFINITY);
     }
 
-    /// Runs time steps until the physical time reaches `end` (s); the last step is cut
-    /// short to land on it, unless its length is within 1e-9 of the time left. Runs no
-    /// step if `end` is not ahead of [`Self::time`].
-    pub fn run_until(&mut self, end: f64) {
-        while end - self.time > 1e-12 * end.abs() {
-            self.step_within(end - self.time);
-        }
+    /// Whether the physical time has reached `end` (s), to 1e-12 relative.
+    pub fn has_reached(&self, end: f64) -> bool {
+        end - self.time <= 1e-12 * end.abs()
     }
 
-    /// One time step of the length the time-step rule chooses, cut to `longest` if it is
-    /// longer by more than 1e-9 relative.
-    fn step_within(&mut self, longest: f64) {
+    /// One time step towards the physical time `end` (s): of the length the time-step
+    /// rule chooses, cut short to land on `end` unless it is within 1e-9 (relative) of
+    /// the time left.
+    pub fn step_towards(&mut self, end: f64) {
+        let longest = end - self.time;
         for stage in [
             Stage::Reposition,
             Stage::IncrementDensities,
@@ -215,10 +223,10 @@ impl Simulation {
                 timestep::adaptive_step(&self.params, &self.particles, courant)
             }
         };
-        let dt = if chosen > longest * (1.0 + 1e-9) {
-            longest
+        let (dt, limit) = if chosen > longest * (1.0 + 1e-9) {
+            (longest, Limit::Landing)
         } else {
-            chosen
+            (chosen, limit)
         };
         let previous = self.last_step.map_or(dt, |(previous, _)| previous);
         stages::advance(
@@ -345,15 +353,16 @@ mod tests {
     /// until `end`: the leapfrog is exact for a constant acceleration, so y and v follow
     /// y0 + v0 t - g t^2 / 2 with v0 = -g dt_0 / 2 (the input's hv is hv_{-1/2}) whatever
     /// the steps' lengths.
-    fn assert_free_fall_until(time_step: TimeStep, end: f64) -> Vec<f64> {
+    fn assert_free_fall_until(time_step: TimeStep, end: f64) -> Vec<(f64, Limit)> {
         let mut sim = Simulation::new(204.0, along_x(&[0.0])).unwrap();
         sim.set_time_step(time_step);
         let y0 = sim.particles().p[1][0];
-        let mut lengths = Vec::new();
-        while end - sim.time() > 1e-12 * end {
-            sim.step_within(end - sim.time());
-            lengths.push(sim.last_step().unwrap().0);
+        let mut steps = Vec::new();
+        while !sim.has_reached(end) {
+            sim.step_towards(end);
+            steps.push(sim.last_step().unwrap());
         }
+        let lengths: Vec<f64> = steps.iter().map(|step| step.0).collect();
         let g = 9.8;
         let (t, v0) = (sim.time(), -g * lengths[0] / 2.0);
         assert!((t - end).abs() < 1e-15, "{t} against {end}");
@@ -362,18 +371,27 @@ mod tests {
         let before_last = t - lengths[lengths.len() - 1];
         let v = sim.particles().v[1][0];
         assert!((v - (v0 - g * before_last)).abs() < 1e-14, "v {v}");
-        lengths
+        steps
     }
 
     #[test]
     fn steps_of_any_length_keep_the_leapfrog_exact() {
         // Fixed 0.3 ms steps until 1 ms: the last is cut to 0.1 ms.
-        let lengths = assert_free_fall_until(TimeStep::Fixed(3e-4), 1e-3);
-        assert_eq!(lengths.len(), 4);
-        assert!((lengths[3] - 1e-4).abs() < 1e-15);
+        let steps = assert_free_fall_until(TimeStep::Fixed(3e-4), 1e-3);
+        assert_eq!(steps.len(), 4);
+        assert_eq!(steps[2], (3e-4, Limit::Fixed));
+        assert!((steps[3].0 - 1e-4).abs() < 1e-15);
+        assert_eq!(steps[3].1, Limit::Landing);
         // Adaptive: the fall speeds the particle up, so every step is shorter than the last.
-        let lengths = assert_free_fall_until(TimeStep::Adaptive { courant: 0.3 }, 0.05);
+        let steps = assert_free_fall_until(TimeStep::Adaptive { courant: 0.3 }, 0.05);
+        let lengths: Vec<f64> = steps.iter().map(|step| step.0).collect();
         assert!(lengths.windows(2).all(|w| w[1] <= w[0]), "{lengths:?}");
+        let (last, before) = steps.split_last().unwrap();
+        assert!(
+            before.iter().all(|step| step.1 == Limit::Speed),
+            "{steps:?}"
+        );
+        assert_eq!(last.1, Limit::Landing);
         assert!(
             lengths[0] > 1.001 * lengths[lengths.len() - 2],
             "{lengths:?}"
@@ -381,19 +399,23 @@ mod tests {
     }
 
     #[test]
-    fn run_until_lands_on_the_time_and_keeps_equal_steps_equal() {
+    fn stepping_towards_a_time_keeps_equal_steps_equal() {
         // 1 ms steps until 5 ms: five steps, none cut, the same state as `run(5)`.
         let xs = [0.0, 0.004, 0.0075, 0.0165];
         let mut by_count = Simulation::new(204.0, along_x(&xs)).unwrap();
         let mut by_time = by_count.clone();
         by_count.run(5);
-        by_time.run_until(5e-3);
+        let mut steps = 0;
+        while !by_time.has_reached(5e-3) {
+            by_time.step_towards(5e-3);
+            steps += 1;
+        }
+        assert_eq!(steps, 5);
         assert_eq!(by_time.particles(), by_count.particles());
         assert!((by_time.time() - 5e-3).abs() < 1e-15);
         assert_eq!(by_time.last_step(), Some((1e-3, Limit::Fixed)));
-        // A time already reached runs nothing.
-        by_time.run_until(1e-3);
-        assert_eq!(by_time.particles(), by_count.particles());
+        assert!(by_time.has_reached(1e-3) && !by_time.has_reached(5.1e-3));
+        assert!(by_time.heap_bytes() > 4 * 13 * 8);
     }
 
     #[test]

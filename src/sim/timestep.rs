@@ -29,6 +29,8 @@ pub enum Limit {
     Speed,
     /// 1 / d_v, the explicit limit of the walls' velocity damping.
     Damping,
+    /// Cut short to land on a requested time.
+    Landing,
 }
 
 impl Limit {
@@ -39,6 +41,7 @@ impl Limit {
             Limit::Force => "force",
             Limit::Speed => "speed",
             Limit::Damping => "damping",
+            Limit::Landing => "landing",
         }
     }
 }

@@ -1,11 +1,13 @@
-//! `fluid-lab accuracy`: time per step against error for each model and kernel, relative
-//! to the reference trajectory; a CSV and two charts.
+//! `fluid-lab accuracy`: methods (kernels and time-step rules) against the reference
+//! trajectory at equal physical times; a CSV, the accuracy-speed chart with its Pareto
+//! fronts, the error-time chart, and the fastest method within each error budget.
 
 use crate::io::fld::{self, OutputFile};
-use crate::lab::accuracy;
+use crate::lab::accuracy::{self, Candidate, Metric, Run, Sweep};
 use crate::lab::chart::{self, LogChart};
 use crate::lab::machine::Machine;
 use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::params::TIME_STEP;
 use clap::Args;
 use plotters::chart::SeriesLabelPosition;
 use std::error::Error;
@@ -17,23 +19,78 @@ use std::path::PathBuf;
 pub struct AccuracyArgs {
     /// Input .fld file.
     input: PathBuf,
-    /// Folder for accuracy.csv, accuracy-speed.{png,svg} and error-growth.{png,svg}.
+    /// Folder for accuracy.csv, accuracy-speed.{png,svg} and error-time.{png,svg}.
     #[arg(long)]
     output_dir: PathBuf,
-    /// Steps after which the accuracy-speed chart shows the error (the largest is the
-    /// length of every run).
-    #[arg(long, value_delimiter = ',', default_values_t = [5, 20, 100])]
-    horizons: Vec<u64>,
-    /// Models to measure.
-    #[arg(long, value_enum, value_delimiter = ',', default_values_t = Model::ALL)]
-    models: Vec<Model>,
+    /// Physical model of the scene.
+    #[arg(long, value_enum, default_value_t = Model::Fluidanimate)]
+    model: Model,
+    /// Kernels to compare (each with every time-step rule).
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Kernel::NATIVE, Kernel::Mixed])]
+    kernels: Vec<Kernel>,
+    /// Fixed time steps, as multiples of the course's 1 ms.
+    #[arg(long, value_delimiter = ',', default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]
+    dt_factors: Vec<f64>,
+    /// Courant constants of the adaptive time step (none: "").
+    #[arg(long, value_delimiter = ',', default_values_t = [0.2, 0.3, 0.4])]
+    adaptive: Vec<f64>,
+    /// Physical times (s) at which states are compared, ascending (default: every 5 ms to
+    /// 50 ms for fluidanimate; every 0.5 ms to 3 ms for the course model, which is chaotic
+    /// after). The accuracy-speed chart shows the first, a middle and the last.
+    #[arg(long, value_delimiter = ',')]
+    times: Option<Vec<f64>>,
+    /// The reference's fixed step (s) (default: an eighth of the shortest step any method
+    /// took).
+    #[arg(long)]
+    reference_dt: Option<f64>,
+    /// Error budgets (m): name the fastest method whose position error (by
+    /// --metric) stays within each at every time.
+    #[arg(long, value_delimiter = ',')]
+    budget: Vec<f64>,
+    /// The position error the budgets and the charts use.
+    #[arg(long, value_enum, default_value_t = Metric::Median)]
+    metric: Metric,
 }
 
-/// Runs every model and fast kernel against the reference and writes the CSV and charts.
+impl AccuracyArgs {
+    /// The comparison times, checked.
+    fn times(&self) -> Result<Vec<f64>, String> {
+        let times = self.times.clone().unwrap_or_else(|| match self.model {
+            Model::Course => (1..=6).map(|k| k as f64 * 5e-4).collect(),
+            Model::Fluidanimate => (1..=10).map(|k| k as f64 * 5e-3).collect(),
+        });
+        let positive = times.iter().all(|&t| t.is_finite() && t > 0.0);
+        if times.is_empty() || !positive || !times.is_sorted_by(|a, b| a < b) {
+            return Err("--times needs ascending, positive, finite times".into());
+        }
+        Ok(times)
+    }
+
+    /// The methods to compare, checked.
+    fn candidates(&self) -> Result<Vec<Candidate>, String> {
+        let fixed: Vec<f64> = self.dt_factors.iter().map(|f| f * TIME_STEP).collect();
+        if !fixed.iter().all(|&dt| dt.is_finite() && dt > 0.0) {
+            return Err("--dt-factors need positive, finite factors".into());
+        }
+        if !self.adaptive.iter().all(|&c| c > 0.0 && c <= 1.0) {
+            return Err("--adaptive needs Courant constants in (0, 1]".into());
+        }
+        Ok(Candidate::product(&self.kernels, &fixed, &self.adaptive))
+    }
+}
+
+/// Runs every method against the reference and writes the CSV, the charts and the
+/// choices within the budgets.
 pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let steps = args.horizons.iter().copied().max().unwrap_or(0);
-    if steps == 0 {
-        return Err("--horizons needs a step after 0".into());
+    let times = args.times()?;
+    let candidates = args.candidates()?;
+    if let Some(step) = args.reference_dt {
+        if !(step.is_finite() && step > 0.0) {
+            return Err("--reference-dt needs a positive, finite step".into());
+        }
+    }
+    if args.budget.iter().any(|&e| !(e.is_finite() && e > 0.0)) {
+        return Err("--budget needs positive, finite errors".into());
     }
     super::create_output_dir(&args.output_dir)?;
     let scene = fld::read(&args.input)?;
@@ -41,92 +98,161 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     let name = args.input.display().to_string();
     let start = scene.into_simulation(Method::default(), &name)?;
     let file_name = args.input.file_name().unwrap_or_default().to_string_lossy();
-    let mut rows = format!("{}\n", accuracy::CSV_HEADER);
-    let mut trajectories = Vec::new();
-    for model in args.models {
-        let runs = accuracy::sweep(&start, model, &Kernel::FAST, steps);
-        rows.push_str(&accuracy::csv(&file_name, particles, &runs));
-        trajectories.extend(runs);
-    }
+    let sweep = accuracy::sweep(&start, args.model, &candidates, &times, args.reference_dt);
+    let machine = Machine::this();
+    let rows = format!(
+        "{}\n{}",
+        accuracy::CSV_HEADER,
+        sweep.csv(&file_name, particles, args.model, &machine)
+    );
     let csv_path = args.output_dir.join("accuracy.csv");
     OutputFile::create(&csv_path)?.commit(rows.as_bytes())?;
     writeln!(stdout, "wrote {}", csv_path.display())?;
-    let machine = Machine::this();
-    let label =
-        |t: &accuracy::Trajectory| format!("{} {}", t.method.model.name(), t.method.kernel.name());
-    let reference_times: Vec<String> = trajectories
-        .iter()
-        .filter(|t| t.method.kernel == Kernel::Reference)
-        .map(|t| {
-            format!(
-                "{} {:.2} ms",
-                t.method.model.name(),
-                t.seconds_per_step * 1e3
-            )
-        })
-        .collect();
-    let footer = format!(
-        "{file_name}, {particles} particles; {} ({} CPUs), commit {}; error: largest position distance \
-         to the reference ({} per step)",
-        machine.cpu_model,
-        machine.cpus,
-        machine.commit,
-        reference_times.join(", ")
-    );
-    let fast = || {
-        trajectories
-            .iter()
-            .filter(|t| t.method.kernel != Kernel::Reference)
-    };
-    let speed = LogChart {
-        name: "accuracy-speed",
-        title: format!("Error against time per step, {file_name}"),
-        x_label: "time per step (ms)".into(),
-        y_label: "position error (m)".into(),
-        series: args
-            .horizons
-            .iter()
-            .map(|&horizon| {
-                let points = fast()
-                    .map(|t| (t.seconds_per_step * 1e3, t.errors[horizon as usize - 1].max))
-                    .collect();
-                (format!("after {horizon} steps"), points)
-            })
-            .collect(),
-        lines: false,
-        legend: SeriesLabelPosition::UpperRight,
-        notes: fast()
-            .map(|t| {
-                let worst = t.errors[steps as usize - 1].max;
-                (t.seconds_per_step * 1e3, worst, format!("  {}", label(t)))
-            })
-            .collect(),
-        footer: footer.clone(),
-    };
-    let growth = LogChart {
-        name: "error-growth",
-        title: format!("Error growth against the reference, {file_name}"),
-        x_label: "step".into(),
-        y_label: "position error (m)".into(),
-        series: fast()
-            .map(|t| {
-                let points = t
-                    .errors
-                    .iter()
-                    .enumerate()
-                    .map(|(k, e)| ((k + 1) as f64, e.max));
-                (label(t), points.collect())
-            })
-            .collect(),
-        lines: true,
-        legend: SeriesLabelPosition::UpperLeft,
-        notes: Vec::new(),
-        footer,
-    };
-    for chart in [speed, growth] {
+    let metric = args.metric;
+    let footer = footer(&sweep, &file_name, particles, args.model, &machine);
+    for chart in [
+        speed_chart(&sweep, &times, metric, &file_name, &footer),
+        time_chart(&sweep, metric, &file_name, &footer),
+    ] {
         for path in chart::render(&chart, &args.output_dir, chart::SIZE)? {
             writeln!(stdout, "wrote {}", path.display())?;
         }
     }
+    for (run, why) in sweep
+        .runs
+        .iter()
+        .filter_map(|run| Some((run, run.failure.as_ref()?)))
+    {
+        writeln!(
+            stdout,
+            "{} failed at {:.6} s: {}",
+            run.candidate.label(),
+            why.0,
+            why.1
+        )?;
+    }
+    for &budget in &args.budget {
+        writeln!(stdout, "{}", choice(&sweep, budget, metric))?;
+    }
     Ok(())
+}
+
+/// The line naming the fastest method within `budget` by `metric`, and its speed-up over
+/// the f64 default.
+fn choice(sweep: &Sweep, budget: f64, metric: Metric) -> String {
+    let within = format!("budget {budget:e} m ({} error)", metric.name());
+    let Some(run) = sweep.fastest_within(budget, metric) else {
+        return format!("{within}: no method stays within it");
+    };
+    let cost = run.final_cost();
+    let against = match sweep.default_run() {
+        Some(default) if default.failure.is_none() => format!(
+            ", {:.2}x the speed of {}",
+            default.final_cost() / cost,
+            default.candidate.label()
+        ),
+        _ => String::new(),
+    };
+    format!(
+        "{within}: {} ({cost:.3} CPU s per simulated s{against})",
+        run.candidate.label()
+    )
+}
+
+/// Where the charts' data come from.
+fn footer(sweep: &Sweep, scene: &str, particles: usize, model: Model, machine: &Machine) -> String {
+    let failed = sweep
+        .runs
+        .iter()
+        .filter(|run| run.failure.is_some())
+        .count();
+    format!(
+        "{scene}, {particles} particles, {}; {}, commit {}; against {} ({:.0} CPU s per \
+         simulated s){}",
+        model.name(),
+        machine.cpu_model,
+        machine.commit,
+        sweep.reference.candidate.label(),
+        sweep.reference.final_cost(),
+        match failed {
+            0 => String::new(),
+            count => format!("; {count} failed (see the CSV)"),
+        }
+    )
+}
+
+/// Cost (x, log) against the position error by `metric` (y, log) at up to three of the
+/// times (the first, a middle one and the last), each method's point labelled at the
+/// last, and each time's Pareto front.
+fn speed_chart(
+    sweep: &Sweep,
+    times: &[f64],
+    metric: Metric,
+    scene: &str,
+    footer: &str,
+) -> LogChart {
+    let mut shown = vec![0, times.len() / 2, times.len() - 1];
+    shown.dedup();
+    let point = |run: &Run, k: usize| {
+        let sample = run.samples.get(k)?;
+        Some((sample.cost(), metric.of(&sample.errors?)))
+    };
+    let series: Vec<(String, Vec<(f64, f64)>)> = shown
+        .iter()
+        .map(|&k| {
+            let points = sweep.runs.iter().filter_map(|run| point(run, k)).collect();
+            (format!("at {} ms", times[k] * 1e3), points)
+        })
+        .collect();
+    let last = times.len() - 1;
+    LogChart {
+        name: "accuracy-speed",
+        title: format!("Error against cost, {scene} (lines: Pareto fronts)"),
+        x_label: "CPU seconds per simulated second".into(),
+        x_log: true,
+        y_label: format!("{} position error (m)", metric.name()),
+        fronts: series
+            .iter()
+            .map(|(_, points)| accuracy::pareto_front(points))
+            .collect(),
+        series,
+        lines: false,
+        legend: SeriesLabelPosition::UpperRight,
+        notes: sweep
+            .runs
+            .iter()
+            .filter_map(|run| {
+                let (x, y) = point(run, last)?;
+                Some((x, y, format!("  {}", run.candidate.label())))
+            })
+            .collect(),
+        footer: footer.to_string(),
+    }
+}
+
+/// The position error by `metric` against physical time, one line per method.
+fn time_chart(sweep: &Sweep, metric: Metric, scene: &str, footer: &str) -> LogChart {
+    LogChart {
+        name: "error-time",
+        title: format!("Error against time, {scene}"),
+        x_label: "physical time (ms)".into(),
+        x_log: false,
+        y_label: format!("{} position error (m)", metric.name()),
+        series: sweep
+            .runs
+            .iter()
+            .map(|run| {
+                let points = run
+                    .samples
+                    .iter()
+                    .filter_map(|s| Some((s.time * 1e3, metric.of(&s.errors?))));
+                (run.candidate.label(), points.collect())
+            })
+            .collect(),
+        fronts: Vec::new(),
+        lines: true,
+        legend: SeriesLabelPosition::UpperLeft,
+        notes: Vec::new(),
+        footer: footer.to_string(),
+    }
 }

@@ -42,6 +42,11 @@ pub struct ClosePairs {
 }
 
 impl ClosePairs {
+    /// The bytes its buffers hold on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        crate::sim::heap_bytes(&self.tiles) + crate::sim::heap_bytes(&self.groups)
+    }
+
     fn clear(&mut self) {
         self.tiles.clear();
         self.groups.clear();
