@@ -303,7 +303,7 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         "--times".as_ref(),
         "0.002,0.004".as_ref(),
         "--budget".as_ref(),
-        "1,1e-30".as_ref(),
+        "1,1e-30,0.5h".as_ref(),
         "--output-dir".as_ref(),
         dir.path().as_os_str(),
     ]);
@@ -320,6 +320,10 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     }
     assert!(report.contains("budget 1e0 m (median error): "), "{report}");
     assert!(
+        report.contains("budget 0.5h = 4.154e-3 m (median error): "),
+        "{report}"
+    );
+    assert!(
         report.contains("budget 1e-30 m (median error): no method stays within it"),
         "{report}"
     );
@@ -329,15 +333,17 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     assert_eq!(header.join(","), fluid::lab::accuracy::CSV_HEADER);
     let column = |name: &str| header.iter().position(|&c| c == name).unwrap();
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    // The reference and six methods (two kernels, three rules), at two times each.
-    assert_eq!(rows.len(), 7 * 2);
+    // Six methods (two kernels, three rules) at two times each; the reference at every
+    // time one of them was sampled at (2 and 4 ms, and the adaptive runs' own).
+    let references = rows
+        .iter()
+        .filter(|r| r[column("kernel")] == "reference")
+        .count();
+    assert_eq!(rows.len() - references, 6 * 2);
+    assert!((2..=6).contains(&references), "{text}");
     let number = |row: &[&str], name: &str| row[column(name)].parse::<f64>().unwrap();
     for row in &rows {
         assert_eq!(&row[..3], ["small.fld", "4800", "fluidanimate"]);
-        assert!(
-            ["0.002", "0.004"].contains(&row[column("time_s")]),
-            "{row:?}"
-        );
         assert!(number(row, "cpu_s_per_simulated_s") > 0.0);
         assert!(number(row, "pairs_tested") >= number(row, "pairs_within_h"));
         assert_eq!(row[column("failure")], "");
@@ -345,6 +351,8 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
             assert_eq!(row[column("median_error_m")], "");
             assert!(number(row, "dt_s") < 1e-3 / 8.0);
         } else {
+            let requested = row[column("requested_time_s")];
+            assert!(["0.002", "0.004"].contains(&requested), "{row:?}");
             let (median, max) = (number(row, "median_error_m"), number(row, "max_error_m"));
             assert!(median > 0.0 && median <= max && max < 0.01, "{row:?}");
         }
@@ -353,7 +361,7 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     let at = |method: &str| {
         let row = rows
             .iter()
-            .find(|r| r[column("method")] == method && r[column("time_s")] == "0.004")
+            .find(|r| r[column("method")] == method && r[column("requested_time_s")] == "0.004")
             .unwrap();
         number(row, "median_error_m")
     };
@@ -368,6 +376,9 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         dir.path().as_os_str(),
     ]);
     assert_eq!(exit_code(&bad), 1);
+    let unparsable = run_lab(&["accuracy", "x.fld", "--output-dir", "o", "--budget=0h"]);
+    assert_eq!(exit_code(&unparsable), 2);
+    assert!(stderr(&unparsable).contains("0h is not a positive error"));
     assert!(
         stderr(&bad).contains("--times needs ascending"),
         "{}",
@@ -384,8 +395,12 @@ fn stability_reports_each_run_and_maps_them() {
         "course,fluidanimate".as_ref(),
         "--ppms".as_ref(),
         "100".as_ref(),
+        "--kernels".as_ref(),
+        "simd".as_ref(),
         "--dt-factors".as_ref(),
         "1,2".as_ref(),
+        "--adaptive".as_ref(),
+        "0.3".as_ref(),
         "--duration".as_ref(),
         "0.03".as_ref(),
         "--output-dir".as_ref(),
@@ -395,26 +410,34 @@ fn stability_reports_each_run_and_maps_them() {
     let report = stdout(&output);
     let lines: Vec<&str> = report.lines().collect();
     assert!(
-        lines[0].starts_with("course, ppm 100, dt 0.001 s: failed at step "),
+        lines[0].starts_with("course simd, ppm 100, dt 0.001 s: failed at step "),
         "{report}"
     );
     assert!(
-        lines[1].starts_with("course, ppm 100, dt 0.002 s: failed at step "),
+        lines[1].starts_with("course simd, ppm 100, dt 0.002 s: failed at step "),
         "{report}"
     );
-    assert_eq!(
-        lines[2],
-        "fluidanimate, ppm 100, dt 0.001 s: stable for 30 steps (0.030 s)"
+    assert!(
+        lines[2].starts_with("course simd, ppm 100, adaptive C 0.3: "),
+        "{report}"
     );
     assert_eq!(
         lines[3],
-        "fluidanimate, ppm 100, dt 0.002 s: stable for 15 steps (0.030 s)"
+        "fluidanimate simd, ppm 100, dt 0.001 s: stable for 30 steps (0.030 s)"
+    );
+    assert_eq!(
+        lines[4],
+        "fluidanimate simd, ppm 100, dt 0.002 s: stable for 15 steps (0.030 s)"
+    );
+    assert!(
+        lines[5].starts_with("fluidanimate simd, ppm 100, adaptive C 0.3: stable for "),
+        "{report}"
     );
     let text = std::fs::read_to_string(dir.path().join("stability.csv")).unwrap();
     assert_eq!(text.lines().next(), Some(fluid::lab::stability::CSV_HEADER));
-    assert_eq!(text.lines().count(), 5);
+    assert_eq!(text.lines().count(), 7);
     assert!(
-        text.contains(",fluidanimate,100,0.001,845,30,,,stable,\n"),
+        text.contains(",fluidanimate,simd,100,fixed,0.001,,845,0.03,30,,,stable,\n"),
         "{text}"
     );
     for name in ["stability-map.png", "stability-map.svg"] {
@@ -429,4 +452,18 @@ fn stability_reports_each_run_and_maps_them() {
     ]);
     assert_eq!(exit_code(&output), 1);
     assert!(stderr(&output).contains("--dt-factors: 0 does not give a positive time step"));
+    for duration in ["inf", "nan", "0", "-1"] {
+        let output = run_lab(&[
+            "stability".as_ref(),
+            format!("--duration={duration}").as_ref(),
+            "--output-dir".as_ref(),
+            dir.path().as_os_str(),
+        ]);
+        assert_eq!(exit_code(&output), 1, "{duration}");
+        assert!(
+            stderr(&output).contains("is not a positive, finite time"),
+            "{}",
+            stderr(&output)
+        );
+    }
 }

@@ -4,7 +4,7 @@
 //! trajectory (the compensated [`Kernel::Reference`] at a finer fixed step): position
 //! errors, observables, and the CPU time each spent per simulated second.
 
-use crate::lab::diagnostics::{self, PairCounts, Vitals};
+use crate::lab::diagnostics::{self, Failure, PairCounts, Vitals};
 use crate::lab::machine::Machine;
 use crate::sim::method::{Kernel, Method, Model};
 use crate::sim::params::{FLUID_DENSITY, TIME_STEP};
@@ -263,7 +263,10 @@ impl Metric {
 /// One method's state at one of the sweep's times.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sample {
-    /// The physical time (s).
+    /// The time asked for (s).
+    pub requested: f64,
+    /// The physical time of the state (s): the end of the first step at or after
+    /// `requested`.
     pub time: f64,
     /// Steps run to reach it.
     pub steps: u64,
@@ -291,8 +294,8 @@ pub struct Run {
     pub candidate: Candidate,
     /// Its state at each time reached.
     pub samples: Vec<Sample>,
-    /// Why it stopped before the last time, and when.
-    pub failure: Option<(f64, String)>,
+    /// When it stopped before the last time, and why.
+    pub failure: Option<(f64, Failure)>,
     /// The bytes the simulation held on the heap at the end.
     pub heap_bytes: usize,
 }
@@ -306,19 +309,27 @@ pub struct Sweep {
     pub runs: Vec<Run>,
 }
 
-/// Most steps a method may take per step of its own at the course's 1 ms, before its
-/// step is called collapsed.
-const STEP_BUDGET_PER_MS: f64 = 1000.0;
+/// How a run meets the times it is sampled at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Sampling {
+    /// Steps as its rule chooses, sampled at the end of the first step at or after each
+    /// time: the method is not disturbed by the sweep.
+    Unperturbed,
+    /// The last step before each time is cut short to land on it (the reference, whose
+    /// cut steps are only finer still).
+    Landing,
+}
 
-/// Runs `candidate` on `model` from `start` through `times` (ascending, s), calling
-/// `observe` at each; stops at the first time whose state is not finite or whose steps
-/// exceed the budget.
+/// Runs `candidate` on `model` from `start` through `times` (ascending, s), sampled as
+/// `sampling` says, calling `observe` with each sampled state (densities fresh); stops
+/// at the first time whose state is not finite or that its step budget cannot reach.
 fn run(
     start: &Simulation,
     model: Model,
     candidate: Candidate,
     times: &[f64],
-    mut observe: impl FnMut(usize, &Simulation),
+    sampling: Sampling,
+    mut observe: impl FnMut(&Simulation),
 ) -> Run {
     let mut simulation = start.clone_with_method(Method {
         model,
@@ -328,12 +339,15 @@ fn run(
     let (mut cpu_seconds, mut steps, mut shortest) = (0.0, 0, f64::INFINITY);
     let mut samples = Vec::new();
     let mut failure = None;
-    for (k, &time) in times.iter().enumerate() {
-        let budget = ((time - simulation.time()) / TIME_STEP * STEP_BUDGET_PER_MS) as u64 + 1;
+    for &requested in times {
+        let budget = diagnostics::step_budget(requested - simulation.time());
         let mut taken = 0;
         let started = cpu_time();
-        while taken < budget && !simulation.has_reached(time) {
-            simulation.step_towards(time);
+        while taken < budget && !simulation.has_reached(requested) {
+            match sampling {
+                Sampling::Unperturbed => simulation.step(),
+                Sampling::Landing => simulation.step_towards(requested),
+            }
             taken += 1;
             if let Some((dt, limit)) = simulation.last_step() {
                 if limit != Limit::Landing {
@@ -343,18 +357,19 @@ fn run(
         }
         cpu_seconds += cpu_time() - started;
         steps += taken;
-        if !simulation.has_reached(time) {
-            failure = Some((simulation.time(), "the step collapsed".to_string()));
+        if !simulation.has_reached(requested) {
+            failure = Some((simulation.time(), Failure::StepCollapsed));
             break;
         }
         if let Some(id) = Vitals::of(&simulation).non_finite {
-            failure = Some((time, format!("particle {id} is not finite")));
+            failure = Some((simulation.time(), Failure::NonFinite(id)));
             break;
         }
         let fresh = simulation.with_fresh_densities();
-        observe(k, &fresh);
+        observe(&fresh);
         samples.push(Sample {
-            time,
+            requested,
+            time: simulation.time(),
             steps,
             cpu_seconds,
             shortest_step: shortest,
@@ -370,9 +385,11 @@ fn run(
     }
 }
 
-/// Runs every candidate on `model` from `start` to each of `times` (ascending, s), then
-/// the compensated reference kernel at `reference_step` (or, if none, an eighth of the
-/// shortest step any candidate took), and measures each candidate against it.
+/// Runs every candidate on `model` from `start` through `times` (ascending, s), each
+/// undisturbed and sampled at the end of its first step at or after each time; then the
+/// compensated reference kernel at `reference_step` (or, if none, an eighth of the
+/// shortest step any candidate took), landing on every time a candidate was sampled at;
+/// and measures each sample against the reference's state at its time.
 pub fn sweep(
     start: &Simulation,
     model: Model,
@@ -385,9 +402,16 @@ pub fn sweep(
         .iter()
         .map(|&candidate| {
             let mut observed = Vec::new();
-            let run = run(start, model, candidate, times, |_, fresh| {
-                observed.push(Observed::of(fresh));
-            });
+            let run = run(
+                start,
+                model,
+                candidate,
+                times,
+                Sampling::Unperturbed,
+                |fresh| {
+                    observed.push(Observed::of(fresh));
+                },
+            );
             states.push(observed);
             run
         })
@@ -402,21 +426,45 @@ pub fn sweep(
         kernel: Kernel::Reference,
         time_step: TimeStep::Fixed(step),
     };
+    let mut sampled: Vec<f64> = runs
+        .iter()
+        .flat_map(|run| run.samples.iter().map(|sample| sample.time))
+        .collect();
+    sampled.sort_by(f64::total_cmp);
+    sampled.dedup_by(|later, earlier| same_time(*later, *earlier));
     let mut truths = Vec::new();
-    let reference = self::run(start, model, reference_candidate, times, |_, fresh| {
-        truths.push(Observed::of(fresh));
-    });
+    let reference = self::run(
+        start,
+        model,
+        reference_candidate,
+        &sampled,
+        Sampling::Landing,
+        |fresh| truths.push(Observed::of(fresh)),
+    );
     for (run, observed) in runs.iter_mut().zip(&states) {
-        for ((sample, state), truth) in run.samples.iter_mut().zip(observed).zip(&truths) {
-            sample.errors = Some(Errors::between(state, truth));
+        for (sample, state) in run.samples.iter_mut().zip(observed) {
+            let after = sampled.partition_point(|&t| t < sample.time);
+            let at = [after.wrapping_sub(1), after]
+                .into_iter()
+                .find(|&k| sampled.get(k).is_some_and(|&t| same_time(t, sample.time)));
+            if let Some(truth) = at.and_then(|k| truths.get(k)) {
+                sample.errors = Some(Errors::between(state, truth));
+            }
         }
     }
     Sweep { reference, runs }
 }
 
+/// Whether two sample times are one for the reference: within 1e-8 relative, so that
+/// sums of equal steps that differ in their last bits, and adaptive runs whose steps
+/// differ by rounding, share its state (the state moves by at most |v| 1e-8 t there).
+fn same_time(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-8 * a.abs().max(b.abs())
+}
+
 /// The CSV header of the accuracy sweep.
 pub const CSV_HEADER: &str = "scene,particles,model,method,kernel,time_step,dt_s,courant,\
-     time_s,steps,cpu_s,cpu_s_per_simulated_s,shortest_step_s,pairs_tested,pairs_within_h,\
+     requested_time_s,time_s,steps,cpu_s,cpu_s_per_simulated_s,shortest_step_s,pairs_tested,pairs_within_h,\
      heap_bytes,median_error_m,max_error_m,centre_error_m,kinetic_error,mean_density_error,\
      max_density_error,front_error_m,failure,host,cpu_model,commit";
 
@@ -454,7 +502,8 @@ impl Sweep {
                 });
                 let _ = writeln!(
                     text,
-                    "{method},{},{},{:e},{:e},{:e},{},{},{},{errors},,{machine_cells}",
+                    "{method},{},{},{},{:e},{:e},{:e},{},{},{},{errors},,{machine_cells}",
+                    sample.requested,
                     sample.time,
                     sample.steps,
                     sample.cpu_seconds,
@@ -468,7 +517,7 @@ impl Sweep {
             if let Some((time, why)) = &run.failure {
                 let _ = writeln!(
                     text,
-                    "{method},{time},,,,,,,{},,,,,,,,{why},{machine_cells}",
+                    "{method},,{time},,,,,,,{},,,,,,,,{why},{machine_cells}",
                     run.heap_bytes
                 );
             }
@@ -479,10 +528,10 @@ impl Sweep {
     /// The fastest run (least CPU time per simulated second at the last time) whose
     /// position error by `metric` stays within `budget` (m) at every time, if any does.
     pub fn fastest_within(&self, budget: f64, metric: Metric) -> Option<&Run> {
-        let last = self.reference.samples.len();
+        // A run without a failure reached every time.
         self.runs
             .iter()
-            .filter(|run| run.failure.is_none() && run.samples.len() == last)
+            .filter(|run| run.failure.is_none())
             .filter(|run| {
                 run.samples
                     .iter()
@@ -679,17 +728,33 @@ mod tests {
         };
         let shortest = sweep.runs.iter().map(|run| run.samples[1].shortest_step);
         assert_eq!(reference_step, shortest.fold(f64::INFINITY, f64::min) / 8.0);
-        assert_eq!(sweep.reference.samples.len(), 2);
+        // The reference lands on 2 and 4 ms and on the adaptive run's two other times.
+        let adaptive = &sweep.runs[3];
+        let reference_times: Vec<f64> = sweep.reference.samples.iter().map(|s| s.time).collect();
+        assert_eq!(reference_times.len(), 4, "{reference_times:?}");
+        for sample in &adaptive.samples {
+            assert!(sample.time > sample.requested, "{sample:?}");
+            assert!(sample.time < sample.requested + 4.0 * sample.shortest_step);
+            assert!(reference_times
+                .iter()
+                .any(|&t| (t - sample.time).abs() < 1e-15));
+        }
         for (run, candidate) in sweep.runs.iter().zip(&candidates) {
             assert_eq!(run.candidate, *candidate);
             assert_eq!(run.failure, None);
-            let times_reached: Vec<f64> = run.samples.iter().map(|s| s.time).collect();
-            assert_eq!(times_reached, times);
+            let requested: Vec<f64> = run.samples.iter().map(|s| s.requested).collect();
+            assert_eq!(requested, times);
             assert!(run.heap_bytes > 300 * 13 * 8);
             for sample in &run.samples {
                 assert!(sample.cost() > 0.0);
                 assert!(sample.pairs.tested >= sample.pairs.within_h && sample.pairs.within_h > 0);
                 assert!(sample.errors.unwrap().median_position > 0.0);
+            }
+        }
+        // Fixed steps that divide the times land on them undisturbed.
+        for run in &sweep.runs[..3] {
+            for sample in &run.samples {
+                assert!((sample.time - sample.requested).abs() < 1e-15, "{sample:?}");
             }
         }
         assert_eq!(sweep.runs[0].samples[1].steps, 4);
@@ -712,7 +777,7 @@ mod tests {
         assert_eq!(sweep.default_run().unwrap().candidate, Candidate::DEFAULT);
         let machine = Machine::this();
         let text = sweep.csv("corner.fld", 300, Model::Fluidanimate, &machine);
-        assert_eq!(text.lines().count(), 5 * 2);
+        assert_eq!(text.lines().count(), 4 + 4 * 2);
         for line in text.lines() {
             assert_eq!(
                 line.split(',').count(),
@@ -735,9 +800,16 @@ mod tests {
             kernel: Kernel::Simd,
             time_step: TimeStep::Adaptive { courant: 0.3 },
         };
-        let collapsed = run(&fast, Model::Fluidanimate, adaptive, &[1e-3], |_, _| {});
+        let collapsed = run(
+            &fast,
+            Model::Fluidanimate,
+            adaptive,
+            &[1e-3],
+            Sampling::Unperturbed,
+            |_| {},
+        );
         let (when, why) = collapsed.failure.unwrap();
-        assert_eq!(why, "the step collapsed");
+        assert_eq!(why, Failure::StepCollapsed);
         assert!(when > 0.0 && when < 1e-3);
         assert!(collapsed.samples.is_empty());
         let failed = run(
@@ -745,16 +817,25 @@ mod tests {
             Model::Fluidanimate,
             Candidate::DEFAULT,
             &[1e-3],
-            |_, _| {},
+            Sampling::Unperturbed,
+            |_| {},
         );
         assert!(failed
             .failure
             .as_ref()
             .unwrap()
             .1
+            .to_string()
             .ends_with("is not finite"));
         assert_eq!(failed.final_cost(), f64::INFINITY);
-        let fine = run(&start, Model::Fluidanimate, adaptive, &[1e-3], |_, _| {});
+        let fine = run(
+            &start,
+            Model::Fluidanimate,
+            adaptive,
+            &[1e-3],
+            Sampling::Unperturbed,
+            |_| {},
+        );
         assert_eq!((fine.failure, fine.samples.len()), (None, 1));
     }
 }

@@ -4,130 +4,193 @@
 //! simulated time asked for; and the map of the outcomes.
 
 use crate::lab::chart::Drawing;
-use crate::lab::diagnostics::{Checks, Failure, Vitals};
+use crate::lab::diagnostics::{self, Checks, Failure, Vitals};
 use crate::lab::scene::{self, SceneKind};
-use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::method::Method;
 use crate::sim::params::Params;
 use crate::sim::simulation::Simulation;
+use crate::sim::timestep::TimeStep;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::error::Error;
 
 /// The CSV header of [`Outcome::csv_row`].
-pub const CSV_HEADER: &str =
-    "scene,model,ppm,dt_s,particles,steps,failed_step,failed_time_s,reason,detail";
+pub const CSV_HEADER: &str = "scene,model,kernel,ppm,time_step,dt_s,courant,particles,\
+                              duration_s,steps,failed_step,failed_time_s,reason,detail";
 
 /// How one run ended.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Outcome {
     /// The scene run.
     pub scene: SceneKind,
-    /// The model.
-    pub model: Model,
+    /// The model and kernel.
+    pub method: Method,
     /// Particles per metre.
     pub ppm: f64,
-    /// Time step.
-    pub dt: f64,
+    /// How its steps' lengths were chosen.
+    pub time_step: TimeStep,
     /// Particles in the scene.
     pub particles: usize,
-    /// Steps asked for.
+    /// Simulated seconds asked for.
+    pub duration: f64,
+    /// Steps run.
     pub steps: u64,
-    /// The step after which the run failed, and why; `None` if it ran to the end.
-    pub failure: Option<(u64, Failure)>,
+    /// The step after which the run failed, its time, and why; `None` if it ran to the end.
+    pub failure: Option<(u64, f64, Failure)>,
+}
+
+/// A time-step rule's short name: `0.001` (seconds) or `C 0.3`.
+pub fn rule_name(time_step: TimeStep) -> String {
+    match time_step {
+        TimeStep::Fixed(dt) => format!("{dt}"),
+        TimeStep::Adaptive { courant } => format!("C {courant}"),
+    }
 }
 
 impl Outcome {
     /// One CSV row, in the order of [`CSV_HEADER`].
     pub fn csv_row(&self) -> String {
         let (step, time, reason, detail) = match &self.failure {
-            Some((step, failure)) => (
+            Some((step, time, failure)) => (
                 step.to_string(),
-                format!("{:.6}", *step as f64 * self.dt),
+                format!("{time:.6}"),
                 failure.name(),
                 failure.to_string(),
             ),
             None => (String::new(), String::new(), "stable", String::new()),
         };
+        let rule = match self.time_step {
+            TimeStep::Fixed(dt) => format!("fixed,{dt},"),
+            TimeStep::Adaptive { courant } => format!("adaptive,,{courant}"),
+        };
         format!(
-            "{},{},{},{},{},{},{step},{time},{reason},{detail}",
+            "{},{},{},{},{rule},{},{},{},{step},{time},{reason},{detail}",
             self.scene.name(),
-            self.model.name(),
+            self.method.model.name(),
+            self.method.kernel.name(),
             self.ppm,
-            self.dt,
             self.particles,
+            self.duration,
             self.steps
         )
     }
 
-    /// One line for people: `course, ppm 150, dt 0.001 s: failed at step 3 (0.003 s): ...`.
+    /// One line for people: `course simd, ppm 150, dt 0.001: failed at step 3 (0.003 s): ...`.
     pub fn summary(&self) -> String {
-        let run = format!("{}, ppm {}, dt {} s", self.model.name(), self.ppm, self.dt);
+        let run = format!(
+            "{} {}, ppm {}, {}",
+            self.method.model.name(),
+            self.method.kernel.name(),
+            self.ppm,
+            match self.time_step {
+                TimeStep::Fixed(dt) => format!("dt {dt} s"),
+                TimeStep::Adaptive { courant } => format!("adaptive C {courant}"),
+            }
+        );
         match &self.failure {
-            Some((step, failure)) => format!(
-                "{run}: failed at step {step} ({:.3} s): {failure}",
-                *step as f64 * self.dt
-            ),
+            Some((step, time, failure)) => {
+                format!("{run}: failed at step {step} ({time:.3} s): {failure}")
+            }
             None => format!(
                 "{run}: stable for {} steps ({:.3} s)",
-                self.steps,
-                self.steps as f64 * self.dt
+                self.steps, self.duration
             ),
         }
     }
 }
 
-/// Runs `scene` (seed `seed`) at `ppm` with `model` on the SIMD kernel and time step `dt`
-/// for `duration` simulated seconds, checking every step.
+/// Runs `scene` (seed `seed`) at `ppm` with `method` and `time_step` until it has
+/// simulated `duration` seconds (finite and positive), checking every step.
 pub fn watch(
     scene: SceneKind,
     seed: u64,
-    model: Model,
+    method: Method,
     ppm: f64,
-    dt: f64,
+    time_step: TimeStep,
     duration: f64,
 ) -> Result<Outcome, String> {
+    if !(duration.is_finite() && duration > 0.0) {
+        return Err(format!("a duration of {duration} s is not a run"));
+    }
     let particles = scene::generate(scene, ppm, seed, None)?;
     let count = particles.len();
-    let method = Method {
-        model,
-        kernel: Kernel::Simd,
-    };
-    let params = Params::new(ppm).with_time_step(dt);
-    let mut simulation =
-        Simulation::with_params(params, particles, method).map_err(|error| error.to_string())?;
+    let mut simulation = Simulation::with_params(Params::new(ppm), particles, method)
+        .map_err(|error| error.to_string())?;
+    simulation.set_time_step(time_step);
     let checks = Checks::from(&Vitals::of(&simulation));
-    let steps = (duration / dt).round() as u64;
-    let mut failure = None;
-    for step in 1..=steps {
+    let budget = diagnostics::step_budget(duration);
+    let (mut steps, mut failure) = (0, None);
+    while !simulation.has_reached(duration) {
+        if steps == budget {
+            failure = Some((steps, simulation.time(), Failure::StepCollapsed));
+            break;
+        }
         simulation.step();
+        steps += 1;
         if let Some(reason) = checks.failure(&Vitals::of(&simulation)) {
-            failure = Some((step, reason));
+            failure = Some((steps, simulation.time(), reason));
             break;
         }
     }
     Ok(Outcome {
         scene,
-        model,
+        method,
         ppm,
-        dt,
+        time_step,
         particles: count,
+        duration,
         steps,
         failure,
     })
 }
 
-/// Pixel size of the map.
-pub const SIZE: (u32, u32) = (1100, 520);
+/// Pixel height of the map, and its width per cell column (it is at least 1100 wide).
+const HEIGHT: u32 = 520;
+const COLUMN_WIDTH: u32 = 72;
 
-/// The outcomes as one grid per model (columns: time steps, rows: ppm), each cell green
-/// if stable, else red, darker the sooner it failed, with the failure step, time and
-/// reason: `stability-map.png` and `.svg` through [`crate::lab::chart::render`].
+/// The outcomes as one grid per model and kernel (columns: fixed time steps, then
+/// adaptive constants; rows: ppm), each cell green if stable, else red, darker the sooner
+/// it failed, with the failure step, time and reason: `stability-map.png` and `.svg`
+/// through [`crate::lab::chart::render`], [`StabilityMap::size`] pixels.
 pub struct StabilityMap<'a> {
     /// The runs.
     pub outcomes: &'a [Outcome],
     /// Where the data come from.
     pub footer: String,
+}
+
+impl StabilityMap<'_> {
+    /// The map's pixel size: wide enough for every panel's columns.
+    pub fn size(&self) -> (u32, u32) {
+        let (methods, rules) = (methods(self.outcomes), rules(self.outcomes));
+        let width = 150 + methods.len() as u32 * (30 + rules.len() as u32 * COLUMN_WIDTH);
+        (width.max(1100), HEIGHT)
+    }
+}
+
+/// The distinct methods of `outcomes`, in their order.
+fn methods(outcomes: &[Outcome]) -> Vec<Method> {
+    let mut methods: Vec<Method> = Vec::new();
+    for outcome in outcomes {
+        if !methods.contains(&outcome.method) {
+            methods.push(outcome.method);
+        }
+    }
+    methods
+}
+
+/// The distinct time-step rules of `outcomes`: fixed steps ascending, then adaptive
+/// constants ascending.
+fn rules(outcomes: &[Outcome]) -> Vec<TimeStep> {
+    let key = |rule: &TimeStep| match *rule {
+        TimeStep::Fixed(dt) => (0, dt),
+        TimeStep::Adaptive { courant } => (1, courant),
+    };
+    let mut rules: Vec<TimeStep> = outcomes.iter().map(|o| o.time_step).collect();
+    rules.sort_by(|a, b| key(a).0.cmp(&key(b).0).then(key(a).1.total_cmp(&key(b).1)));
+    rules.dedup();
+    rules
 }
 
 impl Drawing for StabilityMap<'_> {
@@ -163,32 +226,28 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    let mut models: Vec<Model> = Vec::new();
-    for outcome in outcomes {
-        if !models.contains(&outcome.model) {
-            models.push(outcome.model);
-        }
-    }
-    let dts = distinct(outcomes.iter().map(|o| o.dt));
+    let (width, height) = root.dim_in_pixel();
+    let (methods, rules) = (methods(outcomes), rules(outcomes));
     let ppms = distinct(outcomes.iter().map(|o| o.ppm));
     let scene = outcomes.first().map_or("", |o| o.scene.name());
     root.draw(&Text::new(
-        format!("Where each model fails: {scene}, by time step and particles per metre"),
+        format!("Where each method fails: {scene}, by time step and particles per metre"),
         (30, 14),
         ("sans-serif", 22),
     ))?;
     let (left, top, cell_h) = (110, 90, 90.min(340 / ppms.len().max(1) as i32));
-    let panel_w = (SIZE.0 as i32 - left - 40) / models.len().max(1) as i32;
-    let cell_w = (panel_w - 30) / dts.len().max(1) as i32;
+    let panel_w = (width as i32 - left - 40) / methods.len().max(1) as i32;
+    let cell_w = (panel_w - 30) / rules.len().max(1) as i32;
     let centred = Pos::new(HPos::Center, VPos::Center);
-    for (m, model) in models.iter().enumerate() {
+    for (m, method) in methods.iter().enumerate() {
         let x0 = left + m as i32 * panel_w;
-        root.draw(&Text::new(model.name(), (x0, top - 40), ("sans-serif", 18)))?;
-        for (c, dt) in dts.iter().enumerate() {
+        let title = format!("{} {}", method.model.name(), method.kernel.name());
+        root.draw(&Text::new(title, (x0, top - 40), ("sans-serif", 18)))?;
+        for (c, rule) in rules.iter().enumerate() {
             let x = x0 + c as i32 * cell_w;
             let style = ("sans-serif", 13).into_text_style(root).pos(centred);
             root.draw(&Text::new(
-                format!("{dt}"),
+                rule_name(*rule),
                 (x + cell_w / 2, top - 14),
                 style,
             ))?;
@@ -204,7 +263,7 @@ where
                 }
                 let Some(outcome) = outcomes
                     .iter()
-                    .find(|o| o.model == *model && o.dt == *dt && o.ppm == *ppm)
+                    .find(|o| o.method == *method && o.time_step == *rule && o.ppm == *ppm)
                 else {
                     continue;
                 };
@@ -213,14 +272,14 @@ where
                         RGBColor(120, 200, 120),
                         vec!["stable".to_string(), format!("{} steps", outcome.steps)],
                     ),
-                    Some((step, failure)) => {
-                        let fraction = *step as f64 / outcome.steps.max(1) as f64;
+                    Some((step, time, failure)) => {
+                        let fraction = time / outcome.duration;
                         let shade = (120.0 + 135.0 * fraction.sqrt()) as u8;
                         (
                             RGBColor(shade.max(150), 60, 50),
                             vec![
                                 format!("step {step}"),
-                                format!("{:.3} s", *step as f64 * outcome.dt),
+                                format!("{time:.3} s"),
                                 failure.name().to_string(),
                             ],
                         )
@@ -247,14 +306,14 @@ where
         }
         let bottom = top + ppms.len() as i32 * cell_h + 18;
         root.draw(&Text::new(
-            "time step dt (s)",
+            "time step: dt (s), or adaptive C",
             (x0, bottom),
             ("sans-serif", 14),
         ))?;
     }
     root.draw(&Text::new(
         footer,
-        (30, SIZE.1 as i32 - 24),
+        (30, height as i32 - 24),
         ("sans-serif", 12).into_font().color(&BLACK.mix(0.7)),
     ))?;
     root.present()?;
@@ -264,27 +323,31 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::method::{Kernel, Model};
+
+    const SIMD: Method = Method {
+        model: Model::Course,
+        kernel: Kernel::Simd,
+    };
 
     #[test]
     fn the_course_model_fails_where_the_stable_one_does_not() {
-        let course = watch(SceneKind::DamBreak, 1, Model::Course, 100.0, 1e-3, 0.05).unwrap();
-        let (step, failure) = course.failure.expect("the course model fails");
+        let fixed = TimeStep::Fixed(1e-3);
+        let course = watch(SceneKind::DamBreak, 1, SIMD, 100.0, fixed, 0.05).unwrap();
+        let (step, time, failure) = course.failure.expect("the course model fails");
         assert!(step <= 50, "{}", course.summary());
+        assert!((time - step as f64 * 1e-3).abs() < 1e-12);
         assert!(course.summary().contains(&format!("failed at step {step}")));
         assert!(course.csv_row().contains(failure.name()));
-        let stable = watch(
-            SceneKind::DamBreak,
-            1,
-            Model::Fluidanimate,
-            100.0,
-            1e-3,
-            0.05,
-        )
-        .unwrap();
+        let stable_method = Method {
+            model: Model::Fluidanimate,
+            ..SIMD
+        };
+        let stable = watch(SceneKind::DamBreak, 1, stable_method, 100.0, fixed, 0.05).unwrap();
         assert_eq!(stable.failure, None, "{}", stable.summary());
         assert_eq!(stable.steps, 50);
         assert!(
-            stable.csv_row().ends_with(",50,,,stable,"),
+            stable.csv_row().ends_with(",0.05,50,,,stable,"),
             "{}",
             stable.csv_row()
         );
@@ -295,24 +358,57 @@ mod tests {
     }
 
     #[test]
+    fn adaptive_runs_step_until_the_duration_and_bad_durations_are_refused() {
+        let adaptive = TimeStep::Adaptive { courant: 0.3 };
+        let method = Method {
+            model: Model::Fluidanimate,
+            ..SIMD
+        };
+        let outcome = watch(SceneKind::DamBreak, 1, method, 100.0, adaptive, 0.02).unwrap();
+        assert_eq!(outcome.failure, None, "{}", outcome.summary());
+        assert!(outcome.steps > 1, "{}", outcome.summary());
+        assert!(outcome.summary().contains("adaptive C 0.3"));
+        assert!(outcome.csv_row().contains(",adaptive,,0.3,"));
+        for duration in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(watch(SceneKind::DamBreak, 1, method, 100.0, adaptive, duration).is_err());
+        }
+        // A step longer than the duration is still one step, judged as any other.
+        let once = watch(
+            SceneKind::DamBreak,
+            1,
+            method,
+            100.0,
+            TimeStep::Fixed(1e3),
+            0.5,
+        );
+        assert_eq!(once.unwrap().steps, 1);
+    }
+
+    #[test]
     fn the_map_is_a_valid_png_and_svg() {
-        let outcomes: Vec<Outcome> = [1e-3, 2e-3]
+        let outcomes: Vec<Outcome> = [TimeStep::Fixed(1e-3), TimeStep::Adaptive { courant: 0.5 }]
             .iter()
-            .map(|&dt| watch(SceneKind::DamBreak, 1, Model::Course, 100.0, dt, 0.01).unwrap())
+            .map(|&rule| watch(SceneKind::DamBreak, 1, SIMD, 100.0, rule, 0.01).unwrap())
             .collect();
         let dir = tempfile::tempdir().unwrap();
         let map = StabilityMap {
             outcomes: &outcomes,
             footer: "test".into(),
         };
-        let [png, svg] = crate::lab::chart::render(&map, dir.path(), SIZE).unwrap();
+        let size = map.size();
+        let [png, svg] = crate::lab::chart::render(&map, dir.path(), size).unwrap();
         let decoder = png::Decoder::new(std::fs::File::open(&png).unwrap());
         let info = decoder.read_info().unwrap();
-        assert_eq!((info.info().width, info.info().height), SIZE);
+        assert_eq!((info.info().width, info.info().height), size);
         let text = std::fs::read_to_string(&svg).unwrap();
         let document = roxmltree::Document::parse(&text).unwrap();
-        assert!(document
-            .descendants()
-            .any(|n| n.text().map(str::trim) == Some("course")));
+        for label in ["course simd", "C 0.5", "0.001"] {
+            assert!(
+                document
+                    .descendants()
+                    .any(|n| n.text().map(str::trim) == Some(label)),
+                "{label}"
+            );
+        }
     }
 }

@@ -28,25 +28,28 @@ pub struct AccuracyArgs {
     /// Kernels to compare (each with every time-step rule).
     #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Kernel::NATIVE, Kernel::Mixed])]
     kernels: Vec<Kernel>,
-    /// Fixed time steps, as multiples of the course's 1 ms.
-    #[arg(long, value_delimiter = ',', default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]
-    dt_factors: Vec<f64>,
+    /// Fixed time steps, as multiples of the course's 1 ms (default: 0.25, 0.5, 1, 2
+    /// and 4 for fluidanimate; 0.125, 0.25, 0.5 and 1 for the course model).
+    #[arg(long, value_delimiter = ',')]
+    dt_factors: Option<Vec<f64>>,
     /// Courant constants of the adaptive time step (none: "").
     #[arg(long, value_delimiter = ',', default_values_t = [0.2, 0.3, 0.4])]
     adaptive: Vec<f64>,
-    /// Physical times (s) at which states are compared, ascending (default: every 5 ms to
-    /// 50 ms for fluidanimate; every 0.5 ms to 3 ms for the course model, which is chaotic
-    /// after). The accuracy-speed chart shows the first, a middle and the last.
+    /// Physical times (s) at which states are compared, ascending (default: every 4 ms to
+    /// 48 ms for fluidanimate; 1, 2 and 3 ms for the course model, which is chaotic
+    /// after). Each method is sampled at the end of its first step at or after each; the
+    /// accuracy-speed chart shows the first, a middle and the last.
     #[arg(long, value_delimiter = ',')]
     times: Option<Vec<f64>>,
     /// The reference's fixed step (s) (default: an eighth of the shortest step any method
     /// took).
     #[arg(long)]
     reference_dt: Option<f64>,
-    /// Error budgets (m): name the fastest method whose position error (by
-    /// --metric) stays within each at every time.
-    #[arg(long, value_delimiter = ',')]
-    budget: Vec<f64>,
+    /// Error budgets, in metres or (with a trailing h, as in 0.1h) smoothing lengths:
+    /// name the fastest method whose position error (by --metric) stays within each at
+    /// every time.
+    #[arg(long, value_delimiter = ',', value_parser = parse_budget)]
+    budget: Vec<Budget>,
     /// The position error the budgets and the charts use.
     #[arg(long, value_enum, default_value_t = Metric::Median)]
     metric: Metric,
@@ -56,8 +59,8 @@ impl AccuracyArgs {
     /// The comparison times, checked.
     fn times(&self) -> Result<Vec<f64>, String> {
         let times = self.times.clone().unwrap_or_else(|| match self.model {
-            Model::Course => (1..=6).map(|k| k as f64 * 5e-4).collect(),
-            Model::Fluidanimate => (1..=10).map(|k| k as f64 * 5e-3).collect(),
+            Model::Course => vec![1e-3, 2e-3, 3e-3],
+            Model::Fluidanimate => (1..=12).map(|k| k as f64 * 4e-3).collect(),
         });
         let positive = times.iter().all(|&t| t.is_finite() && t > 0.0);
         if times.is_empty() || !positive || !times.is_sorted_by(|a, b| a < b) {
@@ -68,7 +71,11 @@ impl AccuracyArgs {
 
     /// The methods to compare, checked.
     fn candidates(&self) -> Result<Vec<Candidate>, String> {
-        let fixed: Vec<f64> = self.dt_factors.iter().map(|f| f * TIME_STEP).collect();
+        let factors = self.dt_factors.clone().unwrap_or_else(|| match self.model {
+            Model::Course => vec![0.125, 0.25, 0.5, 1.0],
+            Model::Fluidanimate => vec![0.25, 0.5, 1.0, 2.0, 4.0],
+        });
+        let fixed: Vec<f64> = factors.iter().map(|f| f * TIME_STEP).collect();
         if !fixed.iter().all(|&dt| dt.is_finite() && dt > 0.0) {
             return Err("--dt-factors need positive, finite factors".into());
         }
@@ -88,9 +95,6 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
         if !(step.is_finite() && step > 0.0) {
             return Err("--reference-dt needs a positive, finite step".into());
         }
-    }
-    if args.budget.iter().any(|&e| !(e.is_finite() && e > 0.0)) {
-        return Err("--budget needs positive, finite errors".into());
     }
     super::create_output_dir(&args.output_dir)?;
     let scene = fld::read(&args.input)?;
@@ -131,17 +135,70 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
             why.1
         )?;
     }
-    for &budget in &args.budget {
-        writeln!(stdout, "{}", choice(&sweep, budget, metric))?;
+    let h = start.params().h;
+    for budget in &args.budget {
+        writeln!(stdout, "{}", choice(&sweep, budget, h, metric))?;
     }
     Ok(())
 }
 
+/// An error budget as given: metres, or a multiple of the smoothing length.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Budget {
+    /// So many metres.
+    Metres(f64),
+    /// So many smoothing lengths h.
+    SmoothingLengths(f64),
+}
+
+impl Budget {
+    /// The budget in metres, for smoothing length `h`.
+    fn metres(self, h: f64) -> f64 {
+        match self {
+            Budget::Metres(metres) => metres,
+            Budget::SmoothingLengths(count) => count * h,
+        }
+    }
+
+    /// The budget as given: `1e-4 m`, `0.1h`.
+    fn text(self) -> String {
+        match self {
+            Budget::Metres(metres) => format!("{metres:e} m"),
+            Budget::SmoothingLengths(count) => format!("{count}h"),
+        }
+    }
+}
+
+/// Parses a positive, finite budget: a number of metres, or of smoothing lengths with a
+/// trailing `h`.
+fn parse_budget(text: &str) -> Result<Budget, String> {
+    let (number, budget): (&str, fn(f64) -> Budget) = match text.strip_suffix('h') {
+        Some(count) => (count, Budget::SmoothingLengths),
+        None => (text, Budget::Metres),
+    };
+    match number.parse::<f64>() {
+        Ok(value) if value.is_finite() && value > 0.0 => Ok(budget(value)),
+        _ => Err(format!(
+            "{text} is not a positive error in metres or smoothing lengths (0.1h)"
+        )),
+    }
+}
+
 /// The line naming the fastest method within `budget` by `metric`, and its speed-up over
 /// the f64 default.
-fn choice(sweep: &Sweep, budget: f64, metric: Metric) -> String {
-    let within = format!("budget {budget:e} m ({} error)", metric.name());
-    let Some(run) = sweep.fastest_within(budget, metric) else {
+fn choice(sweep: &Sweep, budget: &Budget, h: f64, metric: Metric) -> String {
+    let metres = budget.metres(h);
+    let within = match budget {
+        Budget::Metres(_) => format!("budget {} ({} error)", budget.text(), metric.name()),
+        Budget::SmoothingLengths(_) => {
+            format!(
+                "budget {} = {metres:.3e} m ({} error)",
+                budget.text(),
+                metric.name()
+            )
+        }
+    };
+    let Some(run) = sweep.fastest_within(metres, metric) else {
         return format!("{within}: no method stays within it");
     };
     let cost = run.final_cost();
@@ -201,7 +258,7 @@ fn speed_chart(
         .iter()
         .map(|&k| {
             let points = sweep.runs.iter().filter_map(|run| point(run, k)).collect();
-            (format!("at {} ms", times[k] * 1e3), points)
+            (format!("at {} ms", (times[k] * 1e6).round() / 1e3), points)
         })
         .collect();
     let last = times.len() - 1;

@@ -7,8 +7,9 @@ use crate::lab::chart;
 use crate::lab::machine::Machine;
 use crate::lab::scene::SceneKind;
 use crate::lab::stability;
-use crate::sim::method::Model;
+use crate::sim::method::{Kernel, Method, Model};
 use crate::sim::params::TIME_STEP;
+use crate::sim::timestep::TimeStep;
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
@@ -29,12 +30,18 @@ pub struct StabilityArgs {
     /// Models to run.
     #[arg(long, value_enum, value_delimiter = ',', default_values_t = Model::ALL)]
     models: Vec<Model>,
+    /// Kernels to run each model with (their precision is part of the method).
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Kernel::NATIVE])]
+    kernels: Vec<Kernel>,
     /// Particles per metre of the scene.
     #[arg(long, value_delimiter = ',', default_values_t = [100.0, 150.0, 200.0, 300.0])]
     ppms: Vec<f64>,
     /// Time steps, as multiples of the course's 1e-3 s.
     #[arg(long, value_delimiter = ',', default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]
     dt_factors: Vec<f64>,
+    /// Courant constants of adaptive time steps to run beside the fixed ones (none: "").
+    #[arg(long, value_delimiter = ',', default_values_t = [0.3])]
+    adaptive: Vec<f64>,
     /// Simulated seconds each run must last to count as stable.
     #[arg(long, default_value_t = 0.5)]
     duration: f64,
@@ -49,19 +56,41 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
             );
         }
     }
+    if let Some(c) = args.adaptive.iter().find(|&&c| !(c > 0.0 && c <= 1.0)) {
+        return Err(format!("--adaptive: {c} is not a Courant constant in (0, 1]").into());
+    }
+    if !(args.duration.is_finite() && args.duration > 0.0) {
+        return Err(format!(
+            "--duration: {} is not a positive, finite time",
+            args.duration
+        )
+        .into());
+    }
+    let rules: Vec<TimeStep> = args
+        .dt_factors
+        .iter()
+        .map(|factor| TimeStep::Fixed(factor * TIME_STEP))
+        .chain(
+            args.adaptive
+                .iter()
+                .map(|&courant| TimeStep::Adaptive { courant }),
+        )
+        .collect();
     super::create_output_dir(&args.output_dir)?;
     let mut rows = format!("{}\n", stability::CSV_HEADER);
     let mut outcomes = Vec::new();
     for &model in &args.models {
-        for &ppm in &args.ppms {
-            for &factor in &args.dt_factors {
-                let dt = factor * TIME_STEP;
-                let outcome =
-                    stability::watch(args.scene, args.seed, model, ppm, dt, args.duration)?;
-                writeln!(stdout, "{}", outcome.summary())?;
-                rows.push_str(&outcome.csv_row());
-                rows.push('\n');
-                outcomes.push(outcome);
+        for &kernel in &args.kernels {
+            let method = Method { model, kernel };
+            for &ppm in &args.ppms {
+                for &rule in &rules {
+                    let outcome =
+                        stability::watch(args.scene, args.seed, method, ppm, rule, args.duration)?;
+                    writeln!(stdout, "{}", outcome.summary())?;
+                    rows.push_str(&outcome.csv_row());
+                    rows.push('\n');
+                    outcomes.push(outcome);
+                }
             }
         }
     }
@@ -81,7 +110,7 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
         outcomes: &outcomes,
         footer,
     };
-    for path in chart::render(&map, &args.output_dir, stability::SIZE)? {
+    for path in chart::render(&map, &args.output_dir, map.size())? {
         writeln!(stdout, "wrote {}", path.display())?;
     }
     Ok(())

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# The accuracy-speed sweeps the README shows, one folder per scene under docs/accuracy/
+# (accuracy.csv, accuracy-speed and error-time as PNG and SVG, choices.txt with the
+# fastest method within each error budget):
+#   large         data/in/large.fld, the stable fluidanimate model, to 48 ms
+#   dam-break     a generated dam break at 250 ppm, fluidanimate, to 48 ms
+#   drop          a generated drop at 250 ppm, fluidanimate, to 48 ms
+#   course-large  data/in/large.fld, the course model, to 3 ms
+# Every method against the compensated reference kernel at an eighth of the shortest step
+# any method took. About 10 minutes on a 2-core EPYC guest.
+#
+# Usage: scripts/accuracy-sweeps.sh [OUTPUT_ROOT] [-- EXTRA fluid-lab accuracy ARGS...]
+#        default OUTPUT_ROOT: docs/accuracy
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+output="${1:-docs/accuracy}"
+shift || true
+[ "${1:-}" = "--" ] && shift
+cargo build --release --quiet --bin fluid-lab
+lab=target/release/fluid-lab
+scenes="$(mktemp -d)"
+trap 'rm -rf "$scenes"' EXIT
+"$lab" scene dam-break "$scenes/dam-break.fld" --ppm 250 --seed 1 >/dev/null
+"$lab" scene drop "$scenes/drop.fld" --ppm 250 --seed 1 >/dev/null
+budgets=1e-6,1e-5,1e-4,0.1h
+sweep() {
+    local name="$1"; shift
+    mkdir -p "$output/$name"
+    echo "accuracy-sweeps.sh: $name" >&2
+    "$lab" accuracy "$@" --output-dir "$output/$name" --budget "$budgets" "${extra[@]}" |
+        grep -v '^wrote ' | tee "$output/$name/choices.txt"
+}
+extra=("$@")
+sweep large data/in/large.fld --model fluidanimate
+sweep dam-break "$scenes/dam-break.fld" --model fluidanimate
+sweep drop "$scenes/drop.fld" --model fluidanimate
+sweep course-large data/in/large.fld --model course
