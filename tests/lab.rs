@@ -57,6 +57,43 @@ fn a_run_reports_its_method_and_timing() {
 }
 
 #[test]
+fn lists_kept_with_a_skin_give_the_state_of_lists_rebuilt_every_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args: Vec<&std::ffi::OsStr> = ["run", "--model", "fluidanimate", "--steps", "20"]
+            .iter()
+            .map(std::ffi::OsStr::new)
+            .collect();
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        args.extend([small.as_os_str(), out.as_os_str()]);
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+        let state = fld::parse(&std::fs::read(&out).unwrap(), name).unwrap();
+        (stdout(&output), state.particles)
+    };
+    let (plain, rebuilt) = run("rebuilt.fld", &[]);
+    let (report, kept) = run("kept.fld", &["--skin", "0.3"]);
+    assert!(!plain.contains("list_builds"), "{plain}");
+    let builds: u64 = report
+        .split_whitespace()
+        .find_map(|field| field.strip_prefix("list_builds="))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((1..20).contains(&builds), "{report}");
+    for axis in 0..3 {
+        for (a, b) in kept.p[axis].iter().zip(&rebuilt.p[axis]) {
+            assert!((a - b).abs() < 1e-6, "{a} against {b}");
+        }
+    }
+    let bad = run_lab(&["run", "--skin=-1", small.to_str().unwrap()]);
+    assert_eq!(exit_code(&bad), 2);
+    assert!(stderr(&bad).contains("-1 is not a positive skin width"));
+}
+
+#[test]
 fn an_adaptive_run_reports_every_step_it_took() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("steps.csv");

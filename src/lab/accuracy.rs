@@ -90,18 +90,23 @@ pub struct Candidate {
     pub kernel: Kernel,
     /// How each step's length is chosen.
     pub time_step: TimeStep,
+    /// The skin of reused neighbour lists, in smoothing lengths (none: rebuilt every step).
+    pub skin: Option<f64>,
 }
 
 impl Candidate {
-    /// The f64 default: `fluid`'s kernel at the course's fixed 1 ms.
+    /// The f64 default: `fluid`'s kernel at the course's fixed 1 ms, lists rebuilt every
+    /// step.
     pub const DEFAULT: Candidate = Candidate {
         kernel: Kernel::NATIVE,
         time_step: TimeStep::Fixed(TIME_STEP),
+        skin: None,
     };
 
-    /// A short label: `simd dt 0.5 ms`, `mixed C 0.3`, `reference dt 23.93 µs`.
+    /// A short label: `simd dt 0.5 ms`, `mixed C 0.3 skin 0.2h`, `reference dt 23.93 µs`.
     pub fn label(&self) -> String {
-        match self.time_step {
+        let skin = self.skin.map_or(String::new(), |s| format!(" skin {s}h"));
+        let rule = match self.time_step {
             TimeStep::Fixed(dt) if dt < 1e-4 => {
                 format!("{} dt {:.2} µs", self.kernel.name(), dt * 1e6)
             }
@@ -110,31 +115,48 @@ impl Candidate {
                 format!("{} dt {milliseconds} ms", self.kernel.name())
             }
             TimeStep::Adaptive { courant } => format!("{} C {courant}", self.kernel.name()),
-        }
+        };
+        rule + &skin
     }
 
-    /// The CSV cells `time_step,dt_s,courant`.
+    /// The CSV cells `time_step,dt_s,courant,skin_h`.
     fn time_step_cells(&self) -> String {
+        let skin = self.skin.map_or(String::new(), |s| s.to_string());
         match self.time_step {
-            TimeStep::Fixed(dt) => format!("fixed,{dt:e},"),
-            TimeStep::Adaptive { courant } => format!("adaptive,,{courant}"),
+            TimeStep::Fixed(dt) => format!("fixed,{dt:e},,{skin}"),
+            TimeStep::Adaptive { courant } => format!("adaptive,,{courant},{skin}"),
         }
     }
 
-    /// Every kernel with every fixed step and every adaptive constant, the default first
-    /// (added if the lists leave it out).
-    pub fn product(kernels: &[Kernel], fixed: &[f64], courants: &[f64]) -> Vec<Candidate> {
+    /// Every kernel with every fixed step and every adaptive constant, each with lists
+    /// rebuilt every step and with each of `skins`; the default first (added if the
+    /// lists leave it out).
+    pub fn product(
+        kernels: &[Kernel],
+        fixed: &[f64],
+        courants: &[f64],
+        skins: &[f64],
+    ) -> Vec<Candidate> {
         let rules = fixed.iter().map(|&dt| TimeStep::Fixed(dt)).chain(
             courants
                 .iter()
                 .map(|&courant| TimeStep::Adaptive { courant }),
         );
+        let skins: Vec<Option<f64>> = std::iter::once(None)
+            .chain(skins.iter().copied().map(Some))
+            .collect();
         let mut candidates = vec![Candidate::DEFAULT];
         for time_step in rules {
             for &kernel in kernels {
-                let candidate = Candidate { kernel, time_step };
-                if !candidates.contains(&candidate) {
-                    candidates.push(candidate);
+                for &skin in &skins {
+                    let candidate = Candidate {
+                        kernel,
+                        time_step,
+                        skin,
+                    };
+                    if !candidates.contains(&candidate) {
+                        candidates.push(candidate);
+                    }
                 }
             }
         }
@@ -330,12 +352,16 @@ fn run(
     times: &[f64],
     sampling: Sampling,
     mut observe: impl FnMut(&Simulation),
-) -> Run {
+) -> Result<Run, String> {
     let mut simulation = start.clone_with_method(Method {
         model,
         kernel: candidate.kernel,
     });
     simulation.set_time_step(candidate.time_step);
+    let h = simulation.params().h;
+    simulation
+        .set_skin(candidate.skin.map(|fraction| fraction * h))
+        .map_err(|error| format!("a skin of {}h: {error}", candidate.skin.unwrap_or(0.0)))?;
     let (mut cpu_seconds, mut steps, mut shortest) = (0.0, 0, f64::INFINITY);
     let mut samples = Vec::new();
     let mut failure = None;
@@ -377,12 +403,12 @@ fn run(
             errors: None,
         });
     }
-    Run {
+    Ok(Run {
         candidate,
         samples,
         failure,
         heap_bytes: simulation.heap_bytes(),
-    }
+    })
 }
 
 /// Runs every candidate on `model` from `start` through `times` (ascending, s), each
@@ -396,26 +422,17 @@ pub fn sweep(
     candidates: &[Candidate],
     times: &[f64],
     reference_step: Option<f64>,
-) -> Sweep {
+) -> Result<Sweep, String> {
     let mut states: Vec<Vec<Observed>> = Vec::new();
-    let mut runs: Vec<Run> = candidates
-        .iter()
-        .map(|&candidate| {
-            let mut observed = Vec::new();
-            let run = run(
-                start,
-                model,
-                candidate,
-                times,
-                Sampling::Unperturbed,
-                |fresh| {
-                    observed.push(Observed::of(fresh));
-                },
-            );
-            states.push(observed);
-            run
-        })
-        .collect();
+    let mut runs: Vec<Run> = Vec::new();
+    for &candidate in candidates {
+        let mut observed = Vec::new();
+        let sampling = Sampling::Unperturbed;
+        runs.push(run(start, model, candidate, times, sampling, |fresh| {
+            observed.push(Observed::of(fresh));
+        })?);
+        states.push(observed);
+    }
     let shortest = runs
         .iter()
         .flat_map(|run| run.samples.last())
@@ -425,6 +442,7 @@ pub fn sweep(
     let reference_candidate = Candidate {
         kernel: Kernel::Reference,
         time_step: TimeStep::Fixed(step),
+        skin: None,
     };
     let mut sampled: Vec<f64> = runs
         .iter()
@@ -440,7 +458,7 @@ pub fn sweep(
         &sampled,
         Sampling::Landing,
         |fresh| truths.push(Observed::of(fresh)),
-    );
+    )?;
     for (run, observed) in runs.iter_mut().zip(&states) {
         for (sample, state) in run.samples.iter_mut().zip(observed) {
             let after = sampled.partition_point(|&t| t < sample.time);
@@ -452,7 +470,7 @@ pub fn sweep(
             }
         }
     }
-    Sweep { reference, runs }
+    Ok(Sweep { reference, runs })
 }
 
 /// Whether two sample times are one for the reference: within 1e-8 relative, so that
@@ -463,7 +481,7 @@ fn same_time(a: f64, b: f64) -> bool {
 }
 
 /// The CSV header of the accuracy sweep.
-pub const CSV_HEADER: &str = "scene,particles,model,method,kernel,time_step,dt_s,courant,\
+pub const CSV_HEADER: &str = "scene,particles,model,method,kernel,time_step,dt_s,courant,skin_h,\
      requested_time_s,time_s,steps,cpu_s,cpu_s_per_simulated_s,shortest_step_s,pairs_tested,pairs_within_h,\
      heap_bytes,median_error_m,max_error_m,centre_error_m,kinetic_error,mean_density_error,\
      max_density_error,front_error_m,failure,host,cpu_model,commit";
@@ -621,8 +639,12 @@ mod tests {
 
     #[test]
     fn candidates_are_every_kernel_with_every_rule_the_default_first() {
-        let candidates =
-            Candidate::product(&[Kernel::Mixed, Kernel::NATIVE], &[5e-4, TIME_STEP], &[0.3]);
+        let candidates = Candidate::product(
+            &[Kernel::Mixed, Kernel::NATIVE],
+            &[5e-4, TIME_STEP],
+            &[0.3],
+            &[],
+        );
         assert_eq!(candidates[0], Candidate::DEFAULT);
         assert_eq!(candidates.len(), 6, "{candidates:?}");
         let labels: Vec<String> = candidates.iter().map(Candidate::label).collect();
@@ -634,11 +656,15 @@ mod tests {
         let fine = Candidate {
             kernel: Kernel::Reference,
             time_step: TimeStep::Fixed(2.5e-5),
+            skin: None,
         };
         assert_eq!(fine.label(), "reference dt 25.00 µs");
+        let skins = Candidate::product(&[Kernel::Simd], &[TIME_STEP], &[], &[0.2]);
+        assert_eq!(skins.len(), 2, "{skins:?}");
+        assert_eq!(skins[1].label(), "simd dt 1 ms skin 0.2h");
         // Without the default in the lists, it is added.
         assert_eq!(
-            Candidate::product(&[Kernel::Mixed], &[], &[0.3])[0],
+            Candidate::product(&[Kernel::Mixed], &[], &[0.3], &[])[0],
             Candidate::DEFAULT
         );
     }
@@ -711,6 +737,7 @@ mod tests {
         let simd = |time_step| Candidate {
             kernel: Kernel::Simd,
             time_step,
+            skin: None,
         };
         let candidates = [
             simd(TimeStep::Fixed(1e-3)),
@@ -718,11 +745,12 @@ mod tests {
             Candidate {
                 kernel: Kernel::Mixed,
                 time_step: TimeStep::Fixed(1e-3),
+                skin: None,
             },
             simd(TimeStep::Adaptive { courant: 0.3 }),
         ];
         let times = [2e-3, 4e-3];
-        let sweep = sweep(&start, Model::Fluidanimate, &candidates, &times, None);
+        let sweep = sweep(&start, Model::Fluidanimate, &candidates, &times, None).unwrap();
         let TimeStep::Fixed(reference_step) = sweep.reference.candidate.time_step else {
             panic!("a fixed reference step");
         };
@@ -799,6 +827,7 @@ mod tests {
         let adaptive = Candidate {
             kernel: Kernel::Simd,
             time_step: TimeStep::Adaptive { courant: 0.3 },
+            skin: None,
         };
         let collapsed = run(
             &fast,
@@ -807,7 +836,8 @@ mod tests {
             &[1e-3],
             Sampling::Unperturbed,
             |_| {},
-        );
+        )
+        .unwrap();
         let (when, why) = collapsed.failure.unwrap();
         assert_eq!(why, Failure::StepCollapsed);
         assert!(when > 0.0 && when < 1e-3);
@@ -819,7 +849,8 @@ mod tests {
             &[1e-3],
             Sampling::Unperturbed,
             |_| {},
-        );
+        )
+        .unwrap();
         assert!(failed
             .failure
             .as_ref()
@@ -835,7 +866,8 @@ mod tests {
             &[1e-3],
             Sampling::Unperturbed,
             |_| {},
-        );
+        )
+        .unwrap();
         assert_eq!((fine.failure, fine.samples.len()), (None, 1));
     }
 }

@@ -186,6 +186,12 @@ impl Walls {
     }
 }
 
+/// The walls of the block of `grid` that the particle in `slot` is in.
+fn slot_walls(grid: &Grid, particles: &Particles, slot: usize) -> WallBits {
+    let p = std::array::from_fn(|d| particles.p[d][slot]);
+    wall_bits(grid, cell_of(grid, p).map(i64::from))
+}
+
 /// The [`WallBits`] bit of `wall` on `axis`.
 pub fn wall_bit(axis: usize, wall: Wall) -> WallBits {
     1 << (2 * axis + wall as usize)
@@ -329,6 +335,24 @@ impl CellOrder {
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
         self.finish()
+    }
+
+    /// As [`Self::sort`], on the cells of `search` (a grid of larger blocks, for lists
+    /// with a skin), the walls still those of the blocks of `grid`.
+    pub fn sort_on(&mut self, search: &Grid, grid: &Grid, particles: &Particles) -> bool {
+        self.compute_cells(search, particles);
+        self.wall_bits.clear();
+        let walls = (0..particles.len()).map(|slot| slot_walls(grid, particles, slot));
+        self.wall_bits.extend(walls);
+        self.finish()
+    }
+
+    /// Recomputes the walls of every slot from its particle's current block of `grid`,
+    /// the order kept (for lists kept from an earlier step).
+    pub fn refresh_walls(&mut self, grid: &Grid, particles: &Particles) {
+        self.walls.bits.clear();
+        let walls = (0..particles.len()).map(|slot| slot_walls(grid, particles, slot));
+        self.walls.bits.extend(walls);
     }
 
     /// As [`Self::sort`], but the walls come from given blocks (linear indices, one per

@@ -18,6 +18,7 @@ pub mod neighbours;
 pub mod params;
 pub mod particles;
 pub mod simulation;
+pub mod skin;
 pub mod stages;
 pub mod timestep;
 

@@ -35,6 +35,10 @@ pub struct AccuracyArgs {
     /// Courant constants of the adaptive time step (none: "").
     #[arg(long, value_delimiter = ',', default_values_t = [0.2, 0.3, 0.4])]
     adaptive: Vec<f64>,
+    /// Skins of reused neighbour lists, in smoothing lengths, each method also run with
+    /// (default: none, lists rebuilt every step).
+    #[arg(long, value_delimiter = ',')]
+    skins: Vec<f64>,
     /// Physical times (s) at which states are compared, ascending (default: every 4 ms to
     /// 48 ms for fluidanimate; 1, 2 and 3 ms for the course model, which is chaotic
     /// after). Each method is sampled at the end of its first step at or after each; the
@@ -82,7 +86,19 @@ impl AccuracyArgs {
         if !self.adaptive.iter().all(|&c| c > 0.0 && c <= 1.0) {
             return Err("--adaptive needs Courant constants in (0, 1]".into());
         }
-        Ok(Candidate::product(&self.kernels, &fixed, &self.adaptive))
+        if !self
+            .skins
+            .iter()
+            .all(|&s| s.is_finite() && s > 0.0 && s <= 1.0)
+        {
+            return Err("--skins needs widths in (0, 1] smoothing lengths".into());
+        }
+        Ok(Candidate::product(
+            &self.kernels,
+            &fixed,
+            &self.adaptive,
+            &self.skins,
+        ))
     }
 }
 
@@ -102,7 +118,7 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     let name = args.input.display().to_string();
     let start = scene.into_simulation(Method::default(), &name)?;
     let file_name = args.input.file_name().unwrap_or_default().to_string_lossy();
-    let sweep = accuracy::sweep(&start, args.model, &candidates, &times, args.reference_dt);
+    let sweep = accuracy::sweep(&start, args.model, &candidates, &times, args.reference_dt)?;
     let machine = Machine::this();
     let rows = format!(
         "{}\n{}",

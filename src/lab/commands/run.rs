@@ -75,6 +75,9 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
     let particles = simulation.particles().len();
     let per_particle_step = seconds / (steps.max(1) as f64 * particles as f64);
     let simulated = simulation.time();
+    let builds = simulation.skin().map_or(String::new(), |skin| {
+        format!(" list_builds={}", skin.builds())
+    });
     let per_simulated_second = if simulated > 0.0 {
         format!("{:.3}", seconds / simulated)
     } else {
@@ -84,7 +87,7 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         stdout,
         "model={} kernel={} particles={particles} steps={steps} seconds={seconds:.6} \
          ns_per_particle_step={:.3} simulated_s={simulated:.6} \
-         seconds_per_simulated_s={per_simulated_second}",
+         seconds_per_simulated_s={per_simulated_second}{builds}",
         args.simulation.model.name(),
         args.simulation.kernel.name(),
         per_particle_step * 1e9,

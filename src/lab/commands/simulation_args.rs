@@ -33,6 +33,11 @@ pub struct SimulationArgs {
     /// sqrt(h/|a|), h/(c+|v|) and the wall damping's 1/d_v (C about 0.2-0.4).
     #[arg(long, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
     pub adaptive: Option<f64>,
+    /// Reuse the cell order and tiles with a skin this many smoothing lengths wide,
+    /// rebuilding them when a particle has moved half the skin (the pairs closer than h
+    /// stay exactly those of a rebuild every step).
+    #[arg(long, value_name = "FRACTION_OF_H", value_parser = parse_skin)]
+    pub skin: Option<f64>,
 }
 
 impl SimulationArgs {
@@ -69,6 +74,10 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     let ppm = scene.ppm;
     let mut simulation = scene.into_simulation(method, &name)?;
     simulation.set_time_step(args.time_step());
+    let h = simulation.params().h;
+    simulation
+        .set_skin(args.skin.map(|fraction| fraction * h))
+        .map_err(|error| format!("--skin: {error}"))?;
     Ok(Loaded {
         stem: stem.to_string_lossy().into_owned(),
         simulation,
@@ -124,6 +133,14 @@ fn parse_courant(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(c) if c.is_finite() && c > 0.0 && c <= 1.0 => Ok(c),
         _ => Err(format!("{text} is not a Courant constant in (0, 1]")),
+    }
+}
+
+/// Parses a skin width in smoothing lengths: finite and positive.
+fn parse_skin(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(width) if width.is_finite() && width > 0.0 => Ok(width),
+        _ => Err(format!("{text} is not a positive skin width")),
     }
 }
 

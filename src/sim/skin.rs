@@ -1,0 +1,109 @@
+//! Neighbour lists reused with a skin (Verlet lists): the cell order and tiles are built
+//! on cells of at least h + skin, and kept while no particle has moved more than half the
+//! skin since the build. Two particles closer than h now were then closer than h + skin,
+//! so in the same or adjacent cells of the build: the kept tiles hold every pair closer
+//! than h, and the pair loops, which test the cut-off themselves, find exactly the pairs a
+//! rebuild would. The walls of each particle's block are still recomputed every step.
+
+use crate::sim::grid::{Grid, GridSizeError};
+use crate::sim::particles::{AxisArrays, Particles};
+
+/// The skin's state: its width, the grid of its cells, and the positions of the build.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Skin {
+    /// The skin's width (m).
+    width: f64,
+    /// The grid of cells of at least h + width.
+    grid: Grid,
+    /// Each slot's position at the last build (empty before the first).
+    built: AxisArrays,
+    /// Builds so far.
+    builds: u64,
+}
+
+impl Skin {
+    /// A skin `width` metres wide beyond the smoothing length `h`.
+    pub fn new(h: f64, width: f64) -> Result<Skin, GridSizeError> {
+        Ok(Skin {
+            width,
+            grid: Grid::new(h + width)?,
+            built: Default::default(),
+            builds: 0,
+        })
+    }
+
+    /// The grid whose cells the lists are built on.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The skin's width (m).
+    pub fn width(&self) -> f64 {
+        self.width
+    }
+
+    /// Builds so far.
+    pub fn builds(&self) -> u64 {
+        self.builds
+    }
+
+    /// Whether the lists must be built again: never built, or some particle (in the same
+    /// slot as at the build) has moved more than half the skin since, or is not finite.
+    pub fn is_stale(&self, particles: &Particles) -> bool {
+        let n = particles.len();
+        if self.built[0].len() != n || self.builds == 0 {
+            return true;
+        }
+        let limit = (self.width / 2.0).powi(2);
+        let mut largest = 0.0f64;
+        let mut finite = true;
+        for slot in 0..n {
+            let moved2: f64 = (0..3)
+                .map(|d| (particles.p[d][slot] - self.built[d][slot]).powi(2))
+                .sum();
+            finite &= moved2.is_finite();
+            largest = largest.max(moved2);
+        }
+        !finite || largest > limit
+    }
+
+    /// Records the positions of a build (the particles in their new slots).
+    pub fn record(&mut self, particles: &Particles) {
+        let n = particles.len();
+        for (built, p) in self.built.iter_mut().zip(&particles.p) {
+            built.clear();
+            built.extend_from_slice(&p[..n]);
+        }
+        self.builds += 1;
+    }
+
+    /// The bytes its recorded positions hold on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        self.built.iter().map(crate::sim::heap_bytes).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lists_go_stale_past_half_the_skin() {
+        let h = 0.006;
+        let mut skin = Skin::new(h, 0.002).unwrap();
+        assert!(skin.grid().block_size.min_element() >= h + 0.002);
+        let mut particles = Particles::zeroed(3);
+        assert!(skin.is_stale(&particles), "never built");
+        skin.record(&particles);
+        assert_eq!(skin.builds(), 1);
+        assert!(!skin.is_stale(&particles));
+        particles.p[1][2] = 0.0009;
+        assert!(!skin.is_stale(&particles), "0.9 mm of a 1 mm half skin");
+        particles.p[0][2] = 0.0005;
+        assert!(skin.is_stale(&particles), "1.03 mm");
+        particles.p[0][2] = 0.0;
+        particles.p[2][0] = f64::NAN;
+        assert!(skin.is_stale(&particles), "not finite");
+        assert!(skin.heap_bytes() >= 3 * 3 * 8);
+    }
+}
