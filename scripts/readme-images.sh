@@ -2,8 +2,9 @@
 # Regenerates the pictures the README shows: large.fld as given, and a
 # generated dam break after 0.4 s of the stable fluidanimate model, as PNG (docs/images/;
 # the README also gives the command for an animated GIF of the dam break, which at about
-# 3 MB is not committed); the accuracy-speed and error-growth charts (docs/accuracy/) and
-# the stability map (docs/stability/).
+# 3 MB is not committed); the accuracy-speed and error-time charts of four scenes
+# (docs/accuracy/*/, scripts/accuracy-sweeps.sh) and the stability map of every model,
+# precision and time-step rule (docs/stability/).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -14,6 +15,6 @@ echo "method: $lab render, accuracy and stability (plotters, embedded DejaVu San
 "$lab" render data/in/large.fld docs/images/large.png --steps 0
 "$lab" scene dam-break target/scenes/dam-break.fld --ppm 300 --seed 1
 "$lab" render target/scenes/dam-break.fld docs/images/dam-break.png --model fluidanimate --steps 400
-# Accuracy against speed, and where each model fails (CSV, PNG and SVG in each folder).
-"$lab" accuracy data/in/large.fld --output-dir docs/accuracy
-"$lab" stability --output-dir docs/stability
+# Accuracy against speed, and where each method fails (CSV, PNG and SVG in each folder).
+scripts/accuracy-sweeps.sh docs/accuracy
+"$lab" stability --kernels simd,mixed --adaptive 0.2,0.3,0.4 --output-dir docs/stability

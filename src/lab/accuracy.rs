@@ -829,45 +829,28 @@ mod tests {
             time_step: TimeStep::Adaptive { courant: 0.3 },
             skin: None,
         };
-        let collapsed = run(
-            &fast,
-            Model::Fluidanimate,
-            adaptive,
-            &[1e-3],
-            Sampling::Unperturbed,
-            |_| {},
-        )
-        .unwrap();
+        let to_1_ms = |start: &Simulation, candidate| {
+            let sampling = Sampling::Unperturbed;
+            run(
+                start,
+                Model::Fluidanimate,
+                candidate,
+                &[1e-3],
+                sampling,
+                |_| {},
+            )
+            .unwrap()
+        };
+        let collapsed = to_1_ms(&fast, adaptive);
         let (when, why) = collapsed.failure.unwrap();
         assert_eq!(why, Failure::StepCollapsed);
         assert!(when > 0.0 && when < 1e-3);
         assert!(collapsed.samples.is_empty());
-        let failed = run(
-            &broken,
-            Model::Fluidanimate,
-            Candidate::DEFAULT,
-            &[1e-3],
-            Sampling::Unperturbed,
-            |_| {},
-        )
-        .unwrap();
-        assert!(failed
-            .failure
-            .as_ref()
-            .unwrap()
-            .1
-            .to_string()
-            .ends_with("is not finite"));
+        let failed = to_1_ms(&broken, Candidate::DEFAULT);
+        let why = failed.failure.as_ref().unwrap().1;
+        assert!(matches!(why, Failure::NonFinite(_)), "{why}");
         assert_eq!(failed.final_cost(), f64::INFINITY);
-        let fine = run(
-            &start,
-            Model::Fluidanimate,
-            adaptive,
-            &[1e-3],
-            Sampling::Unperturbed,
-            |_| {},
-        )
-        .unwrap();
+        let fine = to_1_ms(&start, adaptive);
         assert_eq!((fine.failure, fine.samples.len()), (None, 1));
     }
 }

@@ -451,41 +451,35 @@ mod tests {
         assert!(by_time.heap_bytes() > 4 * 13 * 8);
     }
 
-    /// The pairs closer than h among all pairs of `sim`'s particles, by id.
-    fn pairs_by_brute_force(sim: &Simulation) -> Vec<(u32, u32)> {
+    /// The pairs closer than h among `candidates` (slot pairs) of `sim`, by id, sorted.
+    fn pairs_within_h(
+        sim: &Simulation,
+        candidates: impl Iterator<Item = (usize, usize)>,
+    ) -> Vec<(u32, u32)> {
         let (particles, h2) = (sim.particles(), sim.params().h2);
-        let n = particles.len();
-        let mut pairs = Vec::new();
-        for i in 0..n {
-            for j in i + 1..n {
-                let r2 = (particles.position(i) - particles.position(j)).length_squared();
-                if r2 < h2 {
-                    let (a, b) = (particles.id[i], particles.id[j]);
-                    pairs.push((a.min(b), a.max(b)));
-                }
-            }
-        }
+        let mut pairs: Vec<(u32, u32)> = candidates
+            .filter(|&(i, j)| (particles.position(i) - particles.position(j)).length_squared() < h2)
+            .map(|(i, j)| {
+                let (a, b) = (particles.id[i], particles.id[j]);
+                (a.min(b), a.max(b))
+            })
+            .collect();
         pairs.sort_unstable();
         pairs
     }
 
-    /// The pairs closer than h among the candidates of `sim`'s tiles, by id.
-    fn pairs_in_tiles(sim: &Simulation) -> Vec<(u32, u32)> {
-        let (particles, h2) = (sim.particles(), sim.params().h2);
-        let mut pairs = Vec::new();
-        for tile in sim.tiles() {
-            for i in tile.firsts() {
-                for j in tile.partners(i) {
-                    let r2 = (particles.position(i) - particles.position(j)).length_squared();
-                    if r2 < h2 {
-                        let (a, b) = (particles.id[i], particles.id[j]);
-                        pairs.push((a.min(b), a.max(b)));
-                    }
-                }
-            }
-        }
-        pairs.sort_unstable();
-        pairs
+    /// Every pair of slots of `sim`.
+    fn all_pairs(sim: &Simulation) -> impl Iterator<Item = (usize, usize)> {
+        let n = sim.particles().len();
+        (0..n).flat_map(move |i| (i + 1..n).map(move |j| (i, j)))
+    }
+
+    /// The candidate pairs of slots of `sim`'s tiles.
+    fn tile_pairs(sim: &Simulation) -> impl Iterator<Item = (usize, usize)> + '_ {
+        sim.tiles().iter().flat_map(|tile| {
+            tile.firsts()
+                .flat_map(move |i| tile.partners(i).map(move |j| (i, j)))
+        })
     }
 
     #[test]
@@ -515,7 +509,8 @@ mod tests {
             // Stage 1 of the next step: the kept lists, then every pair among them.
             let mut next = sim.clone();
             next.run_stage(Stage::Reposition);
-            assert_eq!(pairs_in_tiles(&next), pairs_by_brute_force(&next));
+            let within = pairs_within_h(&next, tile_pairs(&next));
+            assert_eq!(within, pairs_within_h(&next, all_pairs(&next)));
         }
         let builds = sim.skin().unwrap().builds();
         assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
