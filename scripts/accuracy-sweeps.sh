@@ -14,9 +14,14 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
-output="${1:-docs/accuracy}"
-shift || true
-[ "${1:-}" = "--" ] && shift
+output=docs/accuracy
+if [ $# -gt 0 ] && [ "$1" != "--" ]; then
+    output="$1"
+    shift
+fi
+if [ "${1:-}" = "--" ]; then
+    shift
+fi
 cargo build --release --quiet --bin fluid-lab
 lab=target/release/fluid-lab
 scenes="$(mktemp -d)"
@@ -29,7 +34,7 @@ sweep() {
     mkdir -p "$output/$name"
     echo "accuracy-sweeps.sh: $name" >&2
     "$lab" accuracy "$@" --output-dir "$output/$name" --budget "$budgets" "${extra[@]}" |
-        grep -v '^wrote ' | tee "$output/$name/choices.txt"
+        { grep -v '^wrote ' || true; } | tee "$output/$name/choices.txt"
 }
 extra=("$@")
 sweep large data/in/large.fld --model fluidanimate

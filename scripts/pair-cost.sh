@@ -51,7 +51,9 @@ for kernel in "${kernels[@]}"; do
     seconds="$(sed -n 's/.* seconds=\([0-9.]*\) .*/\1/p' <<<"$line")"
     per_particle="$(sed -n 's/.* ns_per_particle_step=\([0-9.]*\).*/\1/p' <<<"$line")"
     # Pairs of the states the steps ran on: every row but the last step's.
-    pairs="$(awk -F, -v last="$steps" 'NR > 1 && $1 < last { sum += $NF; n++ }
+    pairs="$(awk -F, -v last="$steps" '
+        NR == 1 { for (k = 1; k <= NF; k++) if ($k == "pairs_within_h") column = k; next }
+        column && $1 < last { sum += $column; n++ }
         END { if (n > 0) printf "%.0f", sum / n }' "$work/diagnostics.csv")"
     if [ -z "$particles" ] || [ -z "$seconds" ] || [ -z "${pairs:-}" ] || [ "$pairs" -eq 0 ]; then
         echo "pair-cost.sh: $kernel: no timing or no pairs closer than h (run: $line)" >&2

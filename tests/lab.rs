@@ -489,6 +489,29 @@ fn stability_reports_each_run_and_maps_them() {
     ]);
     assert_eq!(exit_code(&output), 1);
     assert!(stderr(&output).contains("--dt-factors: 0 does not give a positive time step"));
+    let fixed_only = run_lab(&[
+        "stability".as_ref(),
+        "--models".as_ref(),
+        "fluidanimate".as_ref(),
+        "--ppms".as_ref(),
+        "100".as_ref(),
+        "--dt-factors".as_ref(),
+        "1".as_ref(),
+        "--adaptive".as_ref(),
+        "".as_ref(),
+        "--duration".as_ref(),
+        "0.005".as_ref(),
+        "--output-dir".as_ref(),
+        dir.path().as_os_str(),
+    ]);
+    assert_eq!(exit_code(&fixed_only), 0, "{}", stderr(&fixed_only));
+    let report = stdout(&fixed_only);
+    assert_eq!(
+        report.lines().filter(|l| l.contains(", ppm 100, ")).count(),
+        1,
+        "{report}"
+    );
+    assert!(!report.contains("adaptive"), "{report}");
     for duration in ["inf", "nan", "0", "-1"] {
         let output = run_lab(&[
             "stability".as_ref(),

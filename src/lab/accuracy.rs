@@ -211,8 +211,8 @@ pub struct Errors {
     pub max_position: f64,
     /// Distance between the centres of mass (m).
     pub centre: f64,
-    /// |K - K_ref| / K_ref of the kinetic energies.
-    pub kinetic: f64,
+    /// |K - K_ref| / K_ref of the kinetic energies (none if the reference is at rest).
+    pub kinetic: Option<f64>,
     /// Mean of |rho - rho_ref| / rho_0 over the particles.
     pub mean_density: f64,
     /// Largest |rho - rho_ref| / rho_0.
@@ -244,7 +244,8 @@ impl Errors {
             median_position: distances.get(distances.len() / 2).copied().unwrap_or(0.0),
             max_position: distances.last().copied().unwrap_or(0.0),
             centre: finite(state.centre.distance(reference.centre)),
-            kinetic: finite((state.kinetic - reference.kinetic).abs() / reference.kinetic),
+            kinetic: (reference.kinetic > 0.0)
+                .then(|| finite((state.kinetic - reference.kinetic).abs() / reference.kinetic)),
             mean_density: sum / n as f64,
             max_density,
             front: state
@@ -329,6 +330,8 @@ pub struct Sweep {
     pub reference: Run,
     /// The methods, in the order given.
     pub runs: Vec<Run>,
+    /// The shortest step of the methods that reached every time (s).
+    pub shortest_step: f64,
 }
 
 /// How a run meets the times it is sampled at.
@@ -366,7 +369,12 @@ fn run(
     let mut samples = Vec::new();
     let mut failure = None;
     for &requested in times {
-        let budget = diagnostics::step_budget(requested - simulation.time());
+        // A fixed step cannot collapse: it needs just the steps that cover the time.
+        let ahead = requested - simulation.time();
+        let budget = match candidate.time_step {
+            TimeStep::Fixed(dt) => (ahead / dt).ceil().max(0.0) as u64 + 2,
+            TimeStep::Adaptive { .. } => diagnostics::step_budget(ahead),
+        };
         let mut taken = 0;
         let started = cpu_time();
         while taken < budget && !simulation.has_reached(requested) {
@@ -433,8 +441,11 @@ pub fn sweep(
         })?);
         states.push(observed);
     }
+    // The shortest step of the methods that reached every time: one that blew up is not
+    // worth a reference finer than its last steps.
     let shortest = runs
         .iter()
+        .filter(|run| run.failure.is_none())
         .flat_map(|run| run.samples.last())
         .map(|sample| sample.shortest_step)
         .fold(TIME_STEP, f64::min);
@@ -459,6 +470,12 @@ pub fn sweep(
         Sampling::Landing,
         |fresh| truths.push(Observed::of(fresh)),
     )?;
+    if let Some((time, why)) = reference.failure {
+        return Err(format!(
+            "the reference ({}) failed at {time} s: {why}",
+            reference.candidate.label()
+        ));
+    }
     for (run, observed) in runs.iter_mut().zip(&states) {
         for (sample, state) in run.samples.iter_mut().zip(observed) {
             let after = sampled.partition_point(|&t| t < sample.time);
@@ -470,7 +487,11 @@ pub fn sweep(
             }
         }
     }
-    Ok(Sweep { reference, runs })
+    Ok(Sweep {
+        reference,
+        runs,
+        shortest_step: shortest,
+    })
 }
 
 /// Whether two sample times are one for the reference: within 1e-8 relative, so that
@@ -506,16 +527,18 @@ impl Sweep {
                 run.candidate.time_step_cells()
             );
             for sample in &run.samples {
+                let optional =
+                    |value: Option<f64>| value.map_or(String::new(), |v| format!("{v:e}"));
                 let errors = sample.errors.map_or(",,,,,,".to_string(), |e| {
                     format!(
-                        "{:e},{:e},{:e},{:e},{:e},{:e},{}",
+                        "{:e},{:e},{:e},{},{:e},{:e},{}",
                         e.median_position,
                         e.max_position,
                         e.centre,
-                        e.kinetic,
+                        optional(e.kinetic),
                         e.mean_density,
                         e.max_density,
-                        e.front.map_or(String::new(), |f| format!("{f:e}"))
+                        optional(e.front)
                     )
                 });
                 let _ = writeln!(
@@ -704,14 +727,16 @@ mod tests {
             (0.002, 0.006)
         );
         assert!((errors.centre - DVec3::new(0.001, 0.002, 0.006).length() / 3.0).abs() < 1e-15);
-        assert_eq!(errors.kinetic, 0.25);
+        assert_eq!(errors.kinetic, Some(0.25));
         assert!((errors.mean_density - 0.04 / 3.0).abs() < 1e-15);
         assert!((errors.max_density - 0.03).abs() < 1e-15);
         assert!((errors.front.unwrap() - 0.01).abs() < 1e-15);
         let broken = observed(&[DVec3::NAN; 3], &[f64::NAN; 3], f64::NAN, None);
         let errors = Errors::between(&broken, &truth);
         assert_eq!(errors.max_position, f64::INFINITY);
-        assert_eq!(errors.kinetic, f64::INFINITY);
+        assert_eq!(errors.kinetic, Some(f64::INFINITY));
+        let resting = observed(&[DVec3::ZERO; 3], &[1000.0; 3], 0.0, None);
+        assert_eq!(Errors::between(&truth, &resting).kinetic, None);
         assert_eq!(errors.front, None);
         assert_eq!(Metric::Median.of(&errors), f64::INFINITY);
     }

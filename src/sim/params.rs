@@ -71,11 +71,6 @@ impl Params {
             dt: TIME_STEP,
         }
     }
-
-    /// The same parameters with time step `dt`.
-    pub fn with_time_step(self, dt: f64) -> Self {
-        Self { dt, ..self }
-    }
 }
 
 #[cfg(test)]

@@ -37,11 +37,6 @@ impl Skin {
         &self.grid
     }
 
-    /// The skin's width (m).
-    pub fn width(&self) -> f64 {
-        self.width
-    }
-
     /// Builds so far.
     pub fn builds(&self) -> u64 {
         self.builds

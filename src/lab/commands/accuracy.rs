@@ -2,12 +2,14 @@
 //! trajectory at equal physical times; a CSV, the accuracy-speed chart with its Pareto
 //! fronts, the error-time chart, and the fastest method within each error budget.
 
+use super::simulation_args::{parse_courants, Courants};
 use crate::io::fld::{self, OutputFile};
 use crate::lab::accuracy::{self, Candidate, Metric, Run, Sweep};
 use crate::lab::chart::{self, LogChart};
 use crate::lab::machine::Machine;
 use crate::sim::method::{Kernel, Method, Model};
 use crate::sim::params::TIME_STEP;
+use crate::sim::timestep::TimeStep;
 use clap::Args;
 use plotters::chart::SeriesLabelPosition;
 use std::error::Error;
@@ -32,9 +34,9 @@ pub struct AccuracyArgs {
     /// and 4 for fluidanimate; 0.125, 0.25, 0.5 and 1 for the course model).
     #[arg(long, value_delimiter = ',')]
     dt_factors: Option<Vec<f64>>,
-    /// Courant constants of the adaptive time step (none: "").
-    #[arg(long, value_delimiter = ',', default_values_t = [0.2, 0.3, 0.4])]
-    adaptive: Vec<f64>,
+    /// Courant constants of the adaptive time step ("" for none).
+    #[arg(long, default_value = "0.2,0.3,0.4", value_parser = parse_courants)]
+    adaptive: Courants,
     /// Skins of reused neighbour lists, in smoothing lengths, each method also run with
     /// (default: none, lists rebuilt every step).
     #[arg(long, value_delimiter = ',')]
@@ -83,9 +85,6 @@ impl AccuracyArgs {
         if !fixed.iter().all(|&dt| dt.is_finite() && dt > 0.0) {
             return Err("--dt-factors need positive, finite factors".into());
         }
-        if !self.adaptive.iter().all(|&c| c > 0.0 && c <= 1.0) {
-            return Err("--adaptive needs Courant constants in (0, 1]".into());
-        }
         if !self
             .skins
             .iter()
@@ -96,7 +95,7 @@ impl AccuracyArgs {
         Ok(Candidate::product(
             &self.kernels,
             &fixed,
-            &self.adaptive,
+            &self.adaptive.0,
             &self.skins,
         ))
     }
@@ -119,6 +118,18 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     let start = scene.into_simulation(Method::default(), &name)?;
     let file_name = args.input.file_name().unwrap_or_default().to_string_lossy();
     let sweep = accuracy::sweep(&start, args.model, &candidates, &times, args.reference_dt)?;
+    let reference_step = match sweep.reference.candidate.time_step {
+        TimeStep::Fixed(dt) => dt,
+        TimeStep::Adaptive { .. } => 0.0,
+    };
+    if reference_step > sweep.shortest_step {
+        writeln!(
+            stdout,
+            "warning: the reference step is longer than the shortest method step ({:e} s), \
+             so its own error is in every method's",
+            sweep.shortest_step
+        )?;
+    }
     let machine = Machine::this();
     let rows = format!(
         "{}\n{}",

@@ -30,7 +30,7 @@ pub struct SimulationArgs {
     #[arg(long, default_value_t = TIME_STEP, value_parser = parse_time_step)]
     pub dt: f64,
     /// Adaptive time step instead of a fixed one: each step C times the shortest of
-    /// sqrt(h/|a|), h/(c+|v|) and the wall damping's 1/d_v (C about 0.2-0.4).
+    /// sqrt(h/|a|), h/(c+|hv|) and the wall damping's 1/d_v (C about 0.2-0.4).
     #[arg(long, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
     pub adaptive: Option<f64>,
     /// Reuse the cell order and tiles with a skin this many smoothing lengths wide,
@@ -134,6 +134,22 @@ fn parse_courant(text: &str) -> Result<f64, String> {
         Ok(c) if c.is_finite() && c > 0.0 && c <= 1.0 => Ok(c),
         _ => Err(format!("{text} is not a Courant constant in (0, 1]")),
     }
+}
+
+/// Courant constants of adaptive time steps, as one comma-separated argument; an empty
+/// argument (`--adaptive ""`) is none.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Courants(pub Vec<f64>);
+
+/// Parses [`Courants`]: Courant constants separated by commas, or nothing.
+pub fn parse_courants(text: &str) -> Result<Courants, String> {
+    if text.trim().is_empty() {
+        return Ok(Courants(Vec::new()));
+    }
+    text.split(',')
+        .map(|c| parse_courant(c.trim()))
+        .collect::<Result<_, _>>()
+        .map(Courants)
 }
 
 /// Parses a skin width in smoothing lengths: finite and positive.

@@ -1,7 +1,7 @@
 //! `fluid-lab stability`: a scene over time steps and resolutions, each run watched until
 //! it fails; a CSV and the stability map.
 
-use super::simulation_args::is_time_step;
+use super::simulation_args::{is_time_step, parse_courants, Courants};
 use crate::io::fld::OutputFile;
 use crate::lab::chart;
 use crate::lab::machine::Machine;
@@ -39,9 +39,10 @@ pub struct StabilityArgs {
     /// Time steps, as multiples of the course's 1e-3 s.
     #[arg(long, value_delimiter = ',', default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]
     dt_factors: Vec<f64>,
-    /// Courant constants of adaptive time steps to run beside the fixed ones (none: "").
-    #[arg(long, value_delimiter = ',', default_values_t = [0.3])]
-    adaptive: Vec<f64>,
+    /// Courant constants of adaptive time steps to run beside the fixed ones ("" for
+    /// none).
+    #[arg(long, default_value = "0.3", value_parser = parse_courants)]
+    adaptive: Courants,
     /// Simulated seconds each run must last to count as stable.
     #[arg(long, default_value_t = 0.5)]
     duration: f64,
@@ -56,9 +57,6 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
             );
         }
     }
-    if let Some(c) = args.adaptive.iter().find(|&&c| !(c > 0.0 && c <= 1.0)) {
-        return Err(format!("--adaptive: {c} is not a Courant constant in (0, 1]").into());
-    }
     if !(args.duration.is_finite() && args.duration > 0.0) {
         return Err(format!(
             "--duration: {} is not a positive, finite time",
@@ -72,6 +70,7 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
         .map(|factor| TimeStep::Fixed(factor * TIME_STEP))
         .chain(
             args.adaptive
+                .0
                 .iter()
                 .map(|&courant| TimeStep::Adaptive { courant }),
         )
