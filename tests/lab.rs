@@ -128,7 +128,7 @@ fn an_adaptive_run_reports_every_step_it_took() {
         let length: f64 = row[dt].parse().unwrap();
         assert!(length > 0.0 && length < 2e-3, "{text}");
         assert!(
-            ["force", "speed", "damping"].contains(&row[limit]),
+            ["force", "speed", "viscosity", "walls"].contains(&row[limit]),
             "{text}"
         );
         elapsed += length;

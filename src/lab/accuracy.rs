@@ -334,6 +334,9 @@ pub struct Sweep {
     pub shortest_step: f64,
 }
 
+/// The shortest adaptive step the sweep follows (s), a thousandth of the course's.
+pub const SHORTEST_STEP: f64 = 1e-6;
+
 /// How a run meets the times it is sampled at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Sampling {
@@ -373,7 +376,7 @@ fn run(
         let ahead = requested - simulation.time();
         let budget = match candidate.time_step {
             TimeStep::Fixed(dt) => (ahead / dt).ceil().max(0.0) as u64 + 2,
-            TimeStep::Adaptive { .. } => diagnostics::step_budget(ahead),
+            TimeStep::Adaptive { .. } => diagnostics::step_budget(ahead, SHORTEST_STEP),
         };
         let mut taken = 0;
         let started = cpu_time();

@@ -3,7 +3,7 @@
 //! the checks that call a run failed (non-finite values, energy growing past a bound,
 //! particles leaving the box).
 
-use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY, TIME_STEP};
+use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
 use crate::sim::particles::vector_at;
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::Limit;
@@ -167,11 +167,10 @@ impl PairCounts {
     }
 }
 
-/// Most steps a run may take to cover `span` simulated seconds: a thousand per
-/// millisecond, a thousandth of the course's step; an adaptive step shorter than that
-/// has collapsed.
-pub fn step_budget(span: f64) -> u64 {
-    (span.max(0.0) / TIME_STEP * 1000.0) as u64 + 1
+/// Most steps a run may take to cover `span` simulated seconds with steps of at least
+/// `shortest` seconds; an adaptive step shorter than that has collapsed.
+pub fn step_budget(span: f64, shortest: f64) -> u64 {
+    (span.max(0.0) / shortest) as u64 + 1
 }
 
 /// Fewest particles near the floor for [`front`] to name a front.
@@ -206,7 +205,8 @@ pub enum Failure {
     LeftBox(usize),
     /// Kinetic plus potential energy grew past the bound, as a multiple of the first.
     EnergyGrew(f64),
-    /// An adaptive step so short that the run needs more than [`step_budget`] steps.
+    /// An adaptive step shorter than the run allows, so that it needs more than its
+    /// [`step_budget`] of steps.
     StepCollapsed,
 }
 
@@ -220,7 +220,7 @@ impl fmt::Display for Failure {
                 write!(f, "the energy grew {factor:.2} times")
             }
             Failure::EnergyGrew(factor) => write!(f, "the energy grew {factor:.2e} times"),
-            Failure::StepCollapsed => write!(f, "the adaptive step collapsed"),
+            Failure::StepCollapsed => write!(f, "the adaptive step fell below the limit"),
         }
     }
 }

@@ -101,7 +101,8 @@ impl Outcome {
 }
 
 /// Runs `scene` (seed `seed`) at `ppm` with `method` and `time_step` until it has
-/// simulated `duration` seconds (finite and positive), checking every step.
+/// simulated `duration` seconds (finite and positive), checking every step; an adaptive
+/// step below `shortest_step` seconds fails it (step-collapsed).
 pub fn watch(
     scene: SceneKind,
     seed: u64,
@@ -109,6 +110,7 @@ pub fn watch(
     ppm: f64,
     time_step: TimeStep,
     duration: f64,
+    shortest_step: f64,
 ) -> Result<Outcome, String> {
     if !(duration.is_finite() && duration > 0.0) {
         return Err(format!("a duration of {duration} s is not a run"));
@@ -119,7 +121,7 @@ pub fn watch(
         .map_err(|error| error.to_string())?;
     simulation.set_time_step(time_step);
     let checks = Checks::from(&Vitals::of(&simulation));
-    let budget = diagnostics::step_budget(duration);
+    let budget = diagnostics::step_budget(duration, shortest_step);
     let (mut steps, mut failure) = (0, None);
     while !simulation.has_reached(duration) {
         if steps == budget {
@@ -333,7 +335,7 @@ mod tests {
     #[test]
     fn the_course_model_fails_where_the_stable_one_does_not() {
         let fixed = TimeStep::Fixed(1e-3);
-        let course = watch(SceneKind::DamBreak, 1, SIMD, 100.0, fixed, 0.05).unwrap();
+        let course = watch(SceneKind::DamBreak, 1, SIMD, 100.0, fixed, 0.05, 1e-5).unwrap();
         let (step, time, failure) = course.failure.expect("the course model fails");
         assert!(step <= 50, "{}", course.summary());
         assert!((time - step as f64 * 1e-3).abs() < 1e-12);
@@ -343,7 +345,16 @@ mod tests {
             model: Model::Fluidanimate,
             ..SIMD
         };
-        let stable = watch(SceneKind::DamBreak, 1, stable_method, 100.0, fixed, 0.05).unwrap();
+        let stable = watch(
+            SceneKind::DamBreak,
+            1,
+            stable_method,
+            100.0,
+            fixed,
+            0.05,
+            1e-5,
+        )
+        .unwrap();
         assert_eq!(stable.failure, None, "{}", stable.summary());
         assert_eq!(stable.steps, 50);
         assert!(
@@ -364,13 +375,22 @@ mod tests {
             model: Model::Fluidanimate,
             ..SIMD
         };
-        let outcome = watch(SceneKind::DamBreak, 1, method, 100.0, adaptive, 0.02).unwrap();
+        let outcome = watch(SceneKind::DamBreak, 1, method, 100.0, adaptive, 0.02, 1e-5).unwrap();
         assert_eq!(outcome.failure, None, "{}", outcome.summary());
         assert!(outcome.steps > 1, "{}", outcome.summary());
         assert!(outcome.summary().contains("adaptive C 0.3"));
         assert!(outcome.csv_row().contains(",adaptive,,0.3,"));
         for duration in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            assert!(watch(SceneKind::DamBreak, 1, method, 100.0, adaptive, duration).is_err());
+            assert!(watch(
+                SceneKind::DamBreak,
+                1,
+                method,
+                100.0,
+                adaptive,
+                duration,
+                1e-5
+            )
+            .is_err());
         }
         // A step longer than the duration is still one step, judged as any other.
         let once = watch(
@@ -380,15 +400,26 @@ mod tests {
             100.0,
             TimeStep::Fixed(1e3),
             0.5,
+            1e-5,
         );
         assert_eq!(once.unwrap().steps, 1);
+        // An adaptive step below the limit: the course model's viscosity at 100 particles
+        // per metre allows 0.12 ms at C 0.3, so a limit of 1 ms fails it at once.
+        let short = watch(SceneKind::DamBreak, 1, SIMD, 100.0, adaptive, 0.01, 1e-3).unwrap();
+        let (step, _, failure) = short.failure.expect("the step is below the limit");
+        assert_eq!(
+            (step, failure),
+            (11, Failure::StepCollapsed),
+            "{}",
+            short.summary()
+        );
     }
 
     #[test]
     fn the_map_is_a_valid_png_and_svg() {
         let outcomes: Vec<Outcome> = [TimeStep::Fixed(1e-3), TimeStep::Adaptive { courant: 0.5 }]
             .iter()
-            .map(|&rule| watch(SceneKind::DamBreak, 1, SIMD, 100.0, rule, 0.01).unwrap())
+            .map(|&rule| watch(SceneKind::DamBreak, 1, SIMD, 100.0, rule, 0.01, 1e-5).unwrap())
             .collect();
         let dir = tempfile::tempdir().unwrap();
         let map = StabilityMap {

@@ -1,10 +1,13 @@
 //! The time step: fixed (the course's 1 ms, or any other), or adaptive from the state of
 //! each step in the form the SPH codes use (DualSPHysics, PySPH): a Courant constant C
-//! times the smallest of a force criterion, an acoustic one and the wall damping's
-//! explicit limit. And the leapfrog of a step whose length differs from the last one's.
+//! times the smallest of a force criterion, an acoustic one, and the explicit limits of
+//! the viscosity and of the walls. And the leapfrog of a step whose length differs from
+//! the last one's.
 
-use crate::sim::params::{Params, DAMPING, PRESSURE_STIFFNESS};
+use crate::sim::method::Model;
+use crate::sim::params::{Params, COLLISION_STIFFNESS, DAMPING, FLUID_DENSITY, PRESSURE_STIFFNESS};
 use crate::sim::particles::Particles;
+use std::f64::consts::PI;
 
 /// How each step's length is chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,8 +31,11 @@ pub enum Limit {
     /// h / (c + |hv|) of the fastest particle (hv its half-step velocity), c the sound
     /// speed of the pressure law.
     Speed,
-    /// 1 / d_v, the explicit limit of the walls' velocity damping.
-    Damping,
+    /// 2 / lambda, the explicit limit of the viscosity's damping at rate lambda
+    /// ([`viscous_rate`]).
+    Viscosity,
+    /// min(2 / d_v, 2 / sqrt(s_c)), the explicit limit of the walls' damping and spring.
+    Walls,
     /// Cut short to land on a requested time.
     Landing,
 }
@@ -41,7 +47,8 @@ impl Limit {
             Limit::Fixed => "fixed",
             Limit::Force => "force",
             Limit::Speed => "speed",
-            Limit::Damping => "damping",
+            Limit::Viscosity => "viscosity",
+            Limit::Walls => "walls",
             Limit::Landing => "landing",
         }
     }
@@ -52,12 +59,37 @@ pub fn sound_speed() -> f64 {
     PRESSURE_STIFFNESS.sqrt()
 }
 
+/// The explicit stability limit of the walls' penalty (s): min(2 / d_v, 2 / sqrt(s_c)).
+pub fn walls_limit() -> f64 {
+    (2.0 / DAMPING).min(2.0 / COLLISION_STIFFNESS.sqrt())
+}
+
+/// The rate (1/s) at which `model`'s viscosity damps a particle's velocity relative to
+/// its neighbours' in fluid at rest: each pair adds viscosity_factor * w / (rho_i rho_j)
+/// times the velocity difference, w = 1 (course) or h - r <= h (fluidanimate), and a
+/// particle at rest has (4/3) pi (h ppm)^3 = 20.4 neighbours within h. An explicit step
+/// is stable below about 2 / rate: for the course model 0.4 ms at 100 particles per metre
+/// and 15 us at 300, for fluidanimate 24 and 2.7 ms (the stability map's limits).
+pub fn viscous_rate(params: &Params, model: Model) -> f64 {
+    let neighbours = 4.0 / 3.0 * PI * (params.h * params.ppm).powi(3);
+    let weight = match model {
+        Model::Course => 1.0,
+        Model::Fluidanimate => params.h,
+    };
+    neighbours * params.viscosity_factor * weight / (FLUID_DENSITY * FLUID_DENSITY)
+}
+
 /// The adaptive step of a state whose accelerations (pairs and gravity, stages 2-5) are
-/// computed: C * min(min_i sqrt(h / |a_i|), h / (c + max_i |hv_i|), 1 / d_v), and the
-/// criterion that set it. Non-finite values are skipped (the run's own checks report them).
-/// The walls' spring (stiffness s_c) needs no criterion of its own: its explicit limit,
-/// 2 / sqrt(s_c) = 11.5 ms, is longer than 1 / d_v = 7.8 ms.
-pub fn adaptive_step(params: &Params, particles: &Particles, courant: f64) -> (f64, Limit) {
+/// computed: C * min(min_i sqrt(h / |a_i|), h / (c + max_i |hv_i|), 2 / lambda, walls)
+/// with lambda `model`'s [`viscous_rate`] and walls = min(2 / d_v, 2 / sqrt(s_c)) =
+/// 11.5 ms, and the criterion that set it. The last two are explicit stability limits.
+/// Non-finite values are skipped (the run's own checks report them).
+pub fn adaptive_step(
+    params: &Params,
+    model: Model,
+    particles: &Particles,
+    courant: f64,
+) -> (f64, Limit) {
     let n = particles.len();
     let squared = |arrays: &[Vec<f64>; 3], slot: usize| {
         arrays[0][slot].powi(2) + arrays[1][slot].powi(2) + arrays[2][slot].powi(2)
@@ -79,12 +111,13 @@ pub fn adaptive_step(params: &Params, particles: &Particles, courant: f64) -> (f
             Limit::Force,
         ),
         (params.h / (sound_speed() + largest_v2.sqrt()), Limit::Speed),
-        (1.0 / DAMPING, Limit::Damping),
+        (2.0 / viscous_rate(params, model), Limit::Viscosity),
+        (walls_limit(), Limit::Walls),
     ];
     let (scale, limit) =
         criteria
             .into_iter()
-            .fold((f64::INFINITY, Limit::Damping), |best, criterion| {
+            .fold((f64::INFINITY, Limit::Walls), |best, criterion| {
                 if criterion.0 < best.0 {
                     criterion
                 } else {
@@ -154,51 +187,70 @@ mod tests {
         particles
     }
 
+    const STABLE: Model = Model::Fluidanimate;
+
     #[test]
     fn each_criterion_can_set_the_step() {
-        let params = Params::new(292.0);
+        let params = Params::new(200.0);
         let c = sound_speed();
         // At rest with gravity only: the acoustic time h / c is the shortest.
-        let (dt, limit) = adaptive_step(&params, &particles_with([0.0, -9.8, 0.0], [0.0; 3]), 0.3);
+        let rest = particles_with([0.0, -9.8, 0.0], [0.0; 3]);
+        let (dt, limit) = adaptive_step(&params, STABLE, &rest, 0.3);
         assert_eq!(limit, Limit::Speed);
         assert!((dt - 0.3 * params.h / c).abs() < 1e-15);
         // A violent state: |a| = 5e4 m/s^2 gives sqrt(h / |a|) well below h / c.
-        let (dt, limit) = adaptive_step(
-            &params,
-            &particles_with([3e4, -4e4, 0.0], [1.0, 0.0, 0.0]),
-            0.25,
-        );
+        let violent = particles_with([3e4, -4e4, 0.0], [1.0, 0.0, 0.0]);
+        let (dt, limit) = adaptive_step(&params, STABLE, &violent, 0.25);
         assert_eq!(limit, Limit::Force);
         assert!((dt - 0.25 * (params.h / 5e4).sqrt()).abs() < 1e-15);
         // Fast particles shorten the acoustic time.
-        let (dt, limit) = adaptive_step(&params, &particles_with([0.0; 3], [0.0, 0.0, 10.0]), 1.0);
+        let fast = particles_with([0.0; 3], [0.0, 0.0, 10.0]);
+        let (dt, limit) = adaptive_step(&params, STABLE, &fast, 1.0);
         assert_eq!(limit, Limit::Speed);
         assert!((dt - params.h / (c + 10.0)).abs() < 1e-15);
-        // Coarse particles at rest: the walls' damping limit is the shortest.
+        // The course model's viscosity, and fluidanimate's at finer resolution.
+        for (ppm, model) in [(200.0, Model::Course), (292.0, STABLE)] {
+            let params = Params::new(ppm);
+            let (dt, limit) = adaptive_step(&params, model, &rest, 0.3);
+            assert_eq!(limit, Limit::Viscosity, "{model:?} at {ppm}");
+            assert!((dt - 0.6 / viscous_rate(&params, model)).abs() < 1e-15);
+        }
+        // Coarse particles at rest: the walls' limit is the shortest.
         let coarse = Params::new(40.0);
-        let (dt, limit) = adaptive_step(&coarse, &particles_with([0.0; 3], [0.0; 3]), 0.5);
-        assert_eq!(limit, Limit::Damping);
-        assert_eq!(dt, 0.5 / DAMPING);
+        let (dt, limit) = adaptive_step(&coarse, STABLE, &particles_with([0.0; 3], [0.0; 3]), 0.5);
+        assert_eq!(limit, Limit::Walls);
+        assert_eq!(dt, 0.5 * walls_limit());
+        assert!((walls_limit() - 2.0 / COLLISION_STIFFNESS.sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_viscous_limit_is_the_stability_maps() {
+        // 2 / rate: 0.41 ms for the course model at 100 particles per metre, which is
+        // stable at 0.25 ms and fails at 0.5 ms; 2.7 ms for fluidanimate at 300, stable at
+        // 2 ms and failing at 4 ms (README's stability map).
+        let limit = |ppm: f64, model| 2.0 / viscous_rate(&Params::new(ppm), model);
+        assert!((limit(100.0, Model::Course) - 4.06e-4).abs() < 1e-6);
+        assert!((limit(300.0, STABLE) - 2.66e-3).abs() < 1e-5);
+        let params = Params::new(150.0);
+        let ratio = viscous_rate(&params, Model::Course) / viscous_rate(&params, STABLE);
+        assert!((ratio * params.h - 1.0).abs() < 1e-12);
     }
 
     #[test]
     fn a_calm_state_takes_longer_steps_than_a_violent_one() {
-        let params = Params::new(292.0);
-        let calm = adaptive_step(&params, &particles_with([0.0, -9.8, 0.0], [0.0; 3]), 0.3).0;
-        let violent = adaptive_step(
-            &params,
-            &particles_with([2e3, 0.0, 0.0], [0.0, 3.0, 0.0]),
-            0.3,
-        )
-        .0;
+        let params = Params::new(200.0);
+        let calm = particles_with([0.0, -9.8, 0.0], [0.0; 3]);
+        let violent = particles_with([2e3, 0.0, 0.0], [0.0, 3.0, 0.0]);
+        let calm = adaptive_step(&params, STABLE, &calm, 0.3).0;
+        let violent = adaptive_step(&params, STABLE, &violent, 0.3).0;
         assert!(calm > 2.0 * violent, "{calm} against {violent}");
     }
 
     #[test]
     fn non_finite_values_do_not_set_the_step() {
-        let params = Params::new(292.0);
+        let params = Params::new(200.0);
         let particles = particles_with([f64::NAN, 0.0, 0.0], [f64::INFINITY, 0.0, 0.0]);
-        let (dt, limit) = adaptive_step(&params, &particles, 0.3);
+        let (dt, limit) = adaptive_step(&params, STABLE, &particles, 0.3);
         assert_eq!(limit, Limit::Speed);
         assert!(dt.is_finite() && dt > 0.0);
     }

@@ -30,7 +30,8 @@ pub struct SimulationArgs {
     #[arg(long, default_value_t = TIME_STEP, value_parser = parse_time_step)]
     pub dt: f64,
     /// Adaptive time step instead of a fixed one: each step C times the shortest of
-    /// sqrt(h/|a|), h/(c+|hv|) and the wall damping's 1/d_v (C about 0.2-0.4).
+    /// sqrt(h/|a|), h/(c+|hv|), and the explicit limits of the viscosity and of the
+    /// walls (C about 0.2-0.4).
     #[arg(long, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
     pub adaptive: Option<f64>,
     /// Reuse the cell order and tiles with a skin this many smoothing lengths wide,

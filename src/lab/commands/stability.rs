@@ -46,6 +46,10 @@ pub struct StabilityArgs {
     /// Simulated seconds each run must last to count as stable.
     #[arg(long, default_value_t = 0.5)]
     duration: f64,
+    /// Shortest adaptive step a run may take (s); a shorter one fails it as collapsed
+    /// (the default, a hundredth of the course's step, keeps the map to minutes).
+    #[arg(long, default_value_t = 1e-5)]
+    shortest_step: f64,
 }
 
 /// Watches every (model, ppm, time step) run and writes the CSV and the map.
@@ -61,6 +65,13 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
         return Err(format!(
             "--duration: {} is not a positive, finite time",
             args.duration
+        )
+        .into());
+    }
+    if !(args.shortest_step.is_finite() && args.shortest_step > 0.0) {
+        return Err(format!(
+            "--shortest-step: {} is not a positive step",
+            args.shortest_step
         )
         .into());
     }
@@ -83,8 +94,15 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
             let method = Method { model, kernel };
             for &ppm in &args.ppms {
                 for &rule in &rules {
-                    let outcome =
-                        stability::watch(args.scene, args.seed, method, ppm, rule, args.duration)?;
+                    let outcome = stability::watch(
+                        args.scene,
+                        args.seed,
+                        method,
+                        ppm,
+                        rule,
+                        args.duration,
+                        args.shortest_step,
+                    )?;
                     writeln!(stdout, "{}", outcome.summary())?;
                     rows.push_str(&outcome.csv_row());
                     rows.push('\n');
