@@ -17,4 +17,4 @@ echo "method: $lab render, accuracy and stability (plotters, embedded DejaVu San
 "$lab" render target/scenes/dam-break.fld docs/images/dam-break.png --model fluidanimate --steps 400
 # Accuracy against speed, and where each method fails (CSV, PNG and SVG in each folder).
 scripts/accuracy-sweeps.sh docs/accuracy
-"$lab" stability --kernels simd,mixed --adaptive 0.2,0.3,0.4 --output-dir docs/stability
+"$lab" stability --kernels simd,mixed --output-dir docs/stability

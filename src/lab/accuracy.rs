@@ -350,7 +350,8 @@ enum Sampling {
 
 /// Runs `candidate` on `model` from `start` through `times` (ascending, s), sampled as
 /// `sampling` says, calling `observe` with each sampled state (densities fresh); stops
-/// at the first time whose state is not finite or that its step budget cannot reach.
+/// at the first time whose state is not finite, or at an adaptive step shorter than
+/// [`SHORTEST_STEP`].
 fn run(
     start: &Simulation,
     model: Model,
@@ -372,29 +373,23 @@ fn run(
     let mut samples = Vec::new();
     let mut failure = None;
     for &requested in times {
-        // A fixed step cannot collapse: it needs just the steps that cover the time.
-        let ahead = requested - simulation.time();
-        let budget = match candidate.time_step {
-            TimeStep::Fixed(dt) => (ahead / dt).ceil().max(0.0) as u64 + 2,
-            TimeStep::Adaptive { .. } => diagnostics::step_budget(ahead, SHORTEST_STEP),
-        };
-        let mut taken = 0;
+        let mut collapsed = false;
         let started = cpu_time();
-        while taken < budget && !simulation.has_reached(requested) {
+        while !collapsed && !simulation.has_reached(requested) {
             match sampling {
                 Sampling::Unperturbed => simulation.step(),
                 Sampling::Landing => simulation.step_towards(requested),
             }
-            taken += 1;
+            steps += 1;
             if let Some((dt, limit)) = simulation.last_step() {
                 if limit != Limit::Landing {
                     shortest = shortest.min(dt);
                 }
             }
+            collapsed = diagnostics::step_collapsed(&simulation, SHORTEST_STEP);
         }
         cpu_seconds += cpu_time() - started;
-        steps += taken;
-        if !simulation.has_reached(requested) {
+        if collapsed {
             failure = Some((simulation.time(), Failure::StepCollapsed));
             break;
         }

@@ -167,10 +167,12 @@ impl PairCounts {
     }
 }
 
-/// Most steps a run may take to cover `span` simulated seconds with steps of at least
-/// `shortest` seconds; an adaptive step shorter than that has collapsed.
-pub fn step_budget(span: f64, shortest: f64) -> u64 {
-    (span.max(0.0) / shortest) as u64 + 1
+/// Whether the last step of `simulation` was an adaptive one shorter than `shortest`
+/// seconds: the run has collapsed (fixed steps and steps cut to land on a time never do).
+pub fn step_collapsed(simulation: &Simulation, shortest: f64) -> bool {
+    simulation
+        .last_step()
+        .is_some_and(|(dt, limit)| !matches!(limit, Limit::Fixed | Limit::Landing) && dt < shortest)
 }
 
 /// Fewest particles near the floor for [`front`] to name a front.
@@ -205,8 +207,7 @@ pub enum Failure {
     LeftBox(usize),
     /// Kinetic plus potential energy grew past the bound, as a multiple of the first.
     EnergyGrew(f64),
-    /// An adaptive step shorter than the run allows, so that it needs more than its
-    /// [`step_budget`] of steps.
+    /// An adaptive step shorter than the run allows ([`step_collapsed`]).
     StepCollapsed,
 }
 

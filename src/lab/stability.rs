@@ -121,15 +121,14 @@ pub fn watch(
         .map_err(|error| error.to_string())?;
     simulation.set_time_step(time_step);
     let checks = Checks::from(&Vitals::of(&simulation));
-    let budget = diagnostics::step_budget(duration, shortest_step);
     let (mut steps, mut failure) = (0, None);
     while !simulation.has_reached(duration) {
-        if steps == budget {
+        simulation.step();
+        steps += 1;
+        if diagnostics::step_collapsed(&simulation, shortest_step) {
             failure = Some((steps, simulation.time(), Failure::StepCollapsed));
             break;
         }
-        simulation.step();
-        steps += 1;
         if let Some(reason) = checks.failure(&Vitals::of(&simulation)) {
             failure = Some((steps, simulation.time(), reason));
             break;
@@ -409,7 +408,7 @@ mod tests {
         let (step, _, failure) = short.failure.expect("the step is below the limit");
         assert_eq!(
             (step, failure),
-            (11, Failure::StepCollapsed),
+            (1, Failure::StepCollapsed),
             "{}",
             short.summary()
         );
