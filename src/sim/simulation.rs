@@ -174,11 +174,6 @@ impl Simulation {
         self.skin.as_ref()
     }
 
-    /// How the steps' lengths are chosen.
-    pub fn time_step(&self) -> TimeStep {
-        self.time_step
-    }
-
     /// Physical time simulated so far, the sum of the steps' lengths (s).
     pub fn time(&self) -> f64 {
         self.time
