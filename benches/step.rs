@@ -125,7 +125,7 @@ fn scaling(c: &mut Criterion) {
             model: Model::Fluidanimate,
             kernel: Kernel::Simd,
         };
-        let particles = scene::corner_block(400.0, count);
+        let particles = scene::corner_block(400.0, count).expect("the box holds the block");
         let initial = Simulation::with_method(400.0, particles, method).expect("valid grid");
         group.throughput(Throughput::Elements(count as u64));
         group.bench_function(count.to_string(), |b| {

@@ -1,14 +1,17 @@
 //! One run of the `fluid` command, from its arguments to its output file: the checks of
 //! SPEC.md section 1 in order, the printed parameters, the simulation and the atomic write.
+//! Beyond SPEC.md, the output's room is reserved before simulating (rule 5's error if there
+//! is none), and a final state the f32 format cannot store is an error, not an output.
 
 use crate::error::FluidError;
-use crate::io::fld::{self, OutputFile};
+use crate::io::fld;
 use crate::io::gformat::format_g;
+use crate::io::output::OutputFile;
 use crate::progargs::ProgArgs;
 use crate::sim::grid::Grid;
 use crate::sim::method::Method;
 use crate::sim::params::Params;
-use std::ffi::OsString;
+use std::ffi::{OsStr, OsString};
 use std::io::Write;
 
 /// Runs `fluid` with `args` (program name excluded), printing the parameters to `stdout`.
@@ -19,33 +22,38 @@ where
 {
     let args = ProgArgs::parse(args)?;
     let input = fld::map_input(&args.input)?;
-    let output = OutputFile::create(&args.output)?;
-    let input_name = args.input.display().to_string();
+    let mut output = OutputFile::create(&args.output)?;
+    let input_name = args.input.as_os_str();
     if args.steps == 0 {
         // No step to run: the state after 0 steps is the input's, and a valid input's
         // bytes are its own encoding, so the input is validated, not decoded or placed.
-        let header = fld::validate(&input, &input_name)?;
-        print_report(&header, &input_name, stdout)?;
+        let header = fld::validate(&input, input_name)?;
+        output.reserve(input.len() as u64)?;
+        print_report(&header, input_name, stdout)?;
         return Ok(output.commit(&input)?);
     }
-    let scene = fld::parse(&input, &input_name)?;
+    let scene = fld::parse(&input, input_name)?;
     drop(input);
     let ppm = scene.ppm;
     let header = fld::Header {
         ppm,
         particles: scene.particles.len(),
     };
-    print_report(&header, &input_name, stdout)?;
-    let mut simulation = scene.into_simulation(Method::default(), &input_name)?;
+    // The output's room is checked (rule 5) before the report and the simulation.
+    output.reserve(fld::file_size(header.particles))?;
+    print_report(&header, input_name, stdout)?;
+    let mut simulation = scene.into_simulation(Method::default(), input_name)?;
     simulation.run(args.steps);
-    Ok(output.commit(&fld::encode(ppm, simulation.particles()))?)
+    let bytes = fld::encode(ppm, simulation.particles())
+        .map_err(|unstorable| unstorable.for_output(args.output.as_os_str()))?;
+    Ok(output.commit(&bytes)?)
 }
 
 /// Prints the parameter report of a valid input (stdout errors are ignored: the run goes
 /// on), or returns the error of particles per metre that admit no grid.
 fn print_report(
     header: &fld::Header,
-    file: &str,
+    file: &OsStr,
     stdout: &mut impl Write,
 ) -> Result<(), FluidError> {
     let (params, grid) = header.grid(file)?;

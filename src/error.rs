@@ -25,12 +25,26 @@ impl FluidError {
             Self::ArgumentCount(_) | Self::StepsNotNumeric => 255,
             Self::NegativeSteps => 254,
             Self::File(FileError::CannotOpenInput(_)) => 253,
-            Self::File(FileError::CannotOpenOutput(_) | FileError::CannotWriteOutput { .. }) => 252,
+            Self::File(
+                FileError::CannotOpenOutput(_)
+                | FileError::CannotWriteOutput { .. }
+                | FileError::Unrepresentable { .. },
+            ) => 252,
             Self::File(
                 FileError::InvalidParticleCount(_)
                 | FileError::ParticleCountMismatch { .. }
                 | FileError::InvalidInput { .. },
             ) => 251,
+        }
+    }
+}
+
+impl FluidError {
+    /// The message after `Error: `, with file names byte for byte as given.
+    pub fn message(&self) -> Vec<u8> {
+        match self {
+            Self::File(error) => error.message(),
+            other => other.to_string().into_bytes(),
         }
     }
 }

@@ -7,7 +7,8 @@ fn main() -> ExitCode {
     match fluid::cli::run(std::env::args_os().skip(1), &mut std::io::stdout().lock()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            let _ = writeln!(std::io::stderr(), "Error: {error}");
+            let line = [&b"Error: "[..], &error.message(), b"\n"].concat();
+            let _ = std::io::stderr().write_all(&line);
             ExitCode::from(error.exit_code())
         }
     }

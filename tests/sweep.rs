@@ -164,17 +164,159 @@ fn sweep_with(program: &str, inputs: &[&Path], csv_path: &Path) -> std::process:
 }
 
 #[test]
-fn a_failing_run_stops_the_sweep_with_its_command_and_writes_no_csv() {
+fn a_failing_run_names_its_command_and_keeps_the_idle_window_measured_before() {
     let dir = tempfile::tempdir().unwrap();
     let csv_path = dir.path().join("sweep.csv");
     let small = input("small");
-    let output = sweep_with("false", &[&small], &csv_path);
+    // The warm-up run fails, after the idle window.
+    let output = sweep_with("/bin/false", &[&small], &csv_path);
     assert_eq!(exit_code(&output), 1);
     let expected = format!(
-        "fluid-lab: error: false 0 {} /dev/null failed (exit status: 1): \n",
-        small.display()
+        "fluid-lab: error: /bin/false 0 {} /dev/null failed (exit status: 1); \
+         the 1 row measured is in {}, and --resume goes on from it\n",
+        small.display(),
+        csv_path.display()
     );
     assert!(stderr(&output).ends_with(&expected), "{}", stderr(&output));
+    let kept = std::fs::read_to_string(&csv_path).unwrap();
+    assert_eq!(kept.lines().count(), 2, "{kept}");
+    assert!(
+        kept.lines().nth(1).unwrap().starts_with("idle,,,,1,"),
+        "{kept}"
+    );
+}
+
+/// A program that runs `fluid`, or fails with "broken" when run for `fail` iterations.
+fn flaky_fluid(dir: &Path, fail: &str) -> std::path::PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let script = dir.join("flaky.sh");
+    let text = format!(
+        "#!/bin/sh\nif [ \"$1\" = \"{fail}\" ]; then echo broken >&2; exit 3; fi\nexec {} \"$@\"\n",
+        env!("CARGO_BIN_EXE_fluid")
+    );
+    std::fs::write(&script, text).unwrap();
+    std::fs::set_permissions(&script, std::fs::Permissions::from_mode(0o755)).unwrap();
+    script
+}
+
+#[test]
+fn a_failed_point_keeps_the_rows_measured_and_resume_goes_on_from_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv_path = dir.path().join("sweep.csv");
+    let small = input("small");
+    let sweep = |fail: &str, resume: bool| {
+        let program = flaky_fluid(dir.path(), fail);
+        let mut args: Vec<&std::ffi::OsStr> = [
+            "sweep",
+            "--iterations",
+            "0",
+            "2",
+            "--repeats",
+            "2",
+            "--idle-seconds",
+            "0",
+            "--output",
+        ]
+        .iter()
+        .map(|a| a.as_ref())
+        .collect();
+        args.push(csv_path.as_os_str());
+        args.extend(["--program".as_ref(), program.as_os_str()]);
+        if resume {
+            args.push("--resume".as_ref());
+        }
+        args.extend(["--".as_ref(), small.as_os_str()]);
+        run_lab(&args)
+    };
+    let failed = sweep("2", false);
+    assert_eq!(exit_code(&failed), 1);
+    let message = stderr(&failed);
+    assert!(
+        message.contains("2 ") && message.contains("failed (exit status: 3): broken"),
+        "{message}"
+    );
+    assert!(
+        message.contains("; the 3 rows measured are in "),
+        "{message}"
+    );
+    assert!(
+        message.ends_with(", and --resume goes on from them\n"),
+        "{message}"
+    );
+    assert_eq!(
+        message
+            .lines()
+            .last()
+            .unwrap()
+            .matches("fluid-lab: error:")
+            .count(),
+        1
+    );
+    let kept = std::fs::read_to_string(&csv_path).unwrap();
+    let rows: Vec<&str> = kept.lines().collect();
+    // Header, two idle windows, the 0-iteration run of repeat 1.
+    assert_eq!(rows.len(), 4, "{kept}");
+    assert!(rows[3].starts_with("run,small.fld,4800,0,1,"), "{kept}");
+    let resumed = sweep("never", true);
+    assert_eq!(exit_code(&resumed), 0, "{}", stderr(&resumed));
+    assert!(
+        stdout(&resumed).contains("(6 rows)"),
+        "{}",
+        stdout(&resumed)
+    );
+    let full = std::fs::read_to_string(&csv_path).unwrap();
+    assert!(full.starts_with(&kept), "the kept rows stay as they were");
+    let points: Vec<(String, String)> = full
+        .lines()
+        .skip(1)
+        .map(|line| {
+            let cells: Vec<&str> = line.split(',').collect();
+            (cells[3].to_string(), cells[4].to_string())
+        })
+        .collect();
+    let expected = [
+        ("", "1"),
+        ("", "2"),
+        ("0", "1"),
+        ("2", "1"),
+        ("0", "2"),
+        ("2", "2"),
+    ];
+    assert_eq!(points.len(), expected.len(), "{full}");
+    for (point, (iterations, repeat)) in points.iter().zip(expected) {
+        assert_eq!(
+            (point.0.as_str(), point.1.as_str()),
+            (iterations, repeat),
+            "{full}"
+        );
+    }
+}
+
+#[test]
+fn a_program_must_be_an_executable_file_and_iterations_what_fluid_takes() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv_path = dir.path().join("sweep.csv");
+    let small = input("small");
+    // A bare name is a file here, not a command looked up in PATH (`dir` is one).
+    let output = sweep_with("dir", &[&small], &csv_path);
+    assert_eq!(exit_code(&output), 1);
+    assert_eq!(
+        stderr(&output),
+        "fluid-lab: error: --program ./dir: no executable file there\n"
+    );
+    let output = run_lab(&[
+        "sweep".as_ref(),
+        "--iterations".as_ref(),
+        "18446744073709551615".as_ref(),
+        "--output".as_ref(),
+        csv_path.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 2);
+    assert!(
+        stderr(&output).contains("18446744073709551615"),
+        "{}",
+        stderr(&output)
+    );
     assert!(!csv_path.exists());
 }
 

@@ -1,6 +1,8 @@
 //! `fluid-lab`: the workbench binary (see [`fluid::lab`]).
 
 use clap::Parser;
+use fluid::io::fld::FileError;
+use std::io::Write;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -8,7 +10,13 @@ fn main() -> ExitCode {
     match lab.execute(&mut std::io::stdout().lock()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("fluid-lab: error: {error}");
+            // File names as given, byte for byte, where the error is a file's.
+            let message = match error.downcast_ref::<FileError>() {
+                Some(file_error) => file_error.message(),
+                None => error.to_string().into_bytes(),
+            };
+            let line = [&b"fluid-lab: error: "[..], &message, b"\n"].concat();
+            let _ = std::io::stderr().write_all(&line);
             ExitCode::FAILURE
         }
     }

@@ -7,6 +7,20 @@ const PRECISION: i32 = 6;
 /// digits, trailing zeros and point removed, scientific form when the decimal exponent
 /// is below -4 or at least 6.
 pub fn format_g(x: f64) -> String {
+    format_g_with(x, PRECISION)
+}
+
+/// Formats an f32 in `%g` style with the fewest significant digits (6 to 9) that read
+/// back as the same f32: how messages name a value, so two values never print alike.
+pub fn format_g_exact(x: f32) -> String {
+    (PRECISION..=9)
+        .map(|digits| format_g_with(x.into(), digits))
+        .find(|text| text.parse::<f32>().is_ok_and(|back| back == x))
+        .unwrap_or_else(|| format_g_with(x.into(), 9))
+}
+
+/// `%g` with `precision` significant digits.
+fn format_g_with(x: f64, precision: i32) -> String {
     if x.is_nan() {
         return if x.is_sign_negative() { "-nan" } else { "nan" }.to_string();
     }
@@ -16,14 +30,14 @@ pub fn format_g(x: f64) -> String {
     if x == 0.0 {
         return if x.is_sign_negative() { "-0" } else { "0" }.to_string();
     }
-    // The exponent after rounding to PRECISION significant digits decides the style.
-    let scientific = format!("{:.*e}", (PRECISION - 1) as usize, x);
+    // The exponent after rounding to `precision` significant digits decides the style.
+    let scientific = format!("{:.*e}", (precision - 1) as usize, x);
     let (mantissa, exponent) = scientific
         .split_once('e')
         .expect("Rust's {:e} output always has an exponent");
     let exponent: i32 = exponent.parse().expect("exponent is an integer");
-    if (-4..PRECISION).contains(&exponent) {
-        let decimals = (PRECISION - 1 - exponent) as usize;
+    if (-4..precision).contains(&exponent) {
+        let decimals = (precision - 1 - exponent) as usize;
         trim_fraction(&format!("{x:.decimals$}")).to_string()
     } else {
         let sign = if exponent < 0 { '-' } else { '+' };
@@ -42,7 +56,19 @@ fn trim_fraction(digits: &str) -> &str {
 
 #[cfg(test)]
 mod tests {
-    use super::format_g;
+    use super::{format_g, format_g_exact};
+
+    #[test]
+    fn exact_form_tells_neighbouring_f32_apart() {
+        let (a, b) = (13.0385f32, f32::from_bits(13.0385f32.to_bits() + 1));
+        assert_eq!(format_g(a.into()), format_g(b.into()));
+        assert_eq!(format_g_exact(a), "13.0385");
+        assert_eq!(format_g_exact(b), "13.038501");
+        assert_eq!(format_g_exact(b).parse::<f32>().unwrap(), b);
+        assert_eq!(format_g_exact(1e30), "1e+30");
+        assert_eq!(format_g_exact(204.0), "204");
+        assert_eq!(format_g_exact(f32::NAN), "nan");
+    }
 
     #[test]
     fn integers_print_without_a_point() {

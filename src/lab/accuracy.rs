@@ -755,7 +755,7 @@ mod tests {
 
     #[test]
     fn the_sweep_measures_methods_against_a_finer_reference_at_equal_times() {
-        let particles = crate::lab::scene::corner_block(150.0, 300);
+        let particles = crate::lab::scene::corner_block(150.0, 300).unwrap();
         let start = Simulation::new(150.0, particles).unwrap();
         let simd = |time_step| Candidate {
             kernel: Kernel::Simd,
@@ -841,7 +841,7 @@ mod tests {
 
     #[test]
     fn runs_that_break_or_whose_step_collapses_stop_with_the_reason() {
-        let mut particles = crate::lab::scene::corner_block(150.0, 30);
+        let mut particles = crate::lab::scene::corner_block(150.0, 30).unwrap();
         let start = Simulation::new(150.0, particles.clone()).unwrap();
         particles.hv[0][0] = 1e6; // an adaptive step of nanoseconds
         let fast = Simulation::new(150.0, particles.clone()).unwrap();

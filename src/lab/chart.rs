@@ -3,6 +3,7 @@
 //! min-max bar. Drawn with plotters as PNG and SVG, with an embedded font (DejaVu Sans), so
 //! no system font library and no network are needed.
 
+use crate::io::output::OutputFile;
 use crate::lab::energy::Domain;
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::Shift;
@@ -174,13 +175,17 @@ impl SweepTable {
         for (line, record) in reader.records().enumerate() {
             let record = record?;
             let bad = |what: &str| format!("row {}: {what}", line + 2);
+            // A measurement: empty (not measured), or a finite number >= 0.
             let number = |index: usize| -> Result<Option<f64>, String> {
-                match &record[index] {
-                    "" => Ok(None),
-                    text => text
-                        .parse()
-                        .map(Some)
-                        .map_err(|_| bad(&format!("{text:?} is not a number"))),
+                let text = &record[index];
+                match text.parse::<f64>() {
+                    _ if text.is_empty() => Ok(None),
+                    Ok(value) if value.is_finite() && value >= 0.0 => Ok(Some(value)),
+                    Ok(_) => Err(bad(&format!(
+                        "{} is {text}, not a finite measurement >= 0",
+                        &headers[index]
+                    ))),
+                    Err(_) => Err(bad(&format!("{text:?} is not a number"))),
                 }
             };
             let is_run = match &record[kind] {
@@ -371,7 +376,8 @@ pub trait Drawing {
         DB::ErrorType: 'static;
 }
 
-/// Writes `drawing` as `DIR/NAME.png` and `DIR/NAME.svg`, `size` pixels; returns both paths.
+/// Writes `drawing` as `DIR/NAME.png` and `DIR/NAME.svg`, `size` pixels, each whole or not
+/// at all; returns both paths.
 pub fn render<D: Drawing>(
     drawing: &D,
     folder: &Path,
@@ -380,8 +386,13 @@ pub fn render<D: Drawing>(
     register_font()?;
     let png = folder.join(format!("{}.png", drawing.name()));
     let svg = folder.join(format!("{}.svg", drawing.name()));
-    drawing.draw_on(BitMapBackend::new(&png, size).into_drawing_area())?;
-    drawing.draw_on(SVGBackend::new(&svg, size).into_drawing_area())?;
+    let (png_file, svg_file) = (OutputFile::create(&png)?, OutputFile::create(&svg)?);
+    let staged = png_file.staged()?;
+    drawing.draw_on(BitMapBackend::new(staged.path(), size).into_drawing_area())?;
+    staged.commit()?;
+    let mut text = String::new();
+    drawing.draw_on(SVGBackend::with_string(&mut text, size).into_drawing_area())?;
+    svg_file.commit(text.as_bytes())?;
     Ok([png, svg])
 }
 

@@ -12,7 +12,7 @@ use std::fmt;
 /// The CSV header of [`Diagnostics::csv_row`].
 pub const CSV_HEADER: &str = "step,time_s,max_speed_m_s,outside,kinetic_j,potential_j,\
                               total_j,mean_density_error,max_density_error,pairs_within_h,\
-                              dt_s,dt_limit";
+                              dt_s,dt_limit,beyond_f32";
 
 /// What one scan of the particles tells, without densities: cheap enough to check a run
 /// after every step.
@@ -28,6 +28,9 @@ pub struct Vitals {
     pub potential: f64,
     /// The first particle (by id) with a non-finite position or velocity.
     pub non_finite: Option<u32>,
+    /// Particles with a finite value beyond the f32 range (+-3.4e38) that `.fld` files
+    /// store: a state that cannot be written.
+    pub beyond_f32: usize,
 }
 
 impl Vitals {
@@ -41,6 +44,7 @@ impl Vitals {
             kinetic: 0.0,
             potential: 0.0,
             non_finite: None,
+            beyond_f32: 0,
         };
         let (low, high) = (BOX_MIN - params.h, BOX_MAX + params.h);
         for slot in 0..particles.len() {
@@ -50,6 +54,13 @@ impl Vitals {
                 let id = particles.id[slot];
                 vitals.non_finite = Some(vitals.non_finite.map_or(id, |k| k.min(id)));
                 continue;
+            }
+            let half_velocity = vector_at(&particles.hv, slot);
+            if [position, velocity, half_velocity]
+                .iter()
+                .any(|vector| !vector.as_vec3().is_finite())
+            {
+                vitals.beyond_f32 += 1;
             }
             let speed = velocity.length();
             vitals.max_speed = vitals.max_speed.max(speed);
@@ -120,21 +131,32 @@ impl Diagnostics {
     /// One CSV row, in the order of [`CSV_HEADER`].
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{:.6},{},{},{},{},{},{},{},{},{},{}",
+            "{},{:.6},{},{},{},{},{},{},{},{},{},{},{}",
             self.step,
             self.time,
-            self.vitals.max_speed,
+            csv_number(self.vitals.max_speed),
             self.vitals.outside,
-            self.vitals.kinetic,
-            self.vitals.potential,
-            self.total_energy(),
-            self.mean_density_error,
-            self.max_density_error,
+            csv_number(self.vitals.kinetic),
+            csv_number(self.vitals.potential),
+            csv_number(self.total_energy()),
+            csv_number(self.mean_density_error),
+            csv_number(self.max_density_error),
             self.pairs,
             self.last_step
-                .map_or(String::new(), |(dt, _)| dt.to_string()),
+                .map_or(String::new(), |(dt, _)| csv_number(dt)),
             self.last_step.map_or("", |(_, limit)| limit.name()),
+            self.vitals.beyond_f32,
         )
+    }
+}
+
+/// A number for a CSV cell: shortest round-trip decimal, in scientific notation below
+/// 1e-5 and from 1e15 on (so a blown-up state never prints hundreds of digits).
+fn csv_number(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-5..1e15).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
     }
 }
 
@@ -323,7 +345,7 @@ mod tests {
         let error = (FLUID_DENSITY - alone) / FLUID_DENSITY;
         assert!((diagnostics.max_density_error - error).abs() < 1e-12);
         assert!(diagnostics.csv_row().starts_with("7,0.000000,5,1,"));
-        assert!(diagnostics.csv_row().ends_with(",1,,"));
+        assert!(diagnostics.csv_row().ends_with(",1,,,0"));
         assert_eq!(
             CSV_HEADER.split(',').count(),
             diagnostics.csv_row().split(',').count()
@@ -338,7 +360,7 @@ mod tests {
         let fixed = Diagnostics::of(&state, 3);
         assert!((fixed.time - 6e-3).abs() < 1e-15);
         assert!(
-            fixed.csv_row().ends_with(",0.002,fixed"),
+            fixed.csv_row().ends_with(",0.002,fixed,0"),
             "{}",
             fixed.csv_row()
         );
@@ -349,7 +371,25 @@ mod tests {
         assert!((adaptive.time - (6e-3 + dt)).abs() < 1e-15);
         assert!(adaptive
             .csv_row()
-            .ends_with(&format!(",{dt},{}", limit.name())));
+            .ends_with(&format!(",{},{},0", csv_number(dt), limit.name())));
+    }
+
+    #[test]
+    fn states_beyond_f32_are_counted_and_print_in_scientific_notation() {
+        let far = simulation(&[
+            (BOX_MIN + 0.05, DVec3::new(1e39, 0.0, 0.0)),
+            (BOX_MIN + 0.07, DVec3::ZERO),
+        ]);
+        let diagnostics = Diagnostics::of(&far, 1);
+        assert_eq!(diagnostics.vitals.beyond_f32, 1);
+        let row = diagnostics.csv_row();
+        assert!(row.starts_with("1,0.000000,1e39,"), "{row}");
+        assert!(row.ends_with(",1"), "{row}");
+        assert!(row.len() < 200, "{row}");
+        assert_eq!(csv_number(1.5e-7), "1.5e-7");
+        assert_eq!(csv_number(0.25), "0.25");
+        assert_eq!(csv_number(-3e20), "-3e20");
+        assert_eq!(csv_number(0.0), "0");
     }
 
     #[test]

@@ -357,7 +357,7 @@ mod tests {
 
     /// A 10 x 10 x 10 block at rest in the low corner, at 200 particles per metre.
     fn corner_snapshot() -> Snapshot {
-        let particles = crate::lab::scene::corner_block(200.0, 1000);
+        let particles = crate::lab::scene::corner_block(200.0, 1000).unwrap();
         Snapshot::of(&Simulation::new(200.0, particles).unwrap(), 0)
     }
 

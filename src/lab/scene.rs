@@ -28,8 +28,9 @@ pub enum SceneKind {
     /// Particles uniformly at random in the whole box (default: as many as would fill 30%
     /// of it).
     RandomCloud,
-    /// A cube-like block in the low corner, of `--particles` particles, on the exact
-    /// lattice (no jitter): the scaling series.
+    /// A cube-like block in the low corner, of `--particles` particles (default: a cube
+    /// half the box's width on a side), on the exact lattice (no jitter): the scaling
+    /// series.
     CornerBlock,
 }
 
@@ -54,10 +55,13 @@ pub fn generate(
     seed: u64,
     particles: Option<usize>,
 ) -> Result<Particles, String> {
-    if !(ppm.is_finite() && Grid::new(Params::new(ppm).h).is_ok()) {
+    if !(ppm.is_finite() && ppm > 0.0) {
         return Err(format!(
-            "particles per metre {ppm} gives no grid over the box"
+            "particles per metre {ppm} is not a finite number > 0"
         ));
+    }
+    if let Err(error) = Grid::new(Params::new(ppm).h) {
+        return Err(format!("particles per metre {ppm} gives {error}"));
     }
     let needs_count = matches!(kind, SceneKind::RandomCloud | SceneKind::CornerBlock);
     if particles.is_some() && !needs_count {
@@ -70,7 +74,10 @@ pub fn generate(
     let [nx, ny, nz] = lattice_dims(ppm).map(|n| n as f64);
     let count = match (kind, particles) {
         (SceneKind::RandomCloud, None) => (0.3 * nx * ny * nz) as usize,
-        (SceneKind::CornerBlock, None) => return Err("corner-block needs --particles".to_string()),
+        (SceneKind::CornerBlock, None) => {
+            let half = (nx / 2.0).floor();
+            (half * half * half.min(ny)) as usize
+        }
         (_, Some(count)) => count,
         _ => (nx * ny * nz) as usize,
     };
@@ -93,7 +100,7 @@ pub fn generate(
         }
         SceneKind::FilledBox => lattice(ppm, seed, |p| p.y < height(0.5)),
         SceneKind::RandomCloud => random_cloud(count, seed),
-        SceneKind::CornerBlock => corner_block(ppm, count),
+        SceneKind::CornerBlock => corner_block(ppm, count)?,
     };
     if scene.is_empty() {
         return Err(format!(
@@ -159,18 +166,19 @@ fn at_rest(points: &[DVec3]) -> Particles {
 /// the walls: a block of fluid in the box's low corner, as close to a cube as the box
 /// allows (x fastest, then z, then y, so the top layer may be partial). Blocks of any size
 /// have the same inner density and shape, which makes them a fair scaling series.
-/// Panics if the box cannot hold `count`.
-pub fn corner_block(ppm: f64, count: usize) -> Particles {
+/// An error if the box cannot hold `count`.
+pub fn corner_block(ppm: f64, count: usize) -> Result<Particles, String> {
     let spacing = 1.0 / ppm;
     let extent = BOX_MAX - BOX_MIN;
     let [nx, ny, nz] = (extent / spacing).floor().to_array().map(|n| n as usize);
     let side = (count as f64).cbrt().ceil() as usize;
     let (wide, deep) = (side.min(nx), side.min(nz));
-    assert!(
-        count <= wide * deep * ny,
-        "a box at {ppm} particles per metre holds a block of at most {} particles",
-        wide * deep * ny
-    );
+    if count > wide * deep * ny {
+        return Err(format!(
+            "a box at {ppm} particles per metre holds a corner block of at most {} particles",
+            wide * deep * ny
+        ));
+    }
     let mut particles = Particles::zeroed(count);
     for slot in 0..count {
         let (x, z, y) = (slot % wide, (slot / wide) % deep, slot / (wide * deep));
@@ -178,7 +186,7 @@ pub fn corner_block(ppm: f64, count: usize) -> Particles {
             particles.p[axis][slot] = BOX_MIN[axis] + (k as f64 + 0.5) * spacing;
         }
     }
-    particles
+    Ok(particles)
 }
 
 #[cfg(test)]
@@ -262,19 +270,28 @@ mod tests {
     fn impossible_requests_are_errors() {
         let error = generate(SceneKind::DamBreak, 200.0, 0, Some(10)).unwrap_err();
         assert!(error.starts_with("--particles sets the size of"), "{error}");
+        let error = generate(SceneKind::CornerBlock, 400.0, 0, Some(1_000_000)).unwrap_err();
         assert_eq!(
-            generate(SceneKind::CornerBlock, 200.0, 0, None).unwrap_err(),
-            "corner-block needs --particles"
+            error,
+            "a box at 400 particles per metre holds a corner block of at most 194688 particles"
         );
         let error = generate(SceneKind::FilledBox, 10.0, 0, None).unwrap_err();
-        assert_eq!(error, "particles per metre 10 gives no grid over the box");
+        assert_eq!(
+            error,
+            "particles per metre 10 gives a grid of 0 x 1 x 0 blocks, but a grid needs at \
+             least 1 block per axis and at most 67108864 blocks"
+        );
+        let error = generate(SceneKind::FilledBox, 1e30, 0, None).unwrap_err();
+        assert!(error.contains("gives a grid of 7.670e28 x "), "{error}");
+        let error = generate(SceneKind::FilledBox, f64::NAN, 0, None).unwrap_err();
+        assert_eq!(error, "particles per metre NaN is not a finite number > 0");
         let error = generate(SceneKind::FilledBox, 3000.0, 0, None).unwrap_err();
         assert!(error.contains("the limit is 50000000"), "{error}");
     }
 
     #[test]
     fn builds_a_cube_in_the_corner_on_a_regular_lattice() {
-        let particles = corner_block(100.0, 125);
+        let particles = corner_block(100.0, 125).unwrap();
         assert_eq!(particles.len(), 125);
         assert!((particles.position(0) - (BOX_MIN + 0.005)).length() < 1e-15);
         // Rows of 5 along x, 5 rows along z, 5 layers: spacing 0.01 m.
@@ -288,7 +305,8 @@ mod tests {
     fn a_block_wider_than_the_box_grows_upwards() {
         // A cube of 3000 would be 15 wide; 13 x 13 fit across the box at 100 per metre, so
         // the block takes 18 layers, the box's full height.
-        let particles = corner_block(100.0, 3000);
+        let particles = corner_block(100.0, 3000).unwrap();
+        assert!(corner_block(100.0, 13 * 13 * 18 + 1).is_err());
         let top = particles.p[1][..3000]
             .iter()
             .fold(f64::MIN, |m, &y| m.max(y));
@@ -297,8 +315,8 @@ mod tests {
     }
 
     #[test]
-    #[should_panic(expected = "holds a block of at most")]
     fn refuses_more_than_the_box_holds() {
-        corner_block(20.0, 10_000);
+        let error = corner_block(20.0, 10_000).unwrap_err();
+        assert!(error.contains("holds a corner block of at most"), "{error}");
     }
 }

@@ -4,6 +4,7 @@
 
 use crate::lab::energy::{Domain, Energy, EnergyMethod, MeasureError};
 use crate::lab::machine::Machine;
+use std::collections::HashSet;
 use std::error::Error;
 use std::io::{self, Read, Seek, Write};
 use std::os::unix::process::ExitStatusExt;
@@ -131,6 +132,40 @@ pub struct Record {
     pub energy: Energy,
 }
 
+/// What identifies a record within a sweep: input (none for idle), iterations, repeat.
+pub type RecordKey = (Option<String>, Option<u64>, usize);
+
+impl Record {
+    /// This record's place in the sweep.
+    pub fn key(&self) -> RecordKey {
+        (self.input.clone(), self.iterations, self.repeat)
+    }
+}
+
+/// The keys of the records in a sweep CSV's text, for a sweep that goes on from it.
+pub fn measured_keys(text: &str) -> Result<HashSet<RecordKey>, Box<dyn Error>> {
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    if reader.headers()?.iter().ne(COLUMNS) {
+        return Err("its columns are not those of this version's sweep".into());
+    }
+    let mut keys = HashSet::new();
+    for (line, record) in reader.records().enumerate() {
+        let record = record?;
+        let bad = || format!("row {}: not a sweep record", line + 2);
+        let iterations = match &record[3] {
+            "" => None,
+            text => Some(text.parse().map_err(|_| bad())?),
+        };
+        let input = match &record[0] {
+            "run" => Some(record[1].to_string()),
+            "idle" => None,
+            _ => return Err(bad().into()),
+        };
+        keys.insert((input, iterations, record[4].parse().map_err(|_| bad())?));
+    }
+    Ok(keys)
+}
+
 /// A sweep ready to run: its plan, how energy is measured, and the machine.
 pub struct Sweep {
     /// What to run.
@@ -144,8 +179,14 @@ pub struct Sweep {
 impl Sweep {
     /// Measures the idle baseline, then every point `repeats` times (all points once per
     /// round, so slow drifts spread over all points), after one unrecorded warm-up run per
-    /// input. Progress goes to `log`, one line per record.
-    pub fn measure(&self, log: &mut impl Write) -> Result<Vec<Record>, Box<dyn Error>> {
+    /// input. Records go to `records` as they are measured (so a failure keeps them),
+    /// except those whose key is in `done`. Progress goes to `log`, one line per record.
+    pub fn measure(
+        &self,
+        log: &mut impl Write,
+        done: &HashSet<RecordKey>,
+        records: &mut Vec<Record>,
+    ) -> Result<(), Box<dyn Error>> {
         let plan = &self.plan;
         writeln!(log, "time: {TIME_METHOD}")?;
         writeln!(log, "energy: {}", self.energy.describe())?;
@@ -154,8 +195,10 @@ impl Sweep {
             .iter()
             .map(|path| Ok((path, file_name(path), particle_count(path)?)))
             .collect::<Result<Vec<_>, Box<dyn Error>>>()?;
-        let mut records = Vec::new();
         for repeat in 1..=plan.repeats {
+            if done.contains(&(None, None, repeat)) {
+                continue;
+            }
             let window = self.energy.start()?;
             let started = Instant::now();
             std::thread::sleep(plan.idle);
@@ -180,6 +223,9 @@ impl Sweep {
         for repeat in 1..=plan.repeats {
             for (path, name, particles) in &inputs {
                 for &iterations in &plan.iterations {
+                    if done.contains(&(Some(name.clone()), Some(iterations), repeat)) {
+                        continue;
+                    }
                     let window = self.energy.start()?;
                     let usage = self.run_once(path, iterations)?;
                     let record = Record {
@@ -196,7 +242,7 @@ impl Sweep {
                 }
             }
         }
-        Ok(records)
+        Ok(())
     }
 
     /// Runs the program once; a failed run is an error naming the command and its stderr.
@@ -222,9 +268,11 @@ impl Sweep {
             let mut message = String::new();
             stderr.seek(io::SeekFrom::Start(0))?;
             stderr.read_to_string(&mut message)?;
-            return Err(
-                MeasureError(format!("{shown} failed ({status}): {}", message.trim())).into(),
-            );
+            let said = match message.trim() {
+                "" => String::new(),
+                said => format!(": {said}"),
+            };
+            return Err(MeasureError(format!("{shown} failed ({status}){said}")).into());
         }
         Ok(usage)
     }

@@ -311,6 +311,21 @@ pub struct CellOrder {
 }
 
 impl CellOrder {
+    /// Whether the last sort found mostly lone particles, so the next filters them out
+    /// first (part of what a checkpoint keeps: it decides the next sort's slot order).
+    pub fn is_sparse(&self) -> bool {
+        self.sparse
+    }
+
+    /// An empty cell order whose next sort runs as after a sort that found the particles
+    /// sparse (`sparse`) or not.
+    pub fn resumed(sparse: bool) -> CellOrder {
+        CellOrder {
+            sparse,
+            ..CellOrder::default()
+        }
+    }
+
     /// The bytes its buffers hold on the heap.
     pub fn heap_bytes(&self) -> usize {
         use crate::sim::heap_bytes as bytes;

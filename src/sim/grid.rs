@@ -20,12 +20,21 @@ pub struct GridSizeError {
 
 impl fmt::Display for GridSizeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let [x, y, z] = self.blocks_per_axis;
+        let [x, y, z] = self.blocks_per_axis.map(block_count);
         write!(
             f,
             "a grid of {x} x {y} x {z} blocks, but a grid needs at least 1 block per axis \
              and at most {MAX_BLOCKS} blocks"
         )
+    }
+}
+
+/// A whole number of blocks as an integer, or in scientific notation beyond 10^15.
+fn block_count(n: f64) -> String {
+    if n.abs() < 1e15 {
+        format!("{n}")
+    } else {
+        format!("{n:.3e}")
     }
 }
 

@@ -144,6 +144,20 @@ impl Particles {
         }
     }
 
+    /// A copy without the padding: every array exactly one element per particle.
+    pub fn unpadded(&self) -> Particles {
+        let n = self.len();
+        let cut = |arrays: &AxisArrays| std::array::from_fn(|axis| arrays[axis][..n].to_vec());
+        Particles {
+            id: self.id.clone(),
+            p: cut(&self.p),
+            hv: cut(&self.hv),
+            v: cut(&self.v),
+            rho: self.rho[..n].to_vec(),
+            a: cut(&self.a),
+        }
+    }
+
     /// Gives every `f64` array exactly [`PADDING`] elements after the last particle (zeros
     /// where added).
     pub fn pad(&mut self) {

@@ -13,6 +13,26 @@ use crate::sim::skin::Skin;
 use crate::sim::stages::{self, Stage};
 use crate::sim::timestep::{self, Leapfrog, Limit, TimeStep};
 
+/// Everything a simulation needs to go on exactly as it would have (a checkpoint): its
+/// particles in their slot order, and the state the next step reads besides them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resumable {
+    /// Particles per metre (the parameters derive from it).
+    pub ppm: f64,
+    /// The model and kernel.
+    pub method: Method,
+    /// How steps' lengths are chosen.
+    pub time_step: TimeStep,
+    /// Physical time simulated so far (s).
+    pub time: f64,
+    /// The last step's length and what set it.
+    pub last_step: Option<(f64, Limit)>,
+    /// Whether the last sort found the particles sparse (see [`CellOrder::is_sparse`]).
+    pub sparse: bool,
+    /// The particles, in slot order, unpadded.
+    pub particles: Particles,
+}
+
 /// A running simulation.
 #[derive(Debug, Clone)]
 pub struct Simulation {
@@ -152,6 +172,36 @@ impl Simulation {
         copy
     }
 
+    /// What a checkpoint keeps: the state from which [`Self::resume`] goes on bit for bit.
+    /// None while lists are reused with a skin (their state is not kept).
+    pub fn resumable(&self) -> Option<Resumable> {
+        if self.skin.is_some() {
+            return None;
+        }
+        Some(Resumable {
+            ppm: self.params.ppm,
+            method: self.method,
+            time_step: self.time_step,
+            time: self.time,
+            last_step: self.last_step,
+            sparse: self.cells.is_sparse(),
+            particles: self.particles.unpadded(),
+        })
+    }
+
+    /// The simulation of a [`Self::resumable`] state: its next step is the one the
+    /// checkpointed simulation would have taken.
+    pub fn resume(state: Resumable) -> Result<Self, GridSizeError> {
+        let params = Params::new(state.ppm);
+        let grid = Grid::new(params.h)?;
+        let mut simulation = Self::unplaced(params, grid, state.method, state.particles);
+        simulation.set_time_step(state.time_step);
+        simulation.cells = CellOrder::resumed(state.sparse);
+        simulation.time = state.time;
+        simulation.last_step = state.last_step;
+        Ok(simulation)
+    }
+
     /// Changes how the following steps' lengths are chosen (a fixed step also becomes the
     /// `dt` of [`Self::params`], which the stages run alone use).
     pub fn set_time_step(&mut self, time_step: TimeStep) {
@@ -167,6 +217,11 @@ impl Simulation {
     pub fn set_skin(&mut self, width: Option<f64>) -> Result<(), GridSizeError> {
         self.skin = width.map(|w| Skin::new(self.params.h, w)).transpose()?;
         Ok(())
+    }
+
+    /// How steps' lengths are chosen.
+    pub fn time_step(&self) -> TimeStep {
+        self.time_step
     }
 
     /// The skin, if lists are reused.

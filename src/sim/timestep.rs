@@ -41,6 +41,16 @@ pub enum Limit {
 }
 
 impl Limit {
+    /// Every criterion.
+    pub const ALL: [Limit; 6] = [
+        Limit::Fixed,
+        Limit::Force,
+        Limit::Speed,
+        Limit::Viscosity,
+        Limit::Walls,
+        Limit::Landing,
+    ];
+
     /// The criterion's name in CSV files.
     pub fn name(self) -> &'static str {
         match self {

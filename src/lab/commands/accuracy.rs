@@ -3,7 +3,8 @@
 //! fronts, the error-time chart, and the fastest method within each error budget.
 
 use super::simulation_args::{parse_courants, Courants};
-use crate::io::fld::{self, OutputFile};
+use crate::io::fld;
+use crate::io::output::OutputFile;
 use crate::lab::accuracy::{self, Candidate, Metric, Run, Sweep};
 use crate::lab::chart::{self, LogChart};
 use crate::lab::machine::Machine;
@@ -28,33 +29,33 @@ pub struct AccuracyArgs {
     #[arg(long, value_enum, default_value_t = Model::Fluidanimate)]
     model: Model,
     /// Kernels to compare (each with every time-step rule).
-    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Kernel::NATIVE, Kernel::Mixed])]
+    #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = [Kernel::NATIVE, Kernel::Mixed])]
     kernels: Vec<Kernel>,
     /// Fixed time steps, as multiples of the course's 1 ms (default: 0.25, 0.5, 1, 2
     /// and 4 for fluidanimate; 0.125, 0.25, 0.5 and 1 for the course model).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
     dt_factors: Option<Vec<f64>>,
     /// Courant constants of the adaptive time step ("" for none).
-    #[arg(long, default_value = "0.2,0.3,0.4", value_parser = parse_courants)]
-    adaptive: Courants,
+    #[arg(long, allow_negative_numbers = true, default_value = "0.2,0.3,0.4", num_args = 1.., value_parser = parse_courants)]
+    adaptive: Vec<Courants>,
     /// Skins of reused neighbour lists, in smoothing lengths, each method also run with
     /// (default: none, lists rebuilt every step).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
     skins: Vec<f64>,
     /// Physical times (s) at which states are compared, ascending (default: every 4 ms to
     /// 48 ms for fluidanimate; 1, 2 and 3 ms for the course model, which is chaotic
     /// after). Each method is sampled at the end of its first step at or after each; the
     /// accuracy-speed chart shows the first, a middle and the last.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
     times: Option<Vec<f64>>,
     /// The reference's fixed step (s) (default: an eighth of the shortest step any method
     /// took).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     reference_dt: Option<f64>,
     /// Error budgets, in metres or (with a trailing h, as in 0.1h) smoothing lengths:
     /// name the fastest method whose position error (by --metric) stays within each at
     /// every time.
-    #[arg(long, value_delimiter = ',', value_parser = parse_budget)]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., value_parser = parse_budget)]
     budget: Vec<Budget>,
     /// The position error the budgets and the charts use.
     #[arg(long, value_enum, default_value_t = Metric::Median)]
@@ -95,7 +96,7 @@ impl AccuracyArgs {
         Ok(Candidate::product(
             &self.kernels,
             &fixed,
-            &self.adaptive.0,
+            &Courants::all(&self.adaptive),
             &self.skins,
         ))
     }

@@ -1,6 +1,7 @@
 //! `fluid-lab chart`: the charts of a sweep CSV (time, energy and power against
 //! iterations), as PNG and SVG.
 
+use super::create_output_dir;
 use crate::lab::chart::{self, SweepTable};
 use clap::Args;
 use std::error::Error;
@@ -12,7 +13,8 @@ use std::path::PathBuf;
 pub struct ChartArgs {
     /// The CSV written by `fluid-lab sweep`.
     csv: PathBuf,
-    /// Folder for time, energy and power .png and .svg [default: the CSV's folder].
+    /// Folder for time, energy and power .png and .svg, created if missing [default: the
+    /// CSV's folder].
     #[arg(long)]
     output_dir: Option<PathBuf>,
 }
@@ -24,7 +26,10 @@ pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
     let table =
         SweepTable::parse(&text).map_err(|error| format!("{}: {error}", args.csv.display()))?;
     let folder = match args.output_dir {
-        Some(folder) => folder,
+        Some(folder) => {
+            create_output_dir(&folder)?;
+            folder
+        }
         None => args.csv.parent().map(PathBuf::from).unwrap_or_default(),
     };
     for chart in table.charts() {

@@ -2,14 +2,16 @@
 //! optionally per-step diagnostics and the final state.
 
 use super::simulation_args::{load, progress_bar, Loaded, SimulationArgs};
-use crate::io::fld::{self, OutputFile};
+use crate::io::checkpoint::{self, Checkpoint};
+use crate::io::fld;
+use crate::io::output::OutputFile;
 use crate::lab::diagnostics::{self, Diagnostics, Vitals};
 use crate::sim::simulation::Simulation;
 use clap::builder::RangedU64ValueParser;
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The arguments of `fluid-lab run`.
@@ -24,14 +26,52 @@ pub struct RunArgs {
     #[arg(long)]
     diagnostics: Option<PathBuf>,
     /// Diagnose every this many steps (and step 0 and the last).
-    #[arg(long, default_value_t = 1, value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
     every: u64,
+    /// Write the full f64 state to --checkpoint every this many steps (atomically), so a
+    /// killed run loses at most this many steps.
+    #[arg(long, requires = "checkpoint", value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
+    checkpoint_every: Option<u64>,
+    /// The checkpoint file that --checkpoint-every writes.
+    #[arg(long, requires = "checkpoint_every")]
+    checkpoint: Option<PathBuf>,
+    /// Go on from this checkpoint (of a run of the same input, model, kernel and time
+    /// step) to --steps in all, bit for bit as if never stopped; diagnostics then start at
+    /// the checkpoint's step.
+    #[arg(long)]
+    resume: Option<PathBuf>,
+}
+
+/// Reads the checkpoint at `path` and checks that it continues the run `simulation`
+/// starts (same particles per metre, particle count, model, kernel and time-step rule).
+fn resume(path: &Path, simulation: &Simulation) -> Result<Checkpoint, String> {
+    let shown = path.display();
+    let bytes = std::fs::read(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
+    let checkpoint = checkpoint::decode(&bytes).map_err(|error| format!("{shown}: {error}"))?;
+    let state = &checkpoint.state;
+    let differs = if state.ppm != simulation.params().ppm
+        || state.particles.len() != simulation.particles().len()
+    {
+        Some("input")
+    } else if state.method != simulation.method() {
+        Some("model or kernel")
+    } else if state.time_step != simulation.time_step() {
+        Some("time step")
+    } else {
+        None
+    };
+    match differs {
+        Some(what) => Err(format!(
+            "{shown} is a checkpoint of a run with another {what}"
+        )),
+        None => Ok(checkpoint),
+    }
 }
 
 /// Runs the scene, timed, and writes the timing line, the diagnostics and the final state.
 pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let steps = args.simulation.steps;
-    let output = args.output.as_deref().map(OutputFile::create).transpose()?;
+    let mut output = args.output.as_deref().map(OutputFile::create).transpose()?;
     let diagnostics_file = args
         .diagnostics
         .as_deref()
@@ -42,6 +82,30 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         mut simulation,
         ..
     } = load(&args.simulation)?;
+    if args.checkpoint.is_some() && args.simulation.skin.is_some() {
+        return Err("--checkpoint: runs with --skin cannot be checkpointed (yet)".into());
+    }
+    let mut first = 1;
+    if let Some(path) = &args.resume {
+        let checkpoint = resume(path, &simulation)?;
+        if checkpoint.step > steps {
+            return Err(format!(
+                "{} is at step {}, beyond --steps {steps}",
+                path.display(),
+                checkpoint.step
+            )
+            .into());
+        }
+        first = checkpoint.step + 1;
+        simulation = Simulation::resume(checkpoint.state).map_err(|error| error.to_string())?;
+    }
+    // Fails now, not after the first checkpoint's steps, if it cannot be written.
+    if let Some(path) = &args.checkpoint {
+        drop(OutputFile::create(path)?);
+    }
+    if let Some(output) = &mut output {
+        output.reserve(fld::file_size(simulation.particles().len()))?;
+    }
     let mut rows = String::from(diagnostics::CSV_HEADER);
     rows.push('\n');
     let mut diagnose = |simulation: &Simulation, step: u64| {
@@ -50,11 +114,12 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         rows.push('\n');
     };
     if diagnostics_file.is_some() {
-        diagnose(&simulation, 0);
+        diagnose(&simulation, first - 1);
     }
-    let progress = progress_bar(steps);
+    let start_time = simulation.time();
+    let progress = progress_bar(steps + 1 - first);
     let mut seconds = 0.0;
-    for step in 1..=steps {
+    for step in first..=steps {
         let started = Instant::now();
         simulation.step();
         seconds += started.elapsed().as_secs_f64();
@@ -63,6 +128,10 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         // writing them out.
         if let Some(id) = Vitals::of(&simulation).non_finite {
             progress.finish_and_clear();
+            if let Some(file) = diagnostics_file {
+                diagnose(&simulation, step);
+                file.commit(rows.as_bytes())?;
+            }
             return Err(
                 format!("the run failed at step {step}: particle {id} is not finite").into(),
             );
@@ -70,11 +139,17 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         if diagnostics_file.is_some() && (step % args.every == 0 || step == steps) {
             diagnose(&simulation, step);
         }
+        if let (Some(every), Some(path)) = (args.checkpoint_every, &args.checkpoint) {
+            if step % every == 0 {
+                write_checkpoint(path, step, &simulation)?;
+            }
+        }
     }
     progress.finish_and_clear();
     let particles = simulation.particles().len();
-    let per_particle_step = seconds / (steps.max(1) as f64 * particles as f64);
-    let simulated = simulation.time();
+    let run = steps + 1 - first;
+    let per_particle_step = seconds / (run.max(1) as f64 * particles as f64);
+    let simulated = simulation.time() - start_time;
     let builds = simulation.skin().map_or(String::new(), |skin| {
         format!(" list_builds={}", skin.builds())
     });
@@ -85,7 +160,7 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
     };
     writeln!(
         stdout,
-        "model={} kernel={} particles={particles} steps={steps} seconds={seconds:.6} \
+        "model={} kernel={} particles={particles} steps={run} seconds={seconds:.6} \
          ns_per_particle_step={:.3} simulated_s={simulated:.6} \
          seconds_per_simulated_s={per_simulated_second}{builds}",
         args.simulation.model.name(),
@@ -95,8 +170,19 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
     if let Some(file) = diagnostics_file {
         file.commit(rows.as_bytes())?;
     }
-    if let Some(output) = output {
-        output.commit(&fld::encode(ppm, simulation.particles()))?;
+    if let (Some(output), Some(path)) = (output, &args.output) {
+        let bytes = fld::encode(ppm, simulation.particles())
+            .map_err(|unstorable| unstorable.for_output(path.as_os_str()))?;
+        output.commit(&bytes)?;
     }
     Ok(())
+}
+
+/// Writes the checkpoint of `simulation` after `step` steps to `path`, atomically.
+fn write_checkpoint(path: &Path, step: u64, simulation: &Simulation) -> Result<(), Box<dyn Error>> {
+    let state = simulation
+        .resumable()
+        .ok_or("this run's state cannot be checkpointed")?;
+    let bytes = checkpoint::encode(&Checkpoint { step, state });
+    Ok(OutputFile::create(path)?.commit(&bytes)?)
 }

@@ -1,6 +1,7 @@
 //! `fluid-lab scene`: a generated scene written as a `.fld` input.
 
-use crate::io::fld::{self, OutputFile};
+use crate::io::fld;
+use crate::io::output::OutputFile;
 use crate::lab::scene::{self, SceneKind};
 use clap::Args;
 use std::error::Error;
@@ -15,13 +16,13 @@ pub struct SceneArgs {
     /// Output .fld file.
     output: PathBuf,
     /// Particles per metre: the lattice spacing is 1/ppm.
-    #[arg(long, default_value_t = 400.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 400.0)]
     ppm: f32,
     /// Seed of the lattice jitter and of the random cloud.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
     seed: u64,
     /// Number of particles (random-cloud and corner-block only).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     particles: Option<usize>,
 }
 
@@ -29,6 +30,8 @@ pub struct SceneArgs {
 pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
     let output = OutputFile::create(&args.output)?;
     let particles = scene::generate(args.kind, args.ppm.into(), args.seed, args.particles)?;
-    output.commit(&fld::encode(args.ppm, &particles))?;
+    let bytes = fld::encode(args.ppm, &particles)
+        .map_err(|unstorable| unstorable.for_output(args.output.as_os_str()))?;
+    output.commit(&bytes)?;
     Ok(())
 }

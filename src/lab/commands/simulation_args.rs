@@ -18,7 +18,7 @@ pub struct SimulationArgs {
     /// Input .fld file.
     pub input: PathBuf,
     /// Time steps to run.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     pub steps: u64,
     /// Physical model.
     #[arg(long, value_enum, default_value_t = Model::Course)]
@@ -27,17 +27,17 @@ pub struct SimulationArgs {
     #[arg(long, value_enum, default_value_t = Kernel::NATIVE)]
     pub kernel: Kernel,
     /// Time step in seconds (fixed).
-    #[arg(long, default_value_t = TIME_STEP, value_parser = parse_time_step)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = TIME_STEP, value_parser = parse_time_step)]
     pub dt: f64,
     /// Adaptive time step instead of a fixed one: each step C times the shortest of
     /// sqrt(h/|a|), h/(c+|hv|), and the explicit limits of the viscosity and of the
     /// walls (C about 0.2-0.4).
-    #[arg(long, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
+    #[arg(long, allow_negative_numbers = true, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
     pub adaptive: Option<f64>,
     /// Reuse the cell order and tiles with a skin this many smoothing lengths wide,
     /// rebuilding them when a particle has moved half the skin (the pairs closer than h
     /// stay exactly those of a rebuild every step).
-    #[arg(long, value_name = "FRACTION_OF_H", value_parser = parse_skin)]
+    #[arg(long, allow_negative_numbers = true, value_name = "FRACTION_OF_H", value_parser = parse_skin)]
     pub skin: Option<f64>,
 }
 
@@ -141,6 +141,13 @@ fn parse_courant(text: &str) -> Result<f64, String> {
 /// argument (`--adaptive ""`) is none.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Courants(pub Vec<f64>);
+
+impl Courants {
+    /// The constants of every argument given (`--adaptive 0.2,0.3` or `--adaptive 0.2 0.3`).
+    pub fn all(arguments: &[Courants]) -> Vec<f64> {
+        arguments.iter().flat_map(|c| c.0.iter().copied()).collect()
+    }
+}
 
 /// Parses [`Courants`]: Courant constants separated by commas, or nothing.
 pub fn parse_courants(text: &str) -> Result<Courants, String> {

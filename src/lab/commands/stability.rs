@@ -2,7 +2,7 @@
 //! it fails; a CSV and the stability map.
 
 use super::simulation_args::{is_time_step, parse_courants, Courants};
-use crate::io::fld::OutputFile;
+use crate::io::output::OutputFile;
 use crate::lab::chart;
 use crate::lab::machine::Machine;
 use crate::lab::scene::SceneKind;
@@ -25,30 +25,30 @@ pub struct StabilityArgs {
     #[arg(long, value_enum, default_value_t = SceneKind::DamBreak)]
     scene: SceneKind,
     /// Seed of the scene.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     seed: u64,
     /// Models to run.
-    #[arg(long, value_enum, value_delimiter = ',', default_values_t = Model::ALL)]
+    #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = Model::ALL)]
     models: Vec<Model>,
     /// Kernels to run each model with (their precision is part of the method).
-    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Kernel::NATIVE])]
+    #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = [Kernel::NATIVE])]
     kernels: Vec<Kernel>,
     /// Particles per metre of the scene.
-    #[arg(long, value_delimiter = ',', default_values_t = [100.0, 150.0, 200.0, 300.0])]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., default_values_t = [100.0, 150.0, 200.0, 300.0])]
     ppms: Vec<f64>,
     /// Time steps, as multiples of the course's 1e-3 s.
-    #[arg(long, value_delimiter = ',', default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]
     dt_factors: Vec<f64>,
     /// Courant constants of adaptive time steps to run beside the fixed ones ("" for
     /// none).
-    #[arg(long, default_value = "0.3", value_parser = parse_courants)]
-    adaptive: Courants,
+    #[arg(long, allow_negative_numbers = true, default_value = "0.3", num_args = 1.., value_parser = parse_courants)]
+    adaptive: Vec<Courants>,
     /// Simulated seconds each run must last to count as stable.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     duration: f64,
     /// Shortest adaptive step a run may take (s); a shorter one fails it as collapsed
     /// (the default, a hundredth of the course's step, keeps the map to minutes).
-    #[arg(long, default_value_t = 1e-5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1e-5)]
     shortest_step: f64,
 }
 
@@ -80,10 +80,9 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
         .iter()
         .map(|factor| TimeStep::Fixed(factor * TIME_STEP))
         .chain(
-            args.adaptive
-                .0
-                .iter()
-                .map(|&courant| TimeStep::Adaptive { courant }),
+            Courants::all(&args.adaptive)
+                .into_iter()
+                .map(|courant| TimeStep::Adaptive { courant }),
         )
         .collect();
     super::create_output_dir(&args.output_dir)?;

@@ -1,15 +1,16 @@
 //! `fluid-lab sweep`: `fluid` measured over iteration counts (time, memory, energy) into a
 //! CSV.
 
-use crate::io::fld::OutputFile;
+use crate::io::output::OutputFile;
 use crate::lab::energy::{EnergyMethod, Sources};
 use crate::lab::machine::Machine;
 use crate::lab::sweep::{self, Plan, Sweep};
 use clap::builder::RangedU64ValueParser;
 use clap::Args;
+use std::collections::HashSet;
 use std::error::Error;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// The arguments of `fluid-lab sweep`.
@@ -21,30 +22,37 @@ pub struct SweepArgs {
     /// The CSV file to write (one row per run and per idle window).
     #[arg(long)]
     output: PathBuf,
-    /// Iteration counts, comma-separated.
-    #[arg(long, value_delimiter = ',', default_values_t = sweep::DEFAULT_ITERATIONS)]
+    /// Iteration counts (at most 2^63-1, as `fluid` takes), comma- or space-separated.
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..,
+          default_values_t = sweep::DEFAULT_ITERATIONS,
+          value_parser = RangedU64ValueParser::<u64>::new().range(0..=i64::MAX as u64))]
     iterations: Vec<u64>,
     /// Runs per point, and idle-baseline windows.
-    #[arg(long, default_value_t = 5, value_parser = RangedU64ValueParser::<usize>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = RangedU64ValueParser::<usize>::new().range(1..))]
     repeats: usize,
     /// Seconds of each idle-baseline window.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
     idle_seconds: f64,
     /// The program measured, run as `PROGRAM ITERATIONS INPUT /dev/null` [default: the
     /// `fluid` beside this binary].
     #[arg(long)]
     program: Option<PathBuf>,
+    /// Go on from the rows already in --output (from a sweep that failed or was
+    /// stopped): measure only the runs it lacks, and keep its rows.
+    #[arg(long)]
+    resume: bool,
     /// The perf program used for RAPL energy.
     #[arg(long, default_value = "perf")]
     perf: PathBuf,
 }
 
-/// Measures every point of the sweep and writes the CSV.
+/// Measures every point of the sweep and writes the CSV; a failed run still writes the
+/// rows measured before it, which `--resume` goes on from.
 pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let idle = Duration::try_from_secs_f64(args.idle_seconds)
         .map_err(|_| format!("--idle-seconds {} is not a duration", args.idle_seconds))?;
     let program = match args.program {
-        Some(program) => program,
+        Some(program) => program_path(program)?,
         None => {
             let beside = std::env::current_exe()?.with_file_name("fluid");
             if !beside.is_file() {
@@ -56,6 +64,21 @@ pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
             }
             beside
         }
+    };
+    let previous = match args.resume {
+        true => match std::fs::read_to_string(&args.output) {
+            Ok(text) => text,
+            Err(error) if error.kind() == std::io::ErrorKind::NotFound => String::new(),
+            Err(error) => {
+                return Err(format!("cannot read {}: {error}", args.output.display()).into())
+            }
+        },
+        false => String::new(),
+    };
+    let done = match previous.is_empty() {
+        true => HashSet::new(),
+        false => sweep::measured_keys(&previous)
+            .map_err(|error| format!("--resume: {}: {error}", args.output.display()))?,
     };
     let output = OutputFile::create(&args.output)?;
     let sources = Sources {
@@ -73,13 +96,50 @@ pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
         energy: EnergyMethod::detect(&sources),
         machine: Machine::this(),
     };
-    let records = sweep.measure(&mut std::io::stderr().lock())?;
-    output.commit(&sweep.csv(&records)?)?;
-    writeln!(
-        stdout,
-        "wrote {} ({} rows)",
-        args.output.display(),
-        records.len()
-    )?;
+    let mut records = Vec::new();
+    let measured = sweep.measure(&mut std::io::stderr().lock(), &done, &mut records);
+    let mut csv = sweep.csv(&records)?;
+    if !previous.is_empty() {
+        let header_end = csv
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(csv.len(), |i| i + 1);
+        csv = [previous.as_bytes(), &csv[header_end..]].concat();
+    }
+    let rows = done.len() + records.len();
+    if let Err(error) = measured {
+        if rows == 0 {
+            return Err(error);
+        }
+        output.commit(&csv)?;
+        let (noun, verb, them) = match rows {
+            1 => ("row", "is", "it"),
+            _ => ("rows", "are", "them"),
+        };
+        return Err(format!(
+            "{error}; the {rows} {noun} measured {verb} in {}, and --resume goes on from {them}",
+            args.output.display()
+        )
+        .into());
+    }
+    output.commit(&csv)?;
+    writeln!(stdout, "wrote {} ({rows} rows)", args.output.display())?;
     Ok(())
+}
+
+/// The program to measure: a name without a folder is a file in the current folder (not
+/// looked up in PATH), and it must be an executable file.
+fn program_path(program: PathBuf) -> Result<PathBuf, String> {
+    use std::os::unix::fs::PermissionsExt;
+    let path = match program.components().count() {
+        1 if !program.is_absolute() => Path::new(".").join(&program),
+        _ => program,
+    };
+    match std::fs::metadata(&path) {
+        Ok(meta) if meta.is_file() && meta.permissions().mode() & 0o111 != 0 => Ok(path),
+        _ => Err(format!(
+            "--program {}: no executable file there",
+            path.display()
+        )),
+    }
 }

@@ -1,0 +1,273 @@
+//! Checkpoint files: the full f64 state of a run after a number of steps
+//! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
+//!
+//! Layout (little-endian): the magic `FLUIDCK1`; the step count (u64); particles per
+//! metre and the time (f64); the model, kernel, time-step rule and last step's limit as
+//! length-prefixed names (u8 length), the time step's value (f64: dt or the Courant
+//! constant) and the last step's length (f64, NaN before the first step); the sparse flag
+//! (u8); the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a
+//! (x, y, z) and rho, n f64 each.
+
+use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::particles::Particles;
+use crate::sim::simulation::Resumable;
+use crate::sim::timestep::{Limit, TimeStep};
+
+/// The first bytes of every checkpoint (format version 1).
+const MAGIC: &[u8; 8] = b"FLUIDCK1";
+
+/// A checkpoint's content: the steps run and the state after them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checkpoint {
+    /// Steps run so far.
+    pub step: u64,
+    /// The state to go on from.
+    pub state: Resumable,
+}
+
+/// Encodes a checkpoint.
+pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
+    let state = &checkpoint.state;
+    let particles = &state.particles;
+    let n = particles.len();
+    let mut bytes = Vec::with_capacity(128 + n * (4 + 13 * 8));
+    bytes.extend_from_slice(MAGIC);
+    bytes.extend_from_slice(&checkpoint.step.to_le_bytes());
+    bytes.extend_from_slice(&state.ppm.to_le_bytes());
+    bytes.extend_from_slice(&state.time.to_le_bytes());
+    let (rule, value) = match state.time_step {
+        TimeStep::Fixed(dt) => ("fixed", dt),
+        TimeStep::Adaptive { courant } => ("adaptive", courant),
+    };
+    let (last_dt, last_limit) = state
+        .last_step
+        .map_or((f64::NAN, "none"), |(dt, limit)| (dt, limit.name()));
+    for name in [
+        state.method.model.name(),
+        state.method.kernel.name(),
+        rule,
+        last_limit,
+    ] {
+        bytes.push(name.len() as u8);
+        bytes.extend_from_slice(name.as_bytes());
+    }
+    bytes.extend_from_slice(&value.to_le_bytes());
+    bytes.extend_from_slice(&last_dt.to_le_bytes());
+    bytes.push(u8::from(state.sparse));
+    bytes.extend_from_slice(&(n as u64).to_le_bytes());
+    for id in &particles.id {
+        bytes.extend_from_slice(&id.to_le_bytes());
+    }
+    for array in fields(particles) {
+        for value in &array[..n] {
+            bytes.extend_from_slice(&value.to_le_bytes());
+        }
+    }
+    bytes
+}
+
+/// The f64 arrays of `particles` in file order: p, hv, v, a (x, y, z each), rho.
+fn fields(particles: &Particles) -> impl Iterator<Item = &Vec<f64>> {
+    [&particles.p, &particles.hv, &particles.v, &particles.a]
+        .into_iter()
+        .flatten()
+        .chain([&particles.rho])
+}
+
+/// Decodes a checkpoint, or says what is wrong with it (never panics).
+pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
+    let mut reader = Reader { bytes, at: 0 };
+    if reader.take(MAGIC.len())? != MAGIC {
+        return Err("it is not a fluid checkpoint (version 1)".into());
+    }
+    let step = reader.u64()?;
+    let ppm = reader.f64()?;
+    let time = reader.f64()?;
+    let [model, kernel, rule, limit] = [(); 4].map(|()| reader.name());
+    let model = model?;
+    let model = *Model::ALL
+        .iter()
+        .find(|m| m.name() == model)
+        .ok_or("unknown model")?;
+    let kernel = kernel?;
+    let kernel = *Kernel::ALL
+        .iter()
+        .find(|k| k.name() == kernel)
+        .ok_or("unknown kernel")?;
+    let value = reader.f64()?;
+    let time_step = match rule?.as_str() {
+        "fixed" => TimeStep::Fixed(value),
+        "adaptive" => TimeStep::Adaptive { courant: value },
+        _ => return Err("unknown time-step rule".into()),
+    };
+    let last_dt = reader.f64()?;
+    let last_step = match limit?.as_str() {
+        "none" => None,
+        name => Some((
+            last_dt,
+            *Limit::ALL
+                .iter()
+                .find(|limit| limit.name() == name)
+                .ok_or("unknown step limit")?,
+        )),
+    };
+    let sparse = match reader.take(1)? {
+        [0] => false,
+        [1] => true,
+        _ => return Err("bad sparse flag".into()),
+    };
+    let n = usize::try_from(reader.u64()?).map_err(|_| "too many particles")?;
+    n.checked_mul(4 + 13 * 8)
+        .filter(|&body| body == reader.bytes.len() - reader.at)
+        .ok_or("its size does not match its particle count")?;
+    if n == 0 || n > u32::MAX as usize {
+        return Err("its particle count is not in 1..2^32".into());
+    }
+    let mut particles = Particles::zeroed(n);
+    let mut seen = vec![false; n];
+    for slot in 0..n {
+        let id = reader.u32()?;
+        match seen.get_mut(id as usize) {
+            Some(seen) if !*seen => *seen = true,
+            _ => {
+                return Err(format!(
+                    "slot {slot} has a repeated or out-of-range id {id}"
+                ))
+            }
+        }
+        particles.id[slot] = id;
+    }
+    let arrays = [
+        &mut particles.p,
+        &mut particles.hv,
+        &mut particles.v,
+        &mut particles.a,
+    ]
+    .into_iter()
+    .flatten()
+    .chain([&mut particles.rho]);
+    for array in arrays {
+        for value in array.iter_mut() {
+            *value = reader.f64()?;
+        }
+    }
+    let finite = fields(&particles).flatten().all(|x| x.is_finite());
+    if !(finite && ppm.is_finite() && ppm > 0.0 && time.is_finite() && value.is_finite()) {
+        return Err("it holds values that are not finite".into());
+    }
+    Ok(Checkpoint {
+        step,
+        state: Resumable {
+            ppm,
+            method: Method { model, kernel },
+            time_step,
+            time,
+            last_step,
+            sparse,
+            particles,
+        },
+    })
+}
+
+/// Reads a checkpoint's bytes in order.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, count: usize) -> Result<&'a [u8], String> {
+        let end = self
+            .at
+            .checked_add(count)
+            .filter(|&e| e <= self.bytes.len());
+        let end = end.ok_or("it is cut short")?;
+        let taken = &self.bytes[self.at..end];
+        self.at = end;
+        Ok(taken)
+    }
+
+    fn array<const N: usize>(&mut self) -> Result<[u8; N], String> {
+        Ok(self.take(N)?.try_into().expect("N bytes taken"))
+    }
+
+    fn u32(&mut self) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(self.array()?))
+    }
+
+    fn u64(&mut self) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(self.array()?))
+    }
+
+    fn f64(&mut self) -> Result<f64, String> {
+        Ok(f64::from_le_bytes(self.array()?))
+    }
+
+    fn name(&mut self) -> Result<String, String> {
+        let length = self.take(1)?[0] as usize;
+        let name = self.take(length)?;
+        String::from_utf8(name.to_vec()).map_err(|_| "a name is not text".into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::simulation::Simulation;
+
+    fn checkpoint() -> Checkpoint {
+        let mut particles = Particles::zeroed(3);
+        for slot in 0..3 {
+            particles.p[0][slot] = -0.06 + 0.01 * slot as f64;
+            particles.v[1][slot] = 0.5 * slot as f64;
+        }
+        let mut simulation = Simulation::new(204.0, particles).unwrap();
+        simulation.set_time_step(TimeStep::Adaptive { courant: 0.3 });
+        simulation.run(2);
+        Checkpoint {
+            step: 2,
+            state: simulation.resumable().unwrap(),
+        }
+    }
+
+    #[test]
+    fn round_trips_every_field() {
+        let checkpoint = checkpoint();
+        assert!(checkpoint.state.last_step.is_some());
+        assert_eq!(decode(&encode(&checkpoint)).unwrap(), checkpoint);
+        let mut fresh = checkpoint.clone();
+        fresh.state.last_step = None;
+        fresh.state.time_step = TimeStep::Fixed(1e-3);
+        assert_eq!(decode(&encode(&fresh)).unwrap(), fresh);
+    }
+
+    #[test]
+    fn every_truncation_and_corruption_is_an_error() {
+        let bytes = encode(&checkpoint());
+        for length in 0..bytes.len() {
+            assert!(decode(&bytes[..length]).is_err(), "{length} bytes");
+        }
+        let mut longer = bytes.clone();
+        longer.push(0);
+        assert!(decode(&longer).is_err());
+        let mut wrong_magic = bytes.clone();
+        wrong_magic[7] = b'2';
+        assert_eq!(
+            decode(&wrong_magic).unwrap_err(),
+            "it is not a fluid checkpoint (version 1)"
+        );
+        let ids = bytes.len() - 3 * (4 + 13 * 8);
+        let mut repeated = bytes.clone();
+        repeated[ids + 4..ids + 8].copy_from_slice(&bytes[ids..ids + 4]);
+        assert!(decode(&repeated)
+            .unwrap_err()
+            .contains("repeated or out-of-range id"));
+        let mut not_finite = bytes.clone();
+        let last = not_finite.len() - 8;
+        not_finite[last..].copy_from_slice(&f64::NAN.to_le_bytes());
+        assert_eq!(
+            decode(&not_finite).unwrap_err(),
+            "it holds values that are not finite"
+        );
+    }
+}

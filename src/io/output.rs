@@ -1,0 +1,620 @@
+//! Output files that appear whole or not at all, and keep what their user set.
+//!
+//! An [`OutputFile`] is opened before any work (so an unwritable output fails first, with
+//! SPEC.md rule 5's error), can reserve its size before a long run ([`OutputFile::reserve`]),
+//! and is written in one [`OutputFile::commit`]:
+//! - a new file, or an existing one with a single link in a writable folder, is written to
+//!   a hidden temporary file beside it and renamed over it; a new file gets mode 0666 less
+//!   the umask, an existing one keeps its mode;
+//! - an existing file with other hard links, or in a folder that takes no new file, is
+//!   rewritten where it is, in one write with SIGINT, SIGTERM and SIGHUP held back;
+//! - an existing special file (`/dev/null`, a pipe, a device) is written directly.
+//!
+//! Temporary files are removed when an output is dropped unwritten, and when the process
+//! is ended by SIGINT, SIGTERM or SIGHUP (which then end it as they would have).
+
+use crate::io::fld::FileError;
+use std::ffi::OsString;
+use std::fs::{File, OpenOptions, Permissions};
+use std::io::{Seek, Write};
+use std::os::unix::ffi::OsStrExt;
+use std::os::unix::fs::{MetadataExt, PermissionsExt};
+use std::path::{Path, PathBuf};
+use tempfile::NamedTempFile;
+
+/// The longest file name Linux file systems take, in bytes.
+const NAME_MAX: usize = 255;
+/// The bytes a temporary name adds to the target's besides its suffix: `.`, `.` and 6
+/// random characters.
+const TEMPORARY_EXTRA: usize = 8;
+
+/// An output file being prepared; nothing changes at its path until [`OutputFile::commit`].
+#[derive(Debug)]
+pub struct OutputFile {
+    /// The output name as given, for messages.
+    name: OsString,
+    /// The file written: the given path with symbolic links resolved.
+    target: PathBuf,
+    sink: Sink,
+}
+
+#[derive(Debug)]
+enum Sink {
+    /// A temporary file beside the target, renamed over it on commit.
+    Atomic(Temporary),
+    /// The existing target itself, rewritten on commit (it has other hard links, or its
+    /// folder takes no new file).
+    InPlace(File),
+    /// An existing non-regular file, written directly.
+    Direct(File),
+}
+
+impl OutputFile {
+    /// Checks that `path` can be written (rule 5) before anything is computed: a path
+    /// naming a folder (`out/`, `..`) is refused, and the temporary file is created (or the
+    /// file opened for writing). A symbolic link is written through, not replaced.
+    pub fn create(path: &Path) -> Result<Self, FileError> {
+        let cannot_open = || FileError::CannotOpenOutput(path.as_os_str().to_owned());
+        if names_a_folder(path) {
+            return Err(cannot_open());
+        }
+        let target = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+        let sink = match std::fs::metadata(&target) {
+            Ok(meta) if meta.is_dir() => return Err(cannot_open()),
+            Ok(meta) if !meta.is_file() => {
+                Sink::Direct(open_for_writing(&target).map_err(|_| cannot_open())?)
+            }
+            Ok(meta) => {
+                let file = open_for_writing(&target).map_err(|_| cannot_open())?;
+                if meta.nlink() > 1 {
+                    Sink::InPlace(file)
+                } else {
+                    match Temporary::beside(&target, Some(meta.permissions()), ".tmp") {
+                        Ok(temporary) => Sink::Atomic(temporary),
+                        Err(error) if folder_refuses(&error) => Sink::InPlace(file),
+                        Err(_) => return Err(cannot_open()),
+                    }
+                }
+            }
+            Err(_) => {
+                Sink::Atomic(Temporary::beside(&target, None, ".tmp").map_err(|_| cannot_open())?)
+            }
+        };
+        Ok(Self {
+            name: path.as_os_str().to_owned(),
+            target,
+            sink,
+        })
+    }
+
+    /// Makes sure `bytes` bytes can be written before a long computation: reserves the
+    /// space on disk (where the file system supports it), or, for a special file, makes
+    /// an empty write (which `/dev/full` refuses). Fails with rule 5's error.
+    pub fn reserve(&mut self, bytes: u64) -> Result<(), FileError> {
+        let refused = match &mut self.sink {
+            Sink::Atomic(temporary) => !reserve_space(temporary.file.as_file(), bytes),
+            Sink::InPlace(file) => !reserve_space(file, bytes),
+            Sink::Direct(file) => file.write(&[]).is_err(),
+        };
+        if refused {
+            return Err(FileError::CannotOpenOutput(self.name.clone()));
+        }
+        Ok(())
+    }
+
+    /// Writes `bytes` as the whole file. On failure the target is untouched (a temporary
+    /// file is removed) except for a special file, which may have taken part of them.
+    pub fn commit(self, bytes: &[u8]) -> Result<(), FileError> {
+        let failed = |error: std::io::Error| FileError::CannotWriteOutput {
+            file: self.name.clone(),
+            reason: error.to_string(),
+        };
+        match self.sink {
+            Sink::Direct(mut file) => file.write_all(bytes).map_err(failed),
+            Sink::InPlace(mut file) => with_signals_held(|| {
+                file.rewind()?;
+                file.write_all(bytes)?;
+                file.set_len(bytes.len() as u64)
+            })
+            .map_err(failed),
+            Sink::Atomic(mut temporary) => {
+                temporary.file.write_all(bytes).map_err(failed)?;
+                temporary.persist(&self.target).map_err(failed)
+            }
+        }
+    }
+
+    /// Prepares the output for a writer that needs a path (an image encoder, which may
+    /// choose the format by the path's extension): the [`Staged`] path it writes, ending
+    /// in the target's extension, which [`Staged::commit`] then makes the output.
+    pub fn staged(mut self) -> Result<Staged, FileError> {
+        let cannot_open = |name: &OsString| FileError::CannotOpenOutput(name.clone());
+        let mut suffix = OsString::from(".tmp");
+        if let Some(extension) = self.target.extension() {
+            suffix.push(".");
+            suffix.push(extension);
+        }
+        let scratch = match &mut self.sink {
+            Sink::Atomic(temporary) => {
+                let permissions = temporary.file.as_file().metadata().map(|m| m.permissions());
+                let permissions = permissions.map_err(|_| cannot_open(&self.name))?;
+                *temporary = Temporary::beside(&self.target, Some(permissions), &suffix)
+                    .map_err(|_| cannot_open(&self.name))?;
+                None
+            }
+            Sink::InPlace(_) | Sink::Direct(_) => {
+                let scratch = tempfile::Builder::new()
+                    .prefix(".fluid-staged")
+                    .suffix(&suffix)
+                    .tempfile()
+                    .map_err(|_| cannot_open(&self.name))?;
+                Some(Temporary::guarded(scratch))
+            }
+        };
+        Ok(Staged {
+            output: self,
+            scratch,
+        })
+    }
+}
+
+/// An output written through a path ([`OutputFile::staged`]).
+#[derive(Debug)]
+pub struct Staged {
+    output: OutputFile,
+    /// Where the writer writes when the output's own temporary file cannot serve.
+    scratch: Option<Temporary>,
+}
+
+impl Staged {
+    /// The path the writer writes (a temporary file, never the output itself).
+    pub fn path(&self) -> &Path {
+        match (&self.scratch, &self.output.sink) {
+            (Some(scratch), _) => scratch.file.path(),
+            (None, Sink::Atomic(temporary)) => temporary.file.path(),
+            (None, _) => unreachable!("a staged output without a temporary file"),
+        }
+    }
+
+    /// Makes what the writer wrote the output.
+    pub fn commit(self) -> Result<(), FileError> {
+        let output = self.output;
+        match (self.scratch, output.sink) {
+            (None, Sink::Atomic(temporary)) => {
+                let target = output.target;
+                temporary
+                    .persist(&target)
+                    .map_err(|error| FileError::CannotWriteOutput {
+                        file: output.name,
+                        reason: error.to_string(),
+                    })
+            }
+            (Some(scratch), sink) => {
+                let bytes = std::fs::read(scratch.file.path()).map_err(|error| {
+                    FileError::CannotWriteOutput {
+                        file: output.name.clone(),
+                        reason: error.to_string(),
+                    }
+                })?;
+                OutputFile { sink, ..output }.commit(&bytes)
+            }
+            (None, _) => unreachable!("a staged output without a temporary file"),
+        }
+    }
+}
+
+/// A temporary file, removed when dropped or when a signal ends the process.
+#[derive(Debug)]
+struct Temporary {
+    file: NamedTempFile,
+    _cleanup: cleanup::Pending,
+}
+
+impl Temporary {
+    /// A new hidden temporary file beside `target`, named `.<name>.<random><suffix>` (the
+    /// name shortened to fit 255 bytes), with `permissions` if given, else 0666 less the
+    /// umask.
+    fn beside(
+        target: &Path,
+        permissions: Option<Permissions>,
+        suffix: impl AsRef<std::ffi::OsStr>,
+    ) -> std::io::Result<Self> {
+        let suffix = suffix.as_ref();
+        let name = target.file_name().unwrap_or_default().as_bytes();
+        let room = NAME_MAX.saturating_sub(TEMPORARY_EXTRA + suffix.len());
+        let kept = name.len().min(room);
+        let mut prefix = OsString::from(".");
+        prefix.push(std::ffi::OsStr::from_bytes(&name[..kept]));
+        let dir = match target.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir,
+            _ => Path::new("."),
+        };
+        let file = with_signals_held(|| {
+            let file = tempfile::Builder::new()
+                .prefix(&prefix)
+                .suffix(suffix)
+                .permissions(Permissions::from_mode(0o666))
+                .tempfile_in(dir)?;
+            Ok(Self::guarded(file))
+        })?;
+        if let Some(permissions) = permissions {
+            file.file.as_file().set_permissions(permissions)?;
+        }
+        Ok(file)
+    }
+
+    /// `file`, with its removal on signals registered.
+    fn guarded(file: NamedTempFile) -> Self {
+        let cleanup = cleanup::Pending::register(file.path());
+        Self {
+            file,
+            _cleanup: cleanup,
+        }
+    }
+
+    /// Renames the file over `target`.
+    fn persist(self, target: &Path) -> std::io::Result<()> {
+        self.file.persist(target).map(drop).map_err(|e| e.error)
+    }
+}
+
+/// Whether `path` can only name a folder: it ends in `/`, or in `.` or `..`.
+fn names_a_folder(path: &Path) -> bool {
+    path.as_os_str().as_bytes().ends_with(b"/") || path.file_name().is_none()
+}
+
+/// Opens an existing file for writing without truncating it.
+fn open_for_writing(path: &Path) -> std::io::Result<File> {
+    OpenOptions::new().write(true).open(path)
+}
+
+/// Whether creating a file failed because the folder takes no new file.
+fn folder_refuses(error: &std::io::Error) -> bool {
+    matches!(
+        error.raw_os_error(),
+        Some(libc::EACCES | libc::EPERM | libc::EROFS)
+    )
+}
+
+/// Reserves `bytes` bytes of disk for `file` without changing its size; false only when
+/// the file system says there is no room (a file system without reservations passes).
+fn reserve_space(file: &File, bytes: u64) -> bool {
+    use std::os::fd::AsRawFd;
+    let Ok(length) = libc::off_t::try_from(bytes) else {
+        return false;
+    };
+    // SAFETY: fallocate only reads its integer arguments; the descriptor is open.
+    let result = unsafe { libc::fallocate(file.as_raw_fd(), libc::FALLOC_FL_KEEP_SIZE, 0, length) };
+    result == 0
+        || !matches!(
+            std::io::Error::last_os_error().raw_os_error(),
+            Some(libc::ENOSPC | libc::EDQUOT | libc::EFBIG)
+        )
+}
+
+/// Runs `work` with SIGINT, SIGTERM and SIGHUP held back, so none ends the process
+/// halfway; one that arrives meanwhile is delivered after.
+fn with_signals_held<T>(work: impl FnOnce() -> std::io::Result<T>) -> std::io::Result<T> {
+    // SAFETY: the sets are initialised by sigemptyset before use, and pthread_sigmask
+    // only reads `held` and writes `previous`.
+    unsafe {
+        let mut held: libc::sigset_t = std::mem::zeroed();
+        let mut previous: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut held);
+        for signal in cleanup::SIGNALS {
+            libc::sigaddset(&mut held, signal);
+        }
+        libc::pthread_sigmask(libc::SIG_BLOCK, &held, &mut previous);
+        let result = work();
+        libc::pthread_sigmask(libc::SIG_SETMASK, &previous, std::ptr::null_mut());
+        result
+    }
+}
+
+/// The removal of temporary files when SIGINT, SIGTERM or SIGHUP ends the process: a
+/// fixed table of paths, which the signal handler unlinks (async-signal-safe: no
+/// allocation, no lock) before ending the process as the signal's default would.
+mod cleanup {
+    use std::cell::UnsafeCell;
+    use std::os::unix::ffi::OsStrExt;
+    use std::path::Path;
+    use std::sync::atomic::{AtomicU8, Ordering};
+    use std::sync::Once;
+
+    /// The signals that remove the temporary files before ending the process.
+    pub const SIGNALS: [libc::c_int; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
+    /// Temporary files registered at once (a run writes a few outputs at a time).
+    const SLOTS: usize = 16;
+    /// The longest path registered, in bytes (Linux's PATH_MAX).
+    const PATH_MAX: usize = 4096;
+
+    const FREE: u8 = 0;
+    const FILLING: u8 = 1;
+    const READY: u8 = 2;
+
+    /// One registered path: its state, and the path with a final NUL.
+    struct Slot {
+        state: AtomicU8,
+        path: UnsafeCell<[u8; PATH_MAX + 1]>,
+    }
+
+    // SAFETY: `path` is written only by the thread that moved `state` from FREE to
+    // FILLING, and read (by the handler) only in state READY.
+    unsafe impl Sync for Slot {}
+
+    static TABLE: [Slot; SLOTS] = [const {
+        Slot {
+            state: AtomicU8::new(FREE),
+            path: UnsafeCell::new([0; PATH_MAX + 1]),
+        }
+    }; SLOTS];
+
+    /// A registered temporary file, unregistered when dropped.
+    #[derive(Debug)]
+    pub struct Pending(Option<usize>);
+
+    impl Pending {
+        /// Registers `path` for removal on a signal (when the table has room and the path
+        /// fits; otherwise the file is only removed on drop).
+        pub fn register(path: &Path) -> Self {
+            install_handlers();
+            let bytes = path.as_os_str().as_bytes();
+            if bytes.len() > PATH_MAX || bytes.contains(&0) {
+                return Pending(None);
+            }
+            for (index, slot) in TABLE.iter().enumerate() {
+                let claimed = slot.state.compare_exchange(
+                    FREE,
+                    FILLING,
+                    Ordering::Acquire,
+                    Ordering::Relaxed,
+                );
+                if claimed.is_ok() {
+                    // SAFETY: this thread owns the slot in state FILLING.
+                    let buffer = unsafe { &mut *slot.path.get() };
+                    buffer[..bytes.len()].copy_from_slice(bytes);
+                    buffer[bytes.len()] = 0;
+                    slot.state.store(READY, Ordering::Release);
+                    return Pending(Some(index));
+                }
+            }
+            Pending(None)
+        }
+    }
+
+    impl Drop for Pending {
+        fn drop(&mut self) {
+            if let Some(index) = self.0 {
+                TABLE[index].state.store(FREE, Ordering::Release);
+            }
+        }
+    }
+
+    /// Installs the handlers once, for each signal that is not ignored (under `nohup`,
+    /// SIGHUP stays ignored).
+    fn install_handlers() {
+        static INSTALL: Once = Once::new();
+        INSTALL.call_once(|| {
+            for signal in SIGNALS {
+                if is_ignored(signal) {
+                    continue;
+                }
+                // SAFETY: the action only loads atomics, calls unlink and ends the
+                // process, all async-signal-safe.
+                let _ =
+                    unsafe { signal_hook::low_level::register(signal, move || on_signal(signal)) };
+            }
+        });
+    }
+
+    /// Whether `signal`'s disposition is to ignore it.
+    fn is_ignored(signal: libc::c_int) -> bool {
+        // SAFETY: sigaction with a null new action only writes the current one into
+        // `current`, a zeroed plain-data struct.
+        unsafe {
+            let mut current: libc::sigaction = std::mem::zeroed();
+            libc::sigaction(signal, std::ptr::null(), &mut current) == 0
+                && current.sa_sigaction == libc::SIG_IGN
+        }
+    }
+
+    /// The handler: removes every registered file, then acts as the signal's default.
+    fn on_signal(signal: libc::c_int) {
+        for slot in &TABLE {
+            if slot.state.load(Ordering::Acquire) == READY {
+                // SAFETY: a READY slot holds a NUL-terminated path; unlink only reads it.
+                unsafe { libc::unlink(slot.path.get().cast()) };
+            }
+        }
+        let _ = signal_hook::low_level::emulate_default_handler(signal);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut names: Vec<_> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    fn mode(path: &Path) -> u32 {
+        std::fs::metadata(path).unwrap().permissions().mode() & 0o777
+    }
+
+    #[test]
+    fn output_appears_only_on_commit() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.fld");
+        let output = OutputFile::create(&target).unwrap();
+        assert!(!target.exists());
+        assert_eq!(entries(dir.path()).len(), 1, "the temporary file");
+        output.commit(b"data").unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"data");
+        assert_eq!(entries(dir.path()), ["out.fld"]);
+    }
+
+    #[test]
+    fn dropped_output_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        drop(OutputFile::create(&dir.path().join("out.fld")).unwrap());
+        assert!(entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn unwritable_outputs_and_folder_names_are_rule_5() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("in.fld");
+        std::fs::write(&file, b"x").unwrap();
+        let mut file_as_folder = file.clone().into_os_string();
+        file_as_folder.push("/");
+        let mut missing_folder = dir.path().join("nodir").into_os_string();
+        missing_folder.push("/");
+        for path in [
+            dir.path().to_path_buf(),
+            dir.path().join("missing/out.fld"),
+            PathBuf::from(file_as_folder),
+            PathBuf::from(missing_folder),
+            dir.path().join(".."),
+        ] {
+            let err = OutputFile::create(&path).unwrap_err();
+            assert_eq!(
+                err,
+                FileError::CannotOpenOutput(path.clone().into_os_string())
+            );
+        }
+        assert_eq!(entries(dir.path()), ["in.fld"], "nothing created");
+    }
+
+    #[test]
+    fn names_up_to_255_bytes_are_written() {
+        let dir = tempfile::tempdir().unwrap();
+        for length in [240, 244, 245, 250, 255] {
+            let target = dir.path().join("n".repeat(length));
+            OutputFile::create(&target).unwrap().commit(b"x").unwrap();
+            assert_eq!(std::fs::read(&target).unwrap(), b"x", "{length}");
+        }
+        assert_eq!(entries(dir.path()).len(), 5);
+    }
+
+    #[test]
+    fn a_new_file_follows_the_umask_and_an_existing_file_keeps_its_mode() {
+        let dir = tempfile::tempdir().unwrap();
+        // SAFETY: umask only swaps the process's mask (the tests that create files here
+        // accept any mask).
+        let umask = unsafe { libc::umask(0o027) };
+        let new = dir.path().join("new.fld");
+        let result = OutputFile::create(&new).and_then(|o| o.commit(b"new"));
+        unsafe { libc::umask(umask) };
+        result.unwrap();
+        assert_eq!(mode(&new), 0o640);
+        let private = dir.path().join("private.fld");
+        std::fs::write(&private, b"old").unwrap();
+        std::fs::set_permissions(&private, Permissions::from_mode(0o600)).unwrap();
+        OutputFile::create(&private)
+            .unwrap()
+            .commit(b"new")
+            .unwrap();
+        assert_eq!(mode(&private), 0o600);
+        assert_eq!(std::fs::read(&private).unwrap(), b"new");
+    }
+
+    #[test]
+    fn a_hard_linked_file_is_rewritten_in_place() {
+        let dir = tempfile::tempdir().unwrap();
+        let (first, second) = (dir.path().join("a.fld"), dir.path().join("b.fld"));
+        std::fs::write(&first, b"a much longer old content").unwrap();
+        std::fs::hard_link(&first, &second).unwrap();
+        let output = OutputFile::create(&first).unwrap();
+        assert!(matches!(output.sink, Sink::InPlace(_)));
+        output.commit(b"new").unwrap();
+        assert_eq!(std::fs::read(&second).unwrap(), b"new", "the link sees it");
+        assert_eq!(entries(dir.path()), ["a.fld", "b.fld"]);
+    }
+
+    #[test]
+    fn a_writable_file_in_a_folder_that_takes_no_new_file_is_rewritten_in_place() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.fld");
+        std::fs::write(&target, b"old").unwrap();
+        std::fs::set_permissions(dir.path(), Permissions::from_mode(0o555)).unwrap();
+        let probe = tempfile::tempfile_in(dir.path());
+        let output = OutputFile::create(&target);
+        let result = output.and_then(|output| {
+            let in_place = matches!(output.sink, Sink::InPlace(_));
+            output.commit(b"new").map(|()| in_place)
+        });
+        std::fs::set_permissions(dir.path(), Permissions::from_mode(0o755)).unwrap();
+        // Root writes into read-only folders: then the rename path is taken.
+        assert_eq!(result.unwrap(), probe.is_err());
+        assert_eq!(std::fs::read(&target).unwrap(), b"new");
+    }
+
+    #[test]
+    fn special_files_are_written_directly_and_dev_full_fails_its_reservation() {
+        let mut null = OutputFile::create(Path::new("/dev/null")).unwrap();
+        assert!(matches!(null.sink, Sink::Direct(_)));
+        null.reserve(1 << 40).unwrap();
+        null.commit(b"data").unwrap();
+        let mut full = OutputFile::create(Path::new("/dev/full")).unwrap();
+        assert_eq!(
+            full.reserve(36),
+            Err(FileError::CannotOpenOutput("/dev/full".into()))
+        );
+        let err = full.commit(b"data").unwrap_err();
+        assert!(
+            matches!(&err, FileError::CannotWriteOutput { file, .. } if file == "/dev/full"),
+            "{err:?}"
+        );
+    }
+
+    #[test]
+    fn reserving_more_than_the_disk_holds_fails_and_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.fld");
+        let mut output = OutputFile::create(&target).unwrap();
+        assert_eq!(
+            output.reserve(1 << 60),
+            Err(FileError::CannotOpenOutput(target.clone().into_os_string()))
+        );
+        output.reserve(4096).unwrap();
+        drop(output);
+        assert!(entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn a_symbolic_link_is_written_through() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.fld");
+        std::fs::write(&real, b"old").unwrap();
+        let link = dir.path().join("link.fld");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        let output = OutputFile::create(&link).unwrap();
+        assert_eq!(output.name, link.as_os_str());
+        output.commit(b"new").unwrap();
+        assert!(link.symlink_metadata().unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read(&real).unwrap(), b"new");
+    }
+
+    #[test]
+    fn a_staged_output_appears_on_commit_for_every_sink() {
+        let dir = tempfile::tempdir().unwrap();
+        let (plain, linked) = (dir.path().join("a.png"), dir.path().join("b.png"));
+        std::fs::write(&linked, b"old").unwrap();
+        std::fs::hard_link(&linked, dir.path().join("c.png")).unwrap();
+        for target in [&plain, &linked] {
+            let staged = OutputFile::create(target).unwrap().staged().unwrap();
+            assert_ne!(staged.path(), target.as_path());
+            std::fs::write(staged.path(), b"picture").unwrap();
+            assert_ne!(std::fs::read(target).ok().as_deref(), Some(&b"picture"[..]));
+            staged.commit().unwrap();
+            assert_eq!(std::fs::read(target).unwrap(), b"picture");
+        }
+        assert_eq!(entries(dir.path()), ["a.png", "b.png", "c.png"]);
+    }
+}
