@@ -1,0 +1,596 @@
+//! Hostile use of the real binaries (issue 14): every numbered defect found by trying
+//! `fluid` and `fluid-lab` as a hostile user would, each with the test that keeps it
+//! fixed, and checkpoints that lose nothing when a run is killed.
+
+mod common;
+
+use common::{exit_code, input, run_fluid, run_lab, stderr, stdout};
+use std::ffi::OsStr;
+use std::os::unix::ffi::OsStrExt;
+use std::os::unix::fs::PermissionsExt;
+use std::os::unix::process::{CommandExt, ExitStatusExt};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The names in `dir`, hidden ones included, sorted.
+fn entries(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// An `.fld` file of particles at rest at `positions`, `ppm` particles per metre.
+fn fld(path: &Path, ppm: f32, records: &[[f32; 9]]) {
+    let mut bytes = ppm.to_le_bytes().to_vec();
+    bytes.extend((records.len() as i32).to_le_bytes());
+    for record in records {
+        bytes.extend(record.iter().flat_map(|v| v.to_le_bytes()));
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// Asserts a failed run: its exit code, one line on stderr equal to `message`, nothing
+/// on stdout.
+fn assert_refused(output: &std::process::Output, code: i32, message: &str) {
+    assert_eq!(exit_code(output), code, "{}", stderr(output));
+    assert_eq!(stderr(output), format!("{message}\n"));
+    assert_eq!(stdout(output), "", "nothing printed, nothing simulated");
+}
+
+/// Starts `program` with `args` in `dir`, with SIGINT and SIGHUP at their defaults (a
+/// test harness started in the background may have them ignored) and `umask` set.
+fn spawn(program: &str, args: &[&OsStr], dir: &Path, umask: u32) -> Child {
+    let mut command = Command::new(program);
+    command
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    // SAFETY: between fork and exec only async-signal-safe calls (signal, umask).
+    unsafe {
+        command.pre_exec(move || {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            libc::signal(libc::SIGHUP, libc::SIG_DFL);
+            libc::umask(umask as libc::mode_t);
+            Ok(())
+        });
+    }
+    command.spawn().unwrap()
+}
+
+/// Waits until `ready` holds (polling), failing after 60 s.
+fn wait_until(what: &str, ready: impl Fn() -> bool) {
+    let start = Instant::now();
+    while !ready() {
+        assert!(start.elapsed() < Duration::from_secs(60), "{what} never happened");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// Waits for `child` to end, failing after 60 s; its raw status.
+fn reap(child: &mut Child) -> std::process::ExitStatus {
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        if start.elapsed() > Duration::from_secs(60) {
+            child.kill().ok();
+            panic!("the child did not end");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+// 1. Panics and hangs.
+
+#[test]
+fn item_1_a_corner_block_beyond_the_box_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cb.fld");
+    let output = run_lab(&[
+        "scene".as_ref(),
+        "corner-block".as_ref(),
+        out.as_os_str(),
+        "--particles".as_ref(),
+        "1000000".as_ref(),
+    ]);
+    assert_refused(
+        &output,
+        1,
+        "fluid-lab: error: a box at 400 particles per metre holds a corner block of at most \
+         194688 particles",
+    );
+    assert!(entries(dir.path()).is_empty());
+}
+
+#[test]
+fn item_2_a_render_range_must_be_finite_and_nothing_is_left_half_drawn() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    for (picture, range) in [
+        ("x.png", "--range=-inf,0"),
+        ("x.png", "--range=-inf,inf"),
+        ("x.gif", "--range=-inf,0"),
+        ("x.png", "--range=nan,1"),
+    ] {
+        let out = dir.path().join(picture);
+        let output = run_lab(&[
+            "render".as_ref(),
+            small.as_os_str(),
+            out.as_os_str(),
+            range.as_ref(),
+        ]);
+        assert_eq!(exit_code(&output), 2, "{range}: {}", stderr(&output));
+        assert!(
+            stderr(&output).contains("LOW and HIGH must be finite numbers"),
+            "{}",
+            stderr(&output)
+        );
+        assert!(entries(dir.path()).is_empty(), "{range}");
+    }
+}
+
+/// A sweep CSV of one idle window and one run with `wall_s` = `wall`.
+fn sweep_csv(path: &Path, wall: &str) {
+    let columns = fluid::lab::sweep::COLUMNS;
+    let row = |kind: &str, wall: &str| {
+        columns
+            .iter()
+            .map(|&column| match column {
+                "kind" => kind,
+                "input" if kind == "run" => "small.fld",
+                "particles" if kind == "run" => "4800",
+                "iterations" if kind == "run" => "10",
+                "repeat" => "1",
+                "wall_s" => wall,
+                _ => "",
+            })
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let text = format!(
+        "{}\n{}\n{}\n",
+        columns.join(","),
+        row("idle", "1.0"),
+        row("run", wall)
+    );
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn items_3_and_6_chart_refuses_measurements_that_are_not_measurements() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("sweep.csv");
+    for wall in ["inf", "nan", "-1", "1e400"] {
+        sweep_csv(&csv, wall);
+        let started = Instant::now();
+        let output = run_lab(&["chart".as_ref(), csv.as_os_str()]);
+        assert!(started.elapsed() < Duration::from_secs(20), "{wall}: no spin");
+        let expected = format!(
+            "fluid-lab: error: {}: row 3: wall_s is {wall}, not a finite measurement >= 0",
+            csv.display()
+        );
+        assert_refused(&output, 1, &expected);
+    }
+    assert_eq!(entries(dir.path()), ["sweep.csv"], "no chart drawn");
+    sweep_csv(&csv, "0.5");
+    let folder = dir.path().join("new/charts");
+    let output = run_lab(&[
+        "chart".as_ref(),
+        csv.as_os_str(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert!(folder.join("time.png").is_file(), "--output-dir is created");
+}
+
+#[test]
+fn item_4_a_fifo_input_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("in.fifo");
+    let name = std::ffi::CString::new(fifo.as_os_str().as_bytes()).unwrap();
+    // SAFETY: mkfifo reads a NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(name.as_ptr(), 0o600) }, 0);
+    let out = dir.path().join("out.fld");
+    let output = run_fluid(&["1".as_ref(), fifo.as_os_str(), out.as_os_str()]);
+    assert_refused(
+        &output,
+        253,
+        &format!("Error: Cannot open {} for reading", fifo.display()),
+    );
+    let output = run_lab(&["run".as_ref(), fifo.as_os_str()]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(!out.exists());
+}
+
+// 2. Silent garbage.
+
+#[test]
+fn item_5_a_state_beyond_f32_is_an_error_not_an_infinity() {
+    let dir = tempfile::tempdir().unwrap();
+    let far = dir.path().join("far.fld");
+    let at = |x: f32| [x, 0.0, 0.0, 0.0, 0.0, 0.0, x, 0.0, 0.0];
+    fld(&far, 204.0, &[at(3e38), at(-3e38)]);
+    let out = dir.path().join("out.fld");
+    let output = run_fluid(&["1".as_ref(), far.as_os_str(), out.as_os_str()]);
+    assert_eq!(exit_code(&output), 252);
+    let message = stderr(&output);
+    assert!(
+        message.starts_with(&format!("Error: Cannot write {}: particle 0 has ", out.display()))
+            && message.ends_with(", beyond what the f32 .fld format stores.\n"),
+        "{message}"
+    );
+    assert_eq!(entries(dir.path()), ["far.fld"]);
+
+    let (out, diagnostics) = (dir.path().join("o.fld"), dir.path().join("d.csv"));
+    let output = run_lab(&[
+        "run".as_ref(),
+        input("small").as_os_str(),
+        out.as_os_str(),
+        "--dt".as_ref(),
+        "0.01".as_ref(),
+        "--steps".as_ref(),
+        "100".as_ref(),
+        "--diagnostics".as_ref(),
+        diagnostics.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("beyond what the f32 .fld format stores"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!out.exists());
+    let text = std::fs::read_to_string(&diagnostics).unwrap();
+    let last = text.lines().last().unwrap();
+    assert!(last.starts_with("100,"), "{last}");
+    let beyond: usize = last.rsplit(',').next().unwrap().parse().unwrap();
+    assert!(beyond > 4000, "the flag column counts them: {last}");
+    let longest = text.split([',', '\n']).map(str::len).max().unwrap();
+    assert!(longest < 40, "no 140-digit numbers: {longest}");
+}
+
+// 3. Data loss and late failures.
+
+#[test]
+fn item_7_signals_leave_nothing_behind_and_end_the_process_as_they_would() {
+    let dir = tempfile::tempdir().unwrap();
+    let (large, small) = (input("large"), input("small"));
+    let lab = env!("CARGO_BIN_EXE_fluid-lab");
+    for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+        let runs: [(&str, Vec<&OsStr>); 3] = [
+            (
+                lab,
+                vec![
+                    "run".as_ref(),
+                    large.as_os_str(),
+                    "o.fld".as_ref(),
+                    "--steps".as_ref(),
+                    "1000000".as_ref(),
+                    "--diagnostics".as_ref(),
+                    "d.csv".as_ref(),
+                ],
+            ),
+            (
+                env!("CARGO_BIN_EXE_fluid"),
+                vec!["1000000".as_ref(), large.as_os_str(), "o.fld".as_ref()],
+            ),
+            (
+                lab,
+                vec![
+                    "render".as_ref(),
+                    small.as_os_str(),
+                    "r.gif".as_ref(),
+                    "--steps".as_ref(),
+                    "1000000".as_ref(),
+                    "--every".as_ref(),
+                    "1".as_ref(),
+                ],
+            ),
+        ];
+        for (program, args) in runs {
+            let mut child = spawn(program, &args, dir.path(), 0o022);
+            // Outputs are opened before the run: their temporary files appear first.
+            wait_until("the temporary files", || {
+                entries(dir.path()).iter().any(|name| name.ends_with(".tmp")
+                    || name.ends_with(".tmp.gif"))
+            });
+            std::thread::sleep(Duration::from_millis(200));
+            // SAFETY: kill sends a signal to our own child.
+            assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
+            let status = reap(&mut child);
+            assert_eq!(status.signal(), Some(signal), "{args:?}");
+            assert!(entries(dir.path()).is_empty(), "{args:?}: {:?}", entries(dir.path()));
+        }
+    }
+}
+
+#[test]
+fn item_8_unwritable_outputs_fail_before_anything_is_printed_or_simulated() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let mut in_fld_slash = small.clone().into_os_string();
+    in_fld_slash.push("/");
+    for output in [
+        OsStr::new("nodir/").to_owned(),
+        in_fld_slash,
+        OsStr::new("/dev/full").to_owned(),
+    ] {
+        let run = Command::new(env!("CARGO_BIN_EXE_fluid"))
+            .args(["1".as_ref(), small.as_os_str(), &output])
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let message = format!("Error: Cannot open {} for writing", output.to_string_lossy());
+        assert_refused(&run, 252, &message);
+    }
+    assert!(entries(dir.path()).is_empty());
+    let missing = dir.path().join("missing/x.png");
+    let started = Instant::now();
+    let output = run_lab(&[
+        "render".as_ref(),
+        small.as_os_str(),
+        missing.as_os_str(),
+        "--steps".as_ref(),
+        "100000".as_ref(),
+    ]);
+    assert!(started.elapsed() < Duration::from_secs(20), "before simulating");
+    assert_refused(
+        &output,
+        1,
+        &format!("fluid-lab: error: Cannot open {} for writing", missing.display()),
+    );
+}
+
+#[test]
+fn item_9_names_of_up_to_255_bytes_are_written() {
+    let dir = tempfile::tempdir().unwrap();
+    for length in [245, 250, 255] {
+        let out = dir.path().join("n".repeat(length));
+        let output = run_fluid(&["0".as_ref(), input("small").as_os_str(), out.as_os_str()]);
+        assert_eq!(exit_code(&output), 0, "{length}: {}", stderr(&output));
+        assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(input("small")).unwrap());
+    }
+    assert_eq!(entries(dir.path()).len(), 3);
+}
+
+#[test]
+fn item_10_outputs_keep_their_mode_links_and_folder_and_follow_the_umask() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let fluid = env!("CARGO_BIN_EXE_fluid");
+    let mode = |path: &Path| std::fs::metadata(path).unwrap().permissions().mode() & 0o777;
+    let run = |out: &str, umask: u32| {
+        let args = ["0".as_ref(), small.as_os_str(), out.as_ref()];
+        assert!(reap(&mut spawn(fluid, &args, dir.path(), umask)).success());
+    };
+    run("new.fld", 0o077);
+    assert_eq!(mode(&dir.path().join("new.fld")), 0o600, "0666 less the umask");
+    run("public.fld", 0o002);
+    assert_eq!(mode(&dir.path().join("public.fld")), 0o664);
+    let private = dir.path().join("private.fld");
+    std::fs::write(&private, b"old").unwrap();
+    std::fs::set_permissions(&private, std::fs::Permissions::from_mode(0o640)).unwrap();
+    run("private.fld", 0o022);
+    assert_eq!(mode(&private), 0o640, "an existing file keeps its mode");
+    let link = dir.path().join("link.fld");
+    std::fs::hard_link(&private, &link).unwrap();
+    run("private.fld", 0o022);
+    assert_eq!(std::fs::read(&link).unwrap(), std::fs::read(&small).unwrap());
+
+    let locked = dir.path().join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    let kept = locked.join("kept.fld");
+    std::fs::write(&kept, b"old").unwrap();
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let output = run_fluid(&["0".as_ref(), small.as_os_str(), kept.as_os_str()]);
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert_eq!(std::fs::read(&kept).unwrap(), std::fs::read(&small).unwrap());
+    assert_eq!(entries(&locked), ["kept.fld"]);
+}
+
+// 4. Unclear interfaces.
+
+#[test]
+fn item_12_options_take_the_forms_their_help_shows() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    // Lists separated by spaces or commas; corner-block without --particles.
+    let output = run_lab(&[
+        "stability",
+        "--scene",
+        "corner-block",
+        "--models",
+        "course",
+        "fluidanimate",
+        "--ppms",
+        "100",
+        "120",
+        "--dt-factors",
+        "1",
+        "2",
+        "--adaptive",
+        "",
+        "--duration",
+        "0.002",
+        "--output-dir",
+        &dir.path().join("map").to_string_lossy(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let rows = std::fs::read_to_string(dir.path().join("map/stability.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 2 * 2 * 2, "{rows}");
+    // A negative number reaches its check.
+    let output = run_lab(&["run".as_ref(), small.as_os_str(), "--dt".as_ref(), "-1".as_ref()]);
+    assert_eq!(exit_code(&output), 2);
+    assert!(stderr(&output).contains("-1 is not a positive time step"), "{}", stderr(&output));
+    // Extensions in any case.
+    let upper = dir.path().join("X.PNG");
+    let output = run_lab(&["render".as_ref(), small.as_os_str(), upper.as_os_str()]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert!(std::fs::read(&upper).unwrap().starts_with(b"\x89PNG"));
+}
+
+#[test]
+fn item_13_messages_print_numbers_and_names_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let huge = dir.path().join("huge.fld");
+    fld(&huge, 1e30, &[[0.0; 9]]);
+    let out = dir.path().join("out.fld");
+    let output = run_fluid(&["1".as_ref(), huge.as_os_str(), out.as_os_str()]);
+    assert_eq!(exit_code(&output), 251);
+    let message = stderr(&output);
+    assert!(
+        message.contains("particles per meter 1e+30 gives a grid of 7.670e28 x "),
+        "{message}"
+    );
+    assert!(!message.contains("0000000"), "{message}");
+    // Two neighbouring f32 values (both too coarse for a grid) print apart.
+    let (a, b) = (10.0f32, f32::from_bits(10.0f32.to_bits() + 1));
+    let messages: Vec<String> = [a, b]
+        .iter()
+        .map(|&ppm| {
+            let file = dir.path().join("near.fld");
+            fld(&file, ppm, &[[0.0; 9]]);
+            stderr(&run_fluid(&["1".as_ref(), file.as_os_str(), out.as_os_str()]))
+        })
+        .collect();
+    assert!(messages[0].contains("particles per meter 10 gives"), "{}", messages[0]);
+    assert!(messages[1].contains("particles per meter 10.000001 gives"), "{}", messages[1]);
+    // scene names the grid's real problem.
+    let output = run_lab(&[
+        "scene".as_ref(),
+        "filled-box".as_ref(),
+        out.as_os_str(),
+        "--ppm".as_ref(),
+        "1e30".as_ref(),
+    ]);
+    assert!(stderr(&output).contains("gives a grid of 7.670e28 x "), "{}", stderr(&output));
+    // File names byte for byte.
+    let odd = dir.path().join(OsStr::from_bytes(b"\xff.fld"));
+    let output = run_fluid(&["1".as_ref(), odd.as_os_str(), out.as_os_str()]);
+    assert_eq!(exit_code(&output), 253);
+    let expected = [b"Error: Cannot open ", odd.as_os_str().as_bytes(), b" for reading\n"].concat();
+    assert_eq!(output.stderr, expected);
+    assert!(!out.exists());
+}
+
+// Checkpoints.
+
+/// Runs `fluid-lab run` on large.fld with `args` after the input; asserts success.
+fn run_large(args: &[&OsStr]) {
+    let large = input("large");
+    let mut all: Vec<&OsStr> = vec!["run".as_ref(), large.as_os_str()];
+    all.extend(args);
+    let output = run_lab(&all);
+    assert_eq!(exit_code(&output), 0, "{args:?}: {}", stderr(&output));
+}
+
+#[test]
+fn checkpoints_continue_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| -> PathBuf { dir.path().join(name) };
+    for time_step in [["--dt", "0.001"], ["--adaptive", "0.3"]] {
+        let [rule, value] = time_step.map(OsStr::new);
+        // 12 steps in one run, checkpointed at the end.
+        run_large(&[
+            path("whole.fld").as_os_str(),
+            "--steps".as_ref(),
+            "12".as_ref(),
+            rule,
+            value,
+            "--checkpoint-every".as_ref(),
+            "12".as_ref(),
+            "--checkpoint".as_ref(),
+            path("whole.ck").as_os_str(),
+        ]);
+        // 5 steps, then resumed to 12.
+        run_large(&[
+            "--steps".as_ref(),
+            "5".as_ref(),
+            rule,
+            value,
+            "--checkpoint-every".as_ref(),
+            "5".as_ref(),
+            "--checkpoint".as_ref(),
+            path("part.ck").as_os_str(),
+        ]);
+        run_large(&[
+            path("resumed.fld").as_os_str(),
+            "--steps".as_ref(),
+            "12".as_ref(),
+            rule,
+            value,
+            "--resume".as_ref(),
+            path("part.ck").as_os_str(),
+            "--checkpoint-every".as_ref(),
+            "12".as_ref(),
+            "--checkpoint".as_ref(),
+            path("resumed.ck").as_os_str(),
+        ]);
+        let read = |name: &str| std::fs::read(path(name)).unwrap();
+        assert_eq!(read("whole.ck"), read("resumed.ck"), "{time_step:?}: full f64 state");
+        assert_eq!(read("whole.fld"), read("resumed.fld"), "{time_step:?}");
+    }
+    // A checkpoint of another run is refused.
+    let output = run_lab(&[
+        "run".as_ref(),
+        input("large").as_os_str(),
+        "--steps".as_ref(),
+        "12".as_ref(),
+        "--resume".as_ref(),
+        path("part.ck").as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(stderr(&output).contains("a checkpoint of a run with another time step"));
+}
+
+#[test]
+fn a_run_killed_with_sigkill_resumes_from_its_last_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let large = input("large");
+    let checkpoint = dir.path().join("run.ck");
+    let args: Vec<&OsStr> = vec![
+        "run".as_ref(),
+        large.as_os_str(),
+        "--steps".as_ref(),
+        "1000000".as_ref(),
+        "--checkpoint-every".as_ref(),
+        "3".as_ref(),
+        "--checkpoint".as_ref(),
+        checkpoint.as_os_str(),
+    ];
+    let mut child = spawn(env!("CARGO_BIN_EXE_fluid-lab"), &args, dir.path(), 0o022);
+    wait_until("the second checkpoint", || {
+        std::fs::read(&checkpoint)
+            .is_ok_and(|bytes| bytes.len() > 16 && bytes[8..16] != 3u64.to_le_bytes())
+    });
+    child.kill().unwrap();
+    reap(&mut child);
+    let bytes = std::fs::read(&checkpoint).unwrap();
+    let step = u64::from_le_bytes(bytes[8..16].try_into().unwrap());
+    assert!(step >= 6 && step % 3 == 0, "{step}");
+    let target = (step + 2).to_string();
+    let (whole, resumed) = (dir.path().join("whole.fld"), dir.path().join("resumed.fld"));
+    run_large(&[whole.as_os_str(), "--steps".as_ref(), target.as_ref()]);
+    run_large(&[
+        resumed.as_os_str(),
+        "--steps".as_ref(),
+        target.as_ref(),
+        "--resume".as_ref(),
+        checkpoint.as_os_str(),
+    ]);
+    assert_eq!(std::fs::read(&whole).unwrap(), std::fs::read(&resumed).unwrap());
+    let leftovers: Vec<String> = entries(dir.path())
+        .into_iter()
+        .filter(|name| name.ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.len() <= 1, "SIGKILL may leave one temporary: {leftovers:?}");
+}
