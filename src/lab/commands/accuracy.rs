@@ -113,6 +113,9 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
         }
     }
     super::create_output_dir(&args.output_dir)?;
+    // The CSV is opened before the runs, so an unwritable folder fails first.
+    let csv_path = args.output_dir.join("accuracy.csv");
+    let csv_file = OutputFile::create(&csv_path)?;
     let scene = fld::read(&args.input)?;
     let particles = scene.particles.len();
     let name = args.input.display().to_string();
@@ -137,8 +140,7 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
         accuracy::CSV_HEADER,
         sweep.csv(&file_name, particles, args.model, &machine)
     );
-    let csv_path = args.output_dir.join("accuracy.csv");
-    OutputFile::create(&csv_path)?.commit(rows.as_bytes())?;
+    csv_file.commit(rows.as_bytes())?;
     writeln!(stdout, "wrote {}", csv_path.display())?;
     let metric = args.metric;
     let footer = footer(&sweep, &file_name, particles, args.model, &machine);

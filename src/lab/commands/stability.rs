@@ -86,6 +86,9 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
         )
         .collect();
     super::create_output_dir(&args.output_dir)?;
+    // The CSV is opened before the runs, so an unwritable folder fails first.
+    let csv_path = args.output_dir.join("stability.csv");
+    let csv_file = OutputFile::create(&csv_path)?;
     let mut rows = format!("{}\n", stability::CSV_HEADER);
     let mut outcomes = Vec::new();
     for &model in &args.models {
@@ -110,8 +113,7 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
             }
         }
     }
-    let csv_path = args.output_dir.join("stability.csv");
-    OutputFile::create(&csv_path)?.commit(rows.as_bytes())?;
+    csv_file.commit(rows.as_bytes())?;
     writeln!(stdout, "wrote {}", csv_path.display())?;
     let machine = Machine::this();
     let footer = format!(
