@@ -67,7 +67,10 @@ fn spawn(program: &str, args: &[&OsStr], dir: &Path, umask: u32) -> Child {
 fn wait_until(what: &str, ready: impl Fn() -> bool) {
     let start = Instant::now();
     while !ready() {
-        assert!(start.elapsed() < Duration::from_secs(60), "{what} never happened");
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "{what} never happened"
+        );
         std::thread::sleep(Duration::from_millis(10));
     }
 }
@@ -171,7 +174,10 @@ fn items_3_and_6_chart_refuses_measurements_that_are_not_measurements() {
         sweep_csv(&csv, wall);
         let started = Instant::now();
         let output = run_lab(&["chart".as_ref(), csv.as_os_str()]);
-        assert!(started.elapsed() < Duration::from_secs(20), "{wall}: no spin");
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "{wall}: no spin"
+        );
         let expected = format!(
             "fluid-lab: error: {}: row 3: wall_s is {wall}, not a finite measurement >= 0",
             csv.display()
@@ -223,8 +229,10 @@ fn item_5_a_state_beyond_f32_is_an_error_not_an_infinity() {
     assert_eq!(exit_code(&output), 252);
     let message = stderr(&output);
     assert!(
-        message.starts_with(&format!("Error: Cannot write {}: particle 0 has ", out.display()))
-            && message.ends_with(", beyond what the f32 .fld format stores.\n"),
+        message.starts_with(&format!(
+            "Error: Cannot write {}: particle 0 has ",
+            out.display()
+        )) && message.ends_with(", beyond what the f32 .fld format stores.\n"),
         "{message}"
     );
     assert_eq!(entries(dir.path()), ["far.fld"]);
@@ -299,15 +307,20 @@ fn item_7_signals_leave_nothing_behind_and_end_the_process_as_they_would() {
             let mut child = spawn(program, &args, dir.path(), 0o022);
             // Outputs are opened before the run: their temporary files appear first.
             wait_until("the temporary files", || {
-                entries(dir.path()).iter().any(|name| name.ends_with(".tmp")
-                    || name.ends_with(".tmp.gif"))
+                entries(dir.path())
+                    .iter()
+                    .any(|name| name.ends_with(".tmp") || name.ends_with(".tmp.gif"))
             });
             std::thread::sleep(Duration::from_millis(200));
             // SAFETY: kill sends a signal to our own child.
             assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
             let status = reap(&mut child);
             assert_eq!(status.signal(), Some(signal), "{args:?}");
-            assert!(entries(dir.path()).is_empty(), "{args:?}: {:?}", entries(dir.path()));
+            assert!(
+                entries(dir.path()).is_empty(),
+                "{args:?}: {:?}",
+                entries(dir.path())
+            );
         }
     }
 }
@@ -328,7 +341,10 @@ fn item_8_unwritable_outputs_fail_before_anything_is_printed_or_simulated() {
             .current_dir(dir.path())
             .output()
             .unwrap();
-        let message = format!("Error: Cannot open {} for writing", output.to_string_lossy());
+        let message = format!(
+            "Error: Cannot open {} for writing",
+            output.to_string_lossy()
+        );
         assert_refused(&run, 252, &message);
     }
     assert!(entries(dir.path()).is_empty());
@@ -341,11 +357,17 @@ fn item_8_unwritable_outputs_fail_before_anything_is_printed_or_simulated() {
         "--steps".as_ref(),
         "100000".as_ref(),
     ]);
-    assert!(started.elapsed() < Duration::from_secs(20), "before simulating");
+    assert!(
+        started.elapsed() < Duration::from_secs(20),
+        "before simulating"
+    );
     assert_refused(
         &output,
         1,
-        &format!("fluid-lab: error: Cannot open {} for writing", missing.display()),
+        &format!(
+            "fluid-lab: error: Cannot open {} for writing",
+            missing.display()
+        ),
     );
 }
 
@@ -356,7 +378,10 @@ fn item_9_names_of_up_to_255_bytes_are_written() {
         let out = dir.path().join("n".repeat(length));
         let output = run_fluid(&["0".as_ref(), input("small").as_os_str(), out.as_os_str()]);
         assert_eq!(exit_code(&output), 0, "{length}: {}", stderr(&output));
-        assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(input("small")).unwrap());
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            std::fs::read(input("small")).unwrap()
+        );
     }
     assert_eq!(entries(dir.path()).len(), 3);
 }
@@ -372,7 +397,11 @@ fn item_10_outputs_keep_their_mode_links_and_folder_and_follow_the_umask() {
         assert!(reap(&mut spawn(fluid, &args, dir.path(), umask)).success());
     };
     run("new.fld", 0o077);
-    assert_eq!(mode(&dir.path().join("new.fld")), 0o600, "0666 less the umask");
+    assert_eq!(
+        mode(&dir.path().join("new.fld")),
+        0o600,
+        "0666 less the umask"
+    );
     run("public.fld", 0o002);
     assert_eq!(mode(&dir.path().join("public.fld")), 0o664);
     let private = dir.path().join("private.fld");
@@ -383,7 +412,10 @@ fn item_10_outputs_keep_their_mode_links_and_folder_and_follow_the_umask() {
     let link = dir.path().join("link.fld");
     std::fs::hard_link(&private, &link).unwrap();
     run("private.fld", 0o022);
-    assert_eq!(std::fs::read(&link).unwrap(), std::fs::read(&small).unwrap());
+    assert_eq!(
+        std::fs::read(&link).unwrap(),
+        std::fs::read(&small).unwrap()
+    );
 
     let locked = dir.path().join("locked");
     std::fs::create_dir(&locked).unwrap();
@@ -393,7 +425,10 @@ fn item_10_outputs_keep_their_mode_links_and_folder_and_follow_the_umask() {
     let output = run_fluid(&["0".as_ref(), small.as_os_str(), kept.as_os_str()]);
     std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
-    assert_eq!(std::fs::read(&kept).unwrap(), std::fs::read(&small).unwrap());
+    assert_eq!(
+        std::fs::read(&kept).unwrap(),
+        std::fs::read(&small).unwrap()
+    );
     assert_eq!(entries(&locked), ["kept.fld"]);
 }
 
@@ -428,9 +463,18 @@ fn item_12_options_take_the_forms_their_help_shows() {
     let rows = std::fs::read_to_string(dir.path().join("map/stability.csv")).unwrap();
     assert_eq!(rows.lines().count(), 1 + 2 * 2 * 2, "{rows}");
     // A negative number reaches its check.
-    let output = run_lab(&["run".as_ref(), small.as_os_str(), "--dt".as_ref(), "-1".as_ref()]);
+    let output = run_lab(&[
+        "run".as_ref(),
+        small.as_os_str(),
+        "--dt".as_ref(),
+        "-1".as_ref(),
+    ]);
     assert_eq!(exit_code(&output), 2);
-    assert!(stderr(&output).contains("-1 is not a positive time step"), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("-1 is not a positive time step"),
+        "{}",
+        stderr(&output)
+    );
     // Extensions in any case.
     let upper = dir.path().join("X.PNG");
     let output = run_lab(&["render".as_ref(), small.as_os_str(), upper.as_os_str()]);
@@ -459,11 +503,23 @@ fn item_13_messages_print_numbers_and_names_exactly() {
         .map(|&ppm| {
             let file = dir.path().join("near.fld");
             fld(&file, ppm, &[[0.0; 9]]);
-            stderr(&run_fluid(&["1".as_ref(), file.as_os_str(), out.as_os_str()]))
+            stderr(&run_fluid(&[
+                "1".as_ref(),
+                file.as_os_str(),
+                out.as_os_str(),
+            ]))
         })
         .collect();
-    assert!(messages[0].contains("particles per meter 10 gives"), "{}", messages[0]);
-    assert!(messages[1].contains("particles per meter 10.000001 gives"), "{}", messages[1]);
+    assert!(
+        messages[0].contains("particles per meter 10 gives"),
+        "{}",
+        messages[0]
+    );
+    assert!(
+        messages[1].contains("particles per meter 10.000001 gives"),
+        "{}",
+        messages[1]
+    );
     // scene names the grid's real problem.
     let output = run_lab(&[
         "scene".as_ref(),
@@ -472,12 +528,21 @@ fn item_13_messages_print_numbers_and_names_exactly() {
         "--ppm".as_ref(),
         "1e30".as_ref(),
     ]);
-    assert!(stderr(&output).contains("gives a grid of 7.670e28 x "), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("gives a grid of 7.670e28 x "),
+        "{}",
+        stderr(&output)
+    );
     // File names byte for byte.
     let odd = dir.path().join(OsStr::from_bytes(b"\xff.fld"));
     let output = run_fluid(&["1".as_ref(), odd.as_os_str(), out.as_os_str()]);
     assert_eq!(exit_code(&output), 253);
-    let expected = [b"Error: Cannot open ", odd.as_os_str().as_bytes(), b" for reading\n"].concat();
+    let expected = [
+        b"Error: Cannot open ",
+        odd.as_os_str().as_bytes(),
+        b" for reading\n",
+    ]
+    .concat();
     assert_eq!(output.stderr, expected);
     assert!(!out.exists());
 }
@@ -536,7 +601,11 @@ fn checkpoints_continue_bit_for_bit() {
             path("resumed.ck").as_os_str(),
         ]);
         let read = |name: &str| std::fs::read(path(name)).unwrap();
-        assert_eq!(read("whole.ck"), read("resumed.ck"), "{time_step:?}: full f64 state");
+        assert_eq!(
+            read("whole.ck"),
+            read("resumed.ck"),
+            "{time_step:?}: full f64 state"
+        );
         assert_eq!(read("whole.fld"), read("resumed.fld"), "{time_step:?}");
     }
     // A checkpoint of another run is refused.
@@ -587,10 +656,16 @@ fn a_run_killed_with_sigkill_resumes_from_its_last_checkpoint() {
         "--resume".as_ref(),
         checkpoint.as_os_str(),
     ]);
-    assert_eq!(std::fs::read(&whole).unwrap(), std::fs::read(&resumed).unwrap());
+    assert_eq!(
+        std::fs::read(&whole).unwrap(),
+        std::fs::read(&resumed).unwrap()
+    );
     let leftovers: Vec<String> = entries(dir.path())
         .into_iter()
         .filter(|name| name.ends_with(".tmp"))
         .collect();
-    assert!(leftovers.len() <= 1, "SIGKILL may leave one temporary: {leftovers:?}");
+    assert!(
+        leftovers.len() <= 1,
+        "SIGKILL may leave one temporary: {leftovers:?}"
+    );
 }

@@ -152,8 +152,12 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         }
     }
     let finite = fields(&particles).flatten().all(|x| x.is_finite());
-    if !(finite && ppm.is_finite() && ppm > 0.0 && time.is_finite() && value.is_finite()) {
+    if !(finite && ppm.is_finite() && time.is_finite() && value.is_finite()) {
         return Err("it holds values that are not finite".into());
+    }
+    let last_is_a_step = last_step.is_none_or(|(dt, _)| dt.is_finite() && dt > 0.0);
+    if !(ppm > 0.0 && time >= 0.0 && value > 0.0 && last_is_a_step) {
+        return Err("its particles per metre, time or steps are not positive".into());
     }
     Ok(Checkpoint {
         step,

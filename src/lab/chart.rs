@@ -51,7 +51,7 @@ impl Point {
         let median = if values.len() % 2 == 1 {
             values[middle]
         } else {
-            (values[middle - 1] + values[middle]) / 2.0
+            values[middle - 1] / 2.0 + values[middle] / 2.0
         };
         Point {
             iterations,
@@ -115,7 +115,12 @@ impl Chart {
             .map(|point| point.max)
             .chain(self.baselines.iter().map(|(_, value)| *value))
             .fold(0.0, f64::max);
-        0.0..if largest > 0.0 { largest * 1.08 } else { 1.0 }
+        // Capped: a top beyond f64's range would give an axis with no ticks to end.
+        0.0..if largest > 0.0 {
+            (largest * 1.08).min(f64::MAX)
+        } else {
+            1.0
+        }
     }
 }
 
@@ -578,7 +583,7 @@ impl LogChart {
         if high == 0.0 {
             return 1e-3..1.0;
         }
-        (low / 2.0).min(high / 10.0)..high * 2.0
+        (low / 2.0).min(high / 10.0)..(high * 2.0).min(f64::MAX)
     }
 }
 
