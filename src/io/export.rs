@@ -13,6 +13,8 @@ use std::fmt::Write;
 pub struct Snapshot {
     /// The time step this state follows (0 for the input).
     pub step: u64,
+    /// The physical time of this state (s).
+    pub time: f64,
     /// Positions.
     pub position: Vec<DVec3>,
     /// Half-step velocities.
@@ -35,6 +37,7 @@ impl Snapshot {
         let n = particles.len();
         let mut snapshot = Snapshot {
             step,
+            time: simulation.time(),
             position: vec![DVec3::ZERO; n],
             half_velocity: vec![DVec3::ZERO; n],
             velocity: vec![DVec3::ZERO; n],

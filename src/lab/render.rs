@@ -224,7 +224,7 @@ where
     let subtitle = format!(
         "step {} (t = {:.3} s), {} particles, {outside} outside the box",
         snapshot.step,
-        snapshot.step as f64 * crate::sim::params::TIME_STEP,
+        snapshot.time,
         snapshot.len()
     );
     root.draw(&Text::new(
