@@ -56,7 +56,14 @@ fn spawn(program: &str, args: &[&OsStr], dir: &Path, umask: u32) -> Child {
         command.pre_exec(move || {
             libc::signal(libc::SIGINT, libc::SIG_DFL);
             libc::signal(libc::SIGHUP, libc::SIG_DFL);
+            libc::signal(libc::SIGQUIT, libc::SIG_DFL);
             libc::umask(umask as libc::mode_t);
+            // SIGQUIT would dump a core file into the folder the test inspects.
+            let no_core = libc::rlimit {
+                rlim_cur: 0,
+                rlim_max: 0,
+            };
+            libc::setrlimit(libc::RLIMIT_CORE, &no_core);
             Ok(())
         });
     }
@@ -272,7 +279,7 @@ fn item_7_signals_leave_nothing_behind_and_end_the_process_as_they_would() {
     let dir = tempfile::tempdir().unwrap();
     let (large, small) = (input("large"), input("small"));
     let lab = env!("CARGO_BIN_EXE_fluid-lab");
-    for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+    for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT] {
         let runs: [(&str, Vec<&OsStr>); 3] = [
             (
                 lab,
@@ -331,10 +338,13 @@ fn item_8_unwritable_outputs_fail_before_anything_is_printed_or_simulated() {
     let small = input("small");
     let mut in_fld_slash = small.clone().into_os_string();
     in_fld_slash.push("/");
+    let long = "n".repeat(256);
     for output in [
         OsStr::new("nodir/").to_owned(),
         in_fld_slash,
         OsStr::new("/dev/full").to_owned(),
+        OsStr::new("nodir/.").to_owned(),
+        OsStr::new(&long).to_owned(),
     ] {
         let run = Command::new(env!("CARGO_BIN_EXE_fluid"))
             .args(["1".as_ref(), small.as_os_str(), &output])
@@ -668,4 +678,192 @@ fn a_run_killed_with_sigkill_resumes_from_its_last_checkpoint() {
         leftovers.len() <= 1,
         "SIGKILL may leave one temporary: {leftovers:?}"
     );
+}
+
+// What the review of the fixes above found.
+
+#[test]
+fn a_dangling_symbolic_link_is_written_through() {
+    let dir = tempfile::tempdir().unwrap();
+    let link = dir.path().join("link.fld");
+    std::os::unix::fs::symlink("target.fld", &link).unwrap();
+    let output = run_fluid(&["0".as_ref(), input("small").as_os_str(), link.as_os_str()]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert!(link.symlink_metadata().unwrap().file_type().is_symlink());
+    assert_eq!(
+        std::fs::read(dir.path().join("target.fld")).unwrap(),
+        std::fs::read(input("small")).unwrap()
+    );
+}
+
+#[test]
+fn side_files_must_be_files_of_their_own_and_special_files_are_not_resumed() {
+    let dir = tempfile::tempdir().unwrap();
+    let own = dir.path().join("in.fld");
+    std::fs::copy(input("small"), &own).unwrap();
+    let before = std::fs::read(&own).unwrap();
+    let out = dir.path().join("out.fld");
+    for args in [
+        vec!["--diagnostics".as_ref(), own.as_os_str()],
+        vec![
+            "--checkpoint-every".as_ref(),
+            "1".as_ref(),
+            "--checkpoint".as_ref(),
+            out.as_os_str(),
+        ],
+    ] {
+        let mut all: Vec<&OsStr> = vec!["run".as_ref(), own.as_os_str(), out.as_os_str()];
+        all.extend(args);
+        let output = run_lab(&all);
+        assert_eq!(exit_code(&output), 1);
+        assert!(
+            stderr(&output).contains("give it a file of its own"),
+            "{}",
+            stderr(&output)
+        );
+    }
+    let output = run_lab(&[
+        "sweep".as_ref(),
+        "--output".as_ref(),
+        own.as_os_str(),
+        "--".as_ref(),
+        own.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("is the input"),
+        "{}",
+        stderr(&output)
+    );
+    assert_eq!(
+        std::fs::read(&own).unwrap(),
+        before,
+        "the input is untouched"
+    );
+    assert!(!out.exists());
+    let output = run_lab(&[
+        "run".as_ref(),
+        own.as_os_str(),
+        "--resume".as_ref(),
+        "/dev/zero".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("not a regular file"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
+fn a_checkpoint_of_another_input_with_the_same_size_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (first, second) = (dir.path().join("a.fld"), dir.path().join("b.fld"));
+    std::fs::copy(input("small"), &first).unwrap();
+    let mut other = std::fs::read(input("small")).unwrap();
+    other[8] ^= 1; // the lowest bit of particle 0's px
+    std::fs::write(&second, other).unwrap();
+    let checkpoint = dir.path().join("a.ck");
+    let output = run_lab(&[
+        "run".as_ref(),
+        first.as_os_str(),
+        "--steps".as_ref(),
+        "2".as_ref(),
+        "--checkpoint-every".as_ref(),
+        "2".as_ref(),
+        "--checkpoint".as_ref(),
+        checkpoint.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let output = run_lab(&[
+        "run".as_ref(),
+        second.as_os_str(),
+        "--steps".as_ref(),
+        "4".as_ref(),
+        "--resume".as_ref(),
+        checkpoint.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("a checkpoint of a run with another input"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
+fn a_run_that_turns_non_finite_draws_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let picture = dir.path().join("x.png");
+    let output = run_lab(&[
+        "render".as_ref(),
+        input("small").as_os_str(),
+        picture.as_os_str(),
+        "--steps".as_ref(),
+        "3".as_ref(),
+        "--dt".as_ref(),
+        "1e200".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("is not finite"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(entries(dir.path()).is_empty());
+}
+
+#[test]
+fn a_stopped_sweep_keeps_its_rows_and_stops_the_run_it_measures() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("slow.sh");
+    let pid_file = dir.path().join("pid");
+    std::fs::write(
+        &script,
+        format!(
+            "#!/bin/sh\nif [ \"$1\" = 10 ]; then echo $$ > {}; exec sleep 60; fi\nexec {} \"$@\"\n",
+            pid_file.display(),
+            env!("CARGO_BIN_EXE_fluid")
+        ),
+    )
+    .unwrap();
+    std::fs::set_permissions(&script, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let small = input("small");
+    let args: Vec<&OsStr> = vec![
+        "sweep".as_ref(),
+        "--iterations".as_ref(),
+        "0,10".as_ref(),
+        "--repeats".as_ref(),
+        "1".as_ref(),
+        "--idle-seconds".as_ref(),
+        "0".as_ref(),
+        "--output".as_ref(),
+        "s.csv".as_ref(),
+        "--program".as_ref(),
+        script.as_os_str(),
+        "--".as_ref(),
+        small.as_os_str(),
+    ];
+    let mut sweep = spawn(env!("CARGO_BIN_EXE_fluid-lab"), &args, dir.path(), 0o022);
+    wait_until("the slow run", || {
+        std::fs::read_to_string(&pid_file).is_ok_and(|pid| pid.ends_with('\n'))
+    });
+    let child: i32 = std::fs::read_to_string(&pid_file)
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    // SAFETY: kill sends a signal to our own child.
+    assert_eq!(unsafe { libc::kill(sweep.id() as i32, libc::SIGTERM) }, 0);
+    assert_eq!(reap(&mut sweep).signal(), Some(libc::SIGTERM));
+    let rows = std::fs::read_to_string(dir.path().join("s.csv")).unwrap();
+    assert_eq!(
+        rows.lines().count(),
+        3,
+        "header, idle, the 0-iteration run: {rows}"
+    );
+    wait_until("the measured run to end", || {
+        std::fs::read_to_string(format!("/proc/{child}/stat"))
+            .map_or(true, |stat| stat.contains(") Z "))
+    });
 }

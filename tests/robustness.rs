@@ -1085,6 +1085,7 @@ fn valid_checkpoints() -> &'static [Vec<u8>; 2] {
         simulation.run(2);
         let stepped = Checkpoint {
             step: 2,
+            input: 0x1234_5678,
             state: simulation.resumable().unwrap(),
         };
         let mut fresh = stepped.clone();
@@ -1172,7 +1173,7 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 }
 
 /// The offset of the last step's length in a checkpoint's encoding (after the magic,
-/// step, ppm, time, the four names and the time step's value).
+/// step, input CRC, ppm, time, the four names and the time step's value).
 fn last_step_offset(decoded: &Checkpoint) -> usize {
     let state = &decoded.state;
     let rule = match state.time_step {
@@ -1186,7 +1187,7 @@ fn last_step_offset(decoded: &Checkpoint) -> usize {
         rule,
         limit,
     ];
-    32 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
+    36 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
 }
 
 /// The properties of [`checkpoint::decode`] on `bytes`: no panic; an error is a non-empty
@@ -1224,7 +1225,7 @@ proptest! {
         magic in any::<bool>(),
         tail in prop::collection::vec(any::<u8>(), 0..300),
     ) {
-        let mut bytes = if magic { b"FLUIDCK1".to_vec() } else { Vec::new() };
+        let mut bytes = if magic { b"FLUIDCK2".to_vec() } else { Vec::new() };
         bytes.extend(tail);
         check_checkpoint(&bytes)?;
     }

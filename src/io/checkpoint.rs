@@ -1,28 +1,39 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCK1`; the step count (u64); particles per
+//! Layout (little-endian): the magic `FLUIDCK2`; the step count (u64); the CRC-32 of the
+//! input file the run started from (u32, so a resume from another input is refused);
+//! particles per
 //! metre and the time (f64); the model, kernel, time-step rule and last step's limit as
 //! length-prefixed names (u8 length), the time step's value (f64: dt or the Courant
 //! constant) and the last step's length (f64, NaN before the first step); the sparse flag
 //! (u8); the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a
-//! (x, y, z) and rho, n f64 each.
+//! (x, y, z) and rho, n f64 each; last, the CRC-32 of every byte before it (u32), so a
+//! corrupted checkpoint is refused.
 
 use crate::sim::method::{Kernel, Method, Model};
 use crate::sim::particles::Particles;
 use crate::sim::simulation::Resumable;
 use crate::sim::timestep::{Limit, TimeStep};
 
-/// The first bytes of every checkpoint (format version 1).
-const MAGIC: &[u8; 8] = b"FLUIDCK1";
+/// The first bytes of every checkpoint (format version 2).
+const MAGIC: &[u8; 8] = b"FLUIDCK2";
 
 /// A checkpoint's content: the steps run and the state after them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Checkpoint {
     /// Steps run so far.
     pub step: u64,
+    /// The CRC-32 of the input file's bytes ([`crc32fast::hash`]).
+    pub input: u32,
     /// The state to go on from.
     pub state: Resumable,
+}
+
+/// At least the size of a checkpoint of `particles` particles (for the room reserved
+/// before a run).
+pub fn size_bound(particles: usize) -> u64 {
+    (256 + particles * (4 + 13 * 8)) as u64
 }
 
 /// Encodes a checkpoint.
@@ -33,6 +44,7 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     let mut bytes = Vec::with_capacity(128 + n * (4 + 13 * 8));
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&checkpoint.step.to_le_bytes());
+    bytes.extend_from_slice(&checkpoint.input.to_le_bytes());
     bytes.extend_from_slice(&state.ppm.to_le_bytes());
     bytes.extend_from_slice(&state.time.to_le_bytes());
     let (rule, value) = match state.time_step {
@@ -63,6 +75,8 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
             bytes.extend_from_slice(&value.to_le_bytes());
         }
     }
+    let checksum = crc32fast::hash(&bytes);
+    bytes.extend_from_slice(&checksum.to_le_bytes());
     bytes
 }
 
@@ -76,11 +90,19 @@ fn fields(particles: &Particles) -> impl Iterator<Item = &Vec<f64>> {
 
 /// Decodes a checkpoint, or says what is wrong with it (never panics).
 pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
-    let mut reader = Reader { bytes, at: 0 };
-    if reader.take(MAGIC.len())? != MAGIC {
-        return Err("it is not a fluid checkpoint (version 1)".into());
+    if bytes.get(..MAGIC.len()) != Some(&MAGIC[..]) {
+        return Err("it is not a fluid checkpoint (version 2)".into());
     }
+    let (body, checksum) = bytes.split_at(bytes.len().saturating_sub(4).max(MAGIC.len()));
+    if checksum.len() != 4 || crc32fast::hash(body).to_le_bytes() != checksum {
+        return Err("it is corrupted (its checksum does not match)".into());
+    }
+    let mut reader = Reader {
+        bytes: body,
+        at: MAGIC.len(),
+    };
     let step = reader.u64()?;
+    let input = reader.u32()?;
     let ppm = reader.f64()?;
     let time = reader.f64()?;
     let [model, kernel, rule, limit] = [(); 4].map(|()| reader.name());
@@ -161,6 +183,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     }
     Ok(Checkpoint {
         step,
+        input,
         state: Resumable {
             ppm,
             method: Method { model, kernel },
@@ -230,6 +253,7 @@ mod tests {
         simulation.run(2);
         Checkpoint {
             step: 2,
+            input: 0xdead_beef,
             state: simulation.resumable().unwrap(),
         }
     }
@@ -255,22 +279,38 @@ mod tests {
         longer.push(0);
         assert!(decode(&longer).is_err());
         let mut wrong_magic = bytes.clone();
-        wrong_magic[7] = b'2';
+        wrong_magic[7] = b'1';
         assert_eq!(
             decode(&wrong_magic).unwrap_err(),
-            "it is not a fluid checkpoint (version 1)"
+            "it is not a fluid checkpoint (version 2)"
         );
-        let ids = bytes.len() - 3 * (4 + 13 * 8);
+        for at in (8..bytes.len()).step_by(7) {
+            let mut flipped = bytes.clone();
+            flipped[at] ^= 0x10;
+            assert_eq!(
+                decode(&flipped).unwrap_err(),
+                "it is corrupted (its checksum does not match)",
+                "byte {at}"
+            );
+        }
+        // Defects under a valid checksum (a checkpoint written by another program).
+        let resealed = |mut body: Vec<u8>| {
+            body.truncate(body.len() - 4);
+            let checksum = crc32fast::hash(&body);
+            body.extend_from_slice(&checksum.to_le_bytes());
+            body
+        };
+        let ids = bytes.len() - 4 - 3 * (4 + 13 * 8);
         let mut repeated = bytes.clone();
         repeated[ids + 4..ids + 8].copy_from_slice(&bytes[ids..ids + 4]);
-        assert!(decode(&repeated)
+        assert!(decode(&resealed(repeated))
             .unwrap_err()
             .contains("repeated or out-of-range id"));
         let mut not_finite = bytes.clone();
-        let last = not_finite.len() - 8;
-        not_finite[last..].copy_from_slice(&f64::NAN.to_le_bytes());
+        let last = not_finite.len() - 12;
+        not_finite[last..last + 8].copy_from_slice(&f64::NAN.to_le_bytes());
         assert_eq!(
-            decode(&not_finite).unwrap_err(),
+            decode(&resealed(not_finite)).unwrap_err(),
             "it holds values that are not finite"
         );
     }

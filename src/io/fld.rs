@@ -4,6 +4,7 @@
 //! rename). Every failure is a [`FileError`] with the contract's message.
 
 use crate::io::gformat::format_g_exact;
+use crate::io::input::open_regular;
 use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::method::Method;
 use crate::sim::params::Params;
@@ -12,9 +13,7 @@ use crate::sim::simulation::Simulation;
 use memmap2::Mmap;
 use std::ffi::{OsStr, OsString};
 use std::fmt;
-use std::fs::OpenOptions;
 use std::os::unix::ffi::OsStrExt;
-use std::os::unix::fs::OpenOptionsExt;
 use std::path::Path;
 
 /// Header size: `ppm` f32 and `np` i32.
@@ -161,14 +160,7 @@ fn invalid_ppm(ppm: f32, file: &OsStr, error: GridSizeError) -> FileError {
 /// regular file is read; the open does not wait (for a FIFO without a writer).
 pub fn map_input(path: &Path) -> Result<Mmap, FileError> {
     let cannot_open = || FileError::CannotOpenInput(path.as_os_str().to_owned());
-    let file = OpenOptions::new()
-        .read(true)
-        .custom_flags(libc::O_NONBLOCK)
-        .open(path)
-        .map_err(|_| cannot_open())?;
-    if !file.metadata().map_err(|_| cannot_open())?.is_file() {
-        return Err(cannot_open());
-    }
+    let file = open_regular(path).map_err(|_| cannot_open())?;
     // SAFETY: the map is read-only and dropped once parsed (or, for 0 steps, written); as with any memory map,
     // another process truncating the file meanwhile is outside what we can guard against.
     unsafe { Mmap::map(&file) }.map_err(|_| cannot_open())

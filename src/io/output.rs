@@ -7,13 +7,14 @@
 //!   a hidden temporary file beside it and renamed over it; a new file gets mode 0666 less
 //!   the umask, an existing one keeps its mode;
 //! - an existing file with other hard links, or in a folder that takes no new file, is
-//!   rewritten where it is, in one write with SIGINT, SIGTERM and SIGHUP held back;
+//!   rewritten where it is, in one write with the ending signals held back;
 //! - an existing special file (`/dev/null`, a pipe, a device) is written directly.
 //!
-//! Temporary files are removed when an output is dropped unwritten, and when the process
-//! is ended by SIGINT, SIGTERM or SIGHUP (which then end it as they would have).
+//! Temporary files are removed when an output is dropped unwritten, and when a signal
+//! ends the process ([`crate::io::signals`]).
 
 use crate::io::fld::FileError;
+use crate::io::signals;
 use std::ffi::OsString;
 use std::fs::{File, OpenOptions, Permissions};
 use std::io::{Seek, Write};
@@ -51,18 +52,25 @@ enum Sink {
 
 impl OutputFile {
     /// Checks that `path` can be written (rule 5) before anything is computed: a path
-    /// naming a folder (`out/`, `..`) is refused, and the temporary file is created (or the
-    /// file opened for writing). A symbolic link is written through, not replaced.
+    /// naming a folder (`out/`, `..`, `x/.`) or a name longer than 255 bytes is refused,
+    /// and the temporary file is created (or the file opened for writing, and a special
+    /// file given an empty write, which `/dev/full` refuses). A symbolic link is written
+    /// through, not replaced, even when its target does not exist yet.
     pub fn create(path: &Path) -> Result<Self, FileError> {
         let cannot_open = || FileError::CannotOpenOutput(path.as_os_str().to_owned());
         if names_a_folder(path) {
             return Err(cannot_open());
         }
-        let target = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+        let target = resolve_links(path).ok_or_else(cannot_open)?;
+        if target.file_name().is_none_or(|name| name.len() > NAME_MAX) {
+            return Err(cannot_open());
+        }
         let sink = match std::fs::metadata(&target) {
             Ok(meta) if meta.is_dir() => return Err(cannot_open()),
             Ok(meta) if !meta.is_file() => {
-                Sink::Direct(open_for_writing(&target).map_err(|_| cannot_open())?)
+                let mut file = open_for_writing(&target).map_err(|_| cannot_open())?;
+                file.write(&[]).map_err(|_| cannot_open())?;
+                Sink::Direct(file)
             }
             Ok(meta) => {
                 let file = open_for_writing(&target).map_err(|_| cannot_open())?;
@@ -88,13 +96,13 @@ impl OutputFile {
     }
 
     /// Makes sure `bytes` bytes can be written before a long computation: reserves the
-    /// space on disk (where the file system supports it), or, for a special file, makes
-    /// an empty write (which `/dev/full` refuses). Fails with rule 5's error.
+    /// space on disk, where the file system supports it (a special file was tried when
+    /// opened). Fails with rule 5's error.
     pub fn reserve(&mut self, bytes: u64) -> Result<(), FileError> {
         let refused = match &mut self.sink {
             Sink::Atomic(temporary) => !reserve_space(temporary.file.as_file(), bytes),
             Sink::InPlace(file) => !reserve_space(file, bytes),
-            Sink::Direct(file) => file.write(&[]).is_err(),
+            Sink::Direct(_) => false,
         };
         if refused {
             return Err(FileError::CannotOpenOutput(self.name.clone()));
@@ -107,7 +115,7 @@ impl OutputFile {
     pub fn commit(self, bytes: &[u8]) -> Result<(), FileError> {
         let failed = |error: std::io::Error| FileError::CannotWriteOutput {
             file: self.name.clone(),
-            reason: error.to_string(),
+            reason: os_reason(&error),
         };
         match self.sink {
             Sink::Direct(mut file) => file.write_all(bytes).map_err(failed),
@@ -186,14 +194,14 @@ impl Staged {
                     .persist(&target)
                     .map_err(|error| FileError::CannotWriteOutput {
                         file: output.name,
-                        reason: error.to_string(),
+                        reason: os_reason(&error),
                     })
             }
             (Some(scratch), sink) => {
                 let bytes = std::fs::read(scratch.file.path()).map_err(|error| {
                     FileError::CannotWriteOutput {
                         file: output.name.clone(),
-                        reason: error.to_string(),
+                        reason: os_reason(&error),
                     }
                 })?;
                 OutputFile { sink, ..output }.commit(&bytes)
@@ -207,7 +215,7 @@ impl Staged {
 #[derive(Debug)]
 struct Temporary {
     file: NamedTempFile,
-    _cleanup: cleanup::Pending,
+    _cleanup: signals::Pending,
 }
 
 impl Temporary {
@@ -245,7 +253,7 @@ impl Temporary {
 
     /// `file`, with its removal on signals registered.
     fn guarded(file: NamedTempFile) -> Self {
-        let cleanup = cleanup::Pending::register(file.path());
+        let cleanup = signals::Pending::register(file.path());
         Self {
             file,
             _cleanup: cleanup,
@@ -258,9 +266,46 @@ impl Temporary {
     }
 }
 
-/// Whether `path` can only name a folder: it ends in `/`, or in `.` or `..`.
+/// Whether `path` can only name a folder: it ends in `/`, `/.`, or is `.` or ends in `..`.
 fn names_a_folder(path: &Path) -> bool {
-    path.as_os_str().as_bytes().ends_with(b"/") || path.file_name().is_none()
+    let bytes = path.as_os_str().as_bytes();
+    bytes.ends_with(b"/") || bytes.ends_with(b"/.") || bytes == b"." || path.file_name().is_none()
+}
+
+/// The file that writing `path` writes: its symbolic links followed (at most 40, as
+/// Linux does), to a target that may not exist yet; `None` for a loop.
+fn resolve_links(path: &Path) -> Option<PathBuf> {
+    if let Ok(existing) = std::fs::canonicalize(path) {
+        return Some(existing);
+    }
+    let mut target = path.to_path_buf();
+    for _ in 0..40 {
+        match std::fs::read_link(&target) {
+            Ok(next) => {
+                let folder = target.parent().unwrap_or(Path::new(""));
+                target = folder.join(next);
+            }
+            Err(_) => return Some(target),
+        }
+    }
+    None
+}
+
+/// The operating system's own reason for `error`, without the paths that wrappers (the
+/// `tempfile` crate names its temporary file) add to it.
+fn os_reason(error: &std::io::Error) -> String {
+    match os_code(error) {
+        Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
+        None => error.to_string(),
+    }
+}
+
+/// The OS error code of `error`, also when a wrapper holds it as its source.
+fn os_code(error: &std::io::Error) -> Option<i32> {
+    error.raw_os_error().or_else(|| {
+        let inner = error.get_ref()?.source()?;
+        inner.downcast_ref::<std::io::Error>()?.raw_os_error()
+    })
 }
 
 /// Opens an existing file for writing without truncating it.
@@ -268,10 +313,15 @@ fn open_for_writing(path: &Path) -> std::io::Result<File> {
     OpenOptions::new().write(true).open(path)
 }
 
-/// Whether creating a file failed because the folder takes no new file.
+/// Whether creating a file failed because the folder takes no new file (the error's kind
+/// is kept by the `tempfile` crate, which wraps the OS error with its path).
 fn folder_refuses(error: &std::io::Error) -> bool {
+    use std::io::ErrorKind;
     matches!(
-        error.raw_os_error(),
+        error.kind(),
+        ErrorKind::PermissionDenied | ErrorKind::ReadOnlyFilesystem
+    ) || matches!(
+        os_code(error),
         Some(libc::EACCES | libc::EPERM | libc::EROFS)
     )
 }
@@ -292,8 +342,8 @@ fn reserve_space(file: &File, bytes: u64) -> bool {
         )
 }
 
-/// Runs `work` with SIGINT, SIGTERM and SIGHUP held back, so none ends the process
-/// halfway; one that arrives meanwhile is delivered after.
+/// Runs `work` with the signals that end the process ([`signals::ENDING`]) held back, so
+/// none ends it halfway; one that arrives meanwhile is delivered after.
 fn with_signals_held<T>(work: impl FnOnce() -> std::io::Result<T>) -> std::io::Result<T> {
     // SAFETY: the sets are initialised by sigemptyset before use, and pthread_sigmask
     // only reads `held` and writes `previous`.
@@ -301,132 +351,13 @@ fn with_signals_held<T>(work: impl FnOnce() -> std::io::Result<T>) -> std::io::R
         let mut held: libc::sigset_t = std::mem::zeroed();
         let mut previous: libc::sigset_t = std::mem::zeroed();
         libc::sigemptyset(&mut held);
-        for signal in cleanup::SIGNALS {
+        for signal in signals::ENDING {
             libc::sigaddset(&mut held, signal);
         }
         libc::pthread_sigmask(libc::SIG_BLOCK, &held, &mut previous);
         let result = work();
         libc::pthread_sigmask(libc::SIG_SETMASK, &previous, std::ptr::null_mut());
         result
-    }
-}
-
-/// The removal of temporary files when SIGINT, SIGTERM or SIGHUP ends the process: a
-/// fixed table of paths, which the signal handler unlinks (async-signal-safe: no
-/// allocation, no lock) before ending the process as the signal's default would.
-mod cleanup {
-    use std::cell::UnsafeCell;
-    use std::os::unix::ffi::OsStrExt;
-    use std::path::Path;
-    use std::sync::atomic::{AtomicU8, Ordering};
-    use std::sync::Once;
-
-    /// The signals that remove the temporary files before ending the process.
-    pub const SIGNALS: [libc::c_int; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
-    /// Temporary files registered at once (a run writes a few outputs at a time).
-    const SLOTS: usize = 16;
-    /// The longest path registered, in bytes (Linux's PATH_MAX).
-    const PATH_MAX: usize = 4096;
-
-    const FREE: u8 = 0;
-    const FILLING: u8 = 1;
-    const READY: u8 = 2;
-
-    /// One registered path: its state, and the path with a final NUL.
-    struct Slot {
-        state: AtomicU8,
-        path: UnsafeCell<[u8; PATH_MAX + 1]>,
-    }
-
-    // SAFETY: `path` is written only by the thread that moved `state` from FREE to
-    // FILLING, and read (by the handler) only in state READY.
-    unsafe impl Sync for Slot {}
-
-    static TABLE: [Slot; SLOTS] = [const {
-        Slot {
-            state: AtomicU8::new(FREE),
-            path: UnsafeCell::new([0; PATH_MAX + 1]),
-        }
-    }; SLOTS];
-
-    /// A registered temporary file, unregistered when dropped.
-    #[derive(Debug)]
-    pub struct Pending(Option<usize>);
-
-    impl Pending {
-        /// Registers `path` for removal on a signal (when the table has room and the path
-        /// fits; otherwise the file is only removed on drop).
-        pub fn register(path: &Path) -> Self {
-            install_handlers();
-            let bytes = path.as_os_str().as_bytes();
-            if bytes.len() > PATH_MAX || bytes.contains(&0) {
-                return Pending(None);
-            }
-            for (index, slot) in TABLE.iter().enumerate() {
-                let claimed = slot.state.compare_exchange(
-                    FREE,
-                    FILLING,
-                    Ordering::Acquire,
-                    Ordering::Relaxed,
-                );
-                if claimed.is_ok() {
-                    // SAFETY: this thread owns the slot in state FILLING.
-                    let buffer = unsafe { &mut *slot.path.get() };
-                    buffer[..bytes.len()].copy_from_slice(bytes);
-                    buffer[bytes.len()] = 0;
-                    slot.state.store(READY, Ordering::Release);
-                    return Pending(Some(index));
-                }
-            }
-            Pending(None)
-        }
-    }
-
-    impl Drop for Pending {
-        fn drop(&mut self) {
-            if let Some(index) = self.0 {
-                TABLE[index].state.store(FREE, Ordering::Release);
-            }
-        }
-    }
-
-    /// Installs the handlers once, for each signal that is not ignored (under `nohup`,
-    /// SIGHUP stays ignored).
-    fn install_handlers() {
-        static INSTALL: Once = Once::new();
-        INSTALL.call_once(|| {
-            for signal in SIGNALS {
-                if is_ignored(signal) {
-                    continue;
-                }
-                // SAFETY: the action only loads atomics, calls unlink and ends the
-                // process, all async-signal-safe.
-                let _ =
-                    unsafe { signal_hook::low_level::register(signal, move || on_signal(signal)) };
-            }
-        });
-    }
-
-    /// Whether `signal`'s disposition is to ignore it.
-    fn is_ignored(signal: libc::c_int) -> bool {
-        // SAFETY: sigaction with a null new action only writes the current one into
-        // `current`, a zeroed plain-data struct.
-        unsafe {
-            let mut current: libc::sigaction = std::mem::zeroed();
-            libc::sigaction(signal, std::ptr::null(), &mut current) == 0
-                && current.sa_sigaction == libc::SIG_IGN
-        }
-    }
-
-    /// The handler: removes every registered file, then acts as the signal's default.
-    fn on_signal(signal: libc::c_int) {
-        for slot in &TABLE {
-            if slot.state.load(Ordering::Acquire) == READY {
-                // SAFETY: a READY slot holds a NUL-terminated path; unlink only reads it.
-                unsafe { libc::unlink(slot.path.get().cast()) };
-            }
-        }
-        let _ = signal_hook::low_level::emulate_default_handler(signal);
     }
 }
 
@@ -556,21 +487,49 @@ mod tests {
     }
 
     #[test]
-    fn special_files_are_written_directly_and_dev_full_fails_its_reservation() {
+    fn special_files_are_written_directly_and_dev_full_is_refused_when_opened() {
         let mut null = OutputFile::create(Path::new("/dev/null")).unwrap();
         assert!(matches!(null.sink, Sink::Direct(_)));
         null.reserve(1 << 40).unwrap();
         null.commit(b"data").unwrap();
-        let mut full = OutputFile::create(Path::new("/dev/full")).unwrap();
         assert_eq!(
-            full.reserve(36),
-            Err(FileError::CannotOpenOutput("/dev/full".into()))
+            OutputFile::create(Path::new("/dev/full")).unwrap_err(),
+            FileError::CannotOpenOutput("/dev/full".into())
         );
-        let err = full.commit(b"data").unwrap_err();
-        assert!(
-            matches!(&err, FileError::CannotWriteOutput { file, .. } if file == "/dev/full"),
-            "{err:?}"
+    }
+
+    #[test]
+    fn a_dangling_link_is_written_through_and_a_loop_or_long_name_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let link = dir.path().join("link.fld");
+        std::os::unix::fs::symlink("missing.fld", &link).unwrap();
+        OutputFile::create(&link).unwrap().commit(b"new").unwrap();
+        assert!(link.symlink_metadata().unwrap().file_type().is_symlink());
+        assert_eq!(
+            std::fs::read(dir.path().join("missing.fld")).unwrap(),
+            b"new"
         );
+        let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+        std::os::unix::fs::symlink(&b, &a).unwrap();
+        std::os::unix::fs::symlink(&a, &b).unwrap();
+        let long = dir.path().join("n".repeat(256));
+        for refused in [a, long, dir.path().join("missing.fld/.")] {
+            assert!(OutputFile::create(&refused).is_err(), "{refused:?}");
+        }
+    }
+
+    #[test]
+    fn errors_wrapped_with_a_path_still_tell_a_refusing_folder_and_the_plain_reason() {
+        let wrapped = std::io::Error::new(
+            std::io::ErrorKind::PermissionDenied,
+            "Permission denied (os error 13) at path \"/x/.y.tmp\"",
+        );
+        assert!(folder_refuses(&wrapped));
+        assert!(!folder_refuses(&std::io::Error::from_raw_os_error(
+            libc::ENOSPC
+        )));
+        let plain = std::io::Error::from_raw_os_error(libc::ENOSPC);
+        assert_eq!(os_reason(&plain), "No space left on device (os error 28)");
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! each run's wall, user and system time, peak memory and energy recorded, plus idle
 //! windows as a separate baseline, written as one tidy CSV (one row per run).
 
+use crate::io::signals;
 use crate::lab::energy::{Domain, Energy, EnergyMethod, MeasureError};
 use crate::lab::machine::Machine;
 use std::collections::HashSet;
@@ -85,6 +86,8 @@ pub fn run_measured(command: &mut Command) -> io::Result<(ExitStatus, Usage)> {
     let started = Instant::now();
     let child = command.spawn()?;
     let pid = child.id() as libc::pid_t;
+    // A signal that stops the sweep stops the run it measures too.
+    let _forwarding = signals::Forwarding::to(pid);
     let mut status = 0;
     // SAFETY: rusage is plain integers, for which all-zero bytes are a valid value.
     let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
@@ -135,6 +138,12 @@ pub struct Record {
 /// What identifies a record within a sweep: input (none for idle), iterations, repeat.
 pub type RecordKey = (Option<String>, Option<u64>, usize);
 
+/// An input of a sweep: its path, the name its rows give it, and its particle count.
+pub type Input<'a> = (&'a PathBuf, String, usize);
+
+/// What receives all the records measured so far, after each one.
+pub type Save<'a> = dyn FnMut(&[Record]) -> Result<(), Box<dyn Error>> + 'a;
+
 impl Record {
     /// This record's place in the sweep.
     pub fn key(&self) -> RecordKey {
@@ -177,24 +186,79 @@ pub struct Sweep {
 }
 
 impl Sweep {
+    /// Each input with the name its rows give it and its particle count (which also
+    /// checks that it is an `.fld` file). Two inputs of the same file name are refused:
+    /// the CSV's `input` column would not tell them apart.
+    pub fn inputs(&self) -> Result<Vec<Input<'_>>, Box<dyn Error>> {
+        let mut inputs: Vec<Input<'_>> = Vec::new();
+        for path in &self.plan.inputs {
+            let name = file_name(path);
+            if let Some((other, ..)) = inputs.iter().find(|(_, seen, _)| *seen == name) {
+                return Err(format!(
+                    "{} and {} share the name {name}, which the CSV's input column would \
+                     not tell apart",
+                    other.display(),
+                    path.display()
+                )
+                .into());
+            }
+            inputs.push((path, name, particle_count(path)?));
+        }
+        Ok(inputs)
+    }
+
+    /// The keys of the rows of `text` (a sweep CSV) that this sweep would measure again,
+    /// after checking that they were measured as it measures: by the same program on the
+    /// same host, and with the particle count each input of that name has now.
+    pub fn resumable(&self, text: &str) -> Result<HashSet<RecordKey>, Box<dyn Error>> {
+        let keys = measured_keys(text)?;
+        let inputs = self.inputs()?;
+        let column = |name: &str| COLUMNS.iter().position(|c| *c == name).expect("a column");
+        let (input, particles) = (column("input"), column("particles"));
+        let (program, host) = (column("program"), column("host"));
+        let (our_program, our_host) = (self.plan.program.display().to_string(), &self.machine.host);
+        for record in csv::Reader::from_reader(text.as_bytes()).records() {
+            let record = record?;
+            if record[program] != our_program || record[host] != *our_host {
+                return Err(format!(
+                    "its rows were measured by {} on {}, this sweep runs {our_program} on \
+                     {our_host}",
+                    &record[program], &record[host]
+                )
+                .into());
+            }
+            let ours = inputs.iter().find(|(_, name, _)| *name == record[input]);
+            if let Some((path, _, count)) = ours {
+                if record[particles] != count.to_string() {
+                    return Err(format!(
+                        "its {} has {} particles, {} has {count}",
+                        &record[input],
+                        &record[particles],
+                        path.display()
+                    )
+                    .into());
+                }
+            }
+        }
+        Ok(keys)
+    }
+
     /// Measures the idle baseline, then every point `repeats` times (all points once per
     /// round, so slow drifts spread over all points), after one unrecorded warm-up run per
-    /// input. Records go to `records` as they are measured (so a failure keeps them),
-    /// except those whose key is in `done`. Progress goes to `log`, one line per record.
+    /// input. Records go to `records` as they are measured, and `save` gets them all after
+    /// each one (so a failure or a signal keeps them), except those whose key is in
+    /// `done`. Progress goes to `log`, one line per record.
     pub fn measure(
         &self,
         log: &mut impl Write,
         done: &HashSet<RecordKey>,
         records: &mut Vec<Record>,
+        save: &mut Save<'_>,
     ) -> Result<(), Box<dyn Error>> {
         let plan = &self.plan;
         writeln!(log, "time: {TIME_METHOD}")?;
         writeln!(log, "energy: {}", self.energy.describe())?;
-        let inputs = plan
-            .inputs
-            .iter()
-            .map(|path| Ok((path, file_name(path), particle_count(path)?)))
-            .collect::<Result<Vec<_>, Box<dyn Error>>>()?;
+        let inputs = self.inputs()?;
         for repeat in 1..=plan.repeats {
             if done.contains(&(None, None, repeat)) {
                 continue;
@@ -214,6 +278,7 @@ impl Sweep {
             };
             writeln!(log, "{}", summary(&record))?;
             records.push(record);
+            save(records)?;
         }
         let first = plan.iterations.iter().copied().min().unwrap_or(0);
         for (path, name, _) in &inputs {
@@ -239,6 +304,7 @@ impl Sweep {
                     };
                     writeln!(log, "{}", summary(&record))?;
                     records.push(record);
+                    save(records)?;
                 }
             }
         }

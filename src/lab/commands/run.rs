@@ -1,9 +1,11 @@
 //! `fluid-lab run`: a timed run of a scene with a chosen model, kernel and time step;
 //! optionally per-step diagnostics and the final state.
 
+use super::same_file;
 use super::simulation_args::{load, progress_bar, Loaded, SimulationArgs};
 use crate::io::checkpoint::{self, Checkpoint};
 use crate::io::fld;
+use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
 use crate::lab::diagnostics::{self, Diagnostics, Vitals};
 use crate::sim::simulation::Simulation;
@@ -30,7 +32,7 @@ pub struct RunArgs {
     every: u64,
     /// Write the full f64 state to --checkpoint every this many steps (atomically), so a
     /// killed run loses at most this many steps.
-    #[arg(long, requires = "checkpoint", value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
+    #[arg(long, requires = "checkpoint", allow_negative_numbers = true, value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
     checkpoint_every: Option<u64>,
     /// The checkpoint file that --checkpoint-every writes.
     #[arg(long, requires = "checkpoint_every")]
@@ -43,13 +45,15 @@ pub struct RunArgs {
 }
 
 /// Reads the checkpoint at `path` and checks that it continues the run `simulation`
-/// starts (same particles per metre, particle count, model, kernel and time-step rule).
-fn resume(path: &Path, simulation: &Simulation) -> Result<Checkpoint, String> {
+/// starts from the input whose CRC-32 is `input` (same input, model, kernel and
+/// time-step rule).
+fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint, String> {
     let shown = path.display();
-    let bytes = std::fs::read(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
+    let bytes = read_regular(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
     let checkpoint = checkpoint::decode(&bytes).map_err(|error| format!("{shown}: {error}"))?;
     let state = &checkpoint.state;
-    let differs = if state.ppm != simulation.params().ppm
+    let differs = if checkpoint.input != input
+        || state.ppm != simulation.params().ppm
         || state.particles.len() != simulation.particles().len()
     {
         Some("input")
@@ -71,8 +75,29 @@ fn resume(path: &Path, simulation: &Simulation) -> Result<Checkpoint, String> {
 /// Runs the scene, timed, and writes the timing line, the diagnostics and the final state.
 pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let steps = args.simulation.steps;
+    let input = &args.simulation.input;
+    // The side files must be files of their own: not the input, the output or each other
+    // (the output may be the input, as with `fluid`).
+    let sides = [
+        ("--diagnostics", &args.diagnostics),
+        ("--checkpoint", &args.checkpoint),
+    ];
+    for (index, (option, side)) in sides.iter().enumerate() {
+        let Some(side) = side else { continue };
+        let others = [Some(input), args.output.as_ref()]
+            .into_iter()
+            .chain(sides[index + 1..].iter().map(|(_, other)| other.as_ref()));
+        if let Some(other) = others.flatten().find(|other| same_file(side, other)) {
+            return Err(format!(
+                "{option} {} is also {}: give it a file of its own",
+                side.display(),
+                other.display()
+            )
+            .into());
+        }
+    }
     let mut output = args.output.as_deref().map(OutputFile::create).transpose()?;
-    let diagnostics_file = args
+    let mut diagnostics_file = args
         .diagnostics
         .as_deref()
         .map(OutputFile::create)
@@ -86,8 +111,12 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         return Err("--checkpoint: runs with --skin cannot be checkpointed (yet)".into());
     }
     let mut first = 1;
+    let input_crc = match args.checkpoint.is_some() || args.resume.is_some() {
+        true => crc32fast::hash(&read_regular(input)?),
+        false => 0,
+    };
     if let Some(path) = &args.resume {
-        let checkpoint = resume(path, &simulation)?;
+        let checkpoint = resume(path, &simulation, input_crc)?;
         if checkpoint.step > steps {
             return Err(format!(
                 "{} is at step {}, beyond --steps {steps}",
@@ -99,12 +128,17 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         first = checkpoint.step + 1;
         simulation = Simulation::resume(checkpoint.state).map_err(|error| error.to_string())?;
     }
-    // Fails now, not after the first checkpoint's steps, if it cannot be written.
+    // Every file is tried, and its room reserved, before simulating.
+    let particles = simulation.particles().len();
     if let Some(path) = &args.checkpoint {
-        drop(OutputFile::create(path)?);
+        OutputFile::create(path)?.reserve(checkpoint::size_bound(particles))?;
     }
     if let Some(output) = &mut output {
-        output.reserve(fld::file_size(simulation.particles().len()))?;
+        output.reserve(fld::file_size(particles))?;
+    }
+    if let Some(file) = &mut diagnostics_file {
+        let rows = (steps + 1 - first) / args.every + 2;
+        file.reserve(rows.saturating_mul(DIAGNOSTICS_ROW_BYTES))?;
     }
     let mut rows = String::from(diagnostics::CSV_HEADER);
     rows.push('\n');
@@ -141,7 +175,7 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         }
         if let (Some(every), Some(path)) = (args.checkpoint_every, &args.checkpoint) {
             if step % every == 0 {
-                write_checkpoint(path, step, &simulation)?;
+                write_checkpoint(path, step, input_crc, &simulation)?;
             }
         }
     }
@@ -167,22 +201,32 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         args.simulation.kernel.name(),
         per_particle_step * 1e9,
     )?;
-    if let Some(file) = diagnostics_file {
-        file.commit(rows.as_bytes())?;
-    }
-    if let (Some(output), Some(path)) = (output, &args.output) {
-        let bytes = fld::encode(ppm, simulation.particles())
-            .map_err(|unstorable| unstorable.for_output(path.as_os_str()))?;
-        output.commit(&bytes)?;
-    }
-    Ok(())
+    // The final state first, then the diagnostics, which are written even when the state
+    // cannot be.
+    let stored = match (output, &args.output) {
+        (Some(output), Some(path)) => fld::encode(ppm, simulation.particles())
+            .map_err(|unstorable| unstorable.for_output(path.as_os_str()))
+            .and_then(|bytes| output.commit(&bytes)),
+        _ => Ok(()),
+    };
+    let diagnosed = diagnostics_file.map_or(Ok(()), |file| file.commit(rows.as_bytes()));
+    stored?;
+    Ok(diagnosed?)
 }
 
+/// The bytes a diagnostics row usually takes, for the room reserved before a run.
+const DIAGNOSTICS_ROW_BYTES: u64 = 128;
+
 /// Writes the checkpoint of `simulation` after `step` steps to `path`, atomically.
-fn write_checkpoint(path: &Path, step: u64, simulation: &Simulation) -> Result<(), Box<dyn Error>> {
+fn write_checkpoint(
+    path: &Path,
+    step: u64,
+    input: u32,
+    simulation: &Simulation,
+) -> Result<(), Box<dyn Error>> {
     let state = simulation
         .resumable()
         .ok_or("this run's state cannot be checkpointed")?;
-    let bytes = checkpoint::encode(&Checkpoint { step, state });
+    let bytes = checkpoint::encode(&Checkpoint { step, input, state });
     Ok(OutputFile::create(path)?.commit(&bytes)?)
 }

@@ -15,8 +15,9 @@ pub struct SceneArgs {
     kind: SceneKind,
     /// Output .fld file.
     output: PathBuf,
-    /// Particles per metre: the lattice spacing is 1/ppm.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 400.0)]
+    /// Particles per metre: the lattice spacing is 1/ppm (an f32, as the .fld header
+    /// stores it).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 400.0, value_parser = parse_ppm)]
     ppm: f32,
     /// Seed of the lattice jitter and of the random cloud.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
@@ -34,4 +35,15 @@ pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
         .map_err(|unstorable| unstorable.for_output(args.output.as_os_str()))?;
     output.commit(&bytes)?;
     Ok(())
+}
+
+/// Parses particles per metre that the `.fld` header's f32 holds as a finite number > 0.
+fn parse_ppm(text: &str) -> Result<f32, String> {
+    match text.parse::<f64>() {
+        Ok(ppm) if ppm.is_finite() && ppm > 0.0 && (ppm as f32).is_normal() => Ok(ppm as f32),
+        Ok(_) => Err(format!(
+            "{text} is not a number > 0 that the .fld header's f32 holds"
+        )),
+        Err(_) => Err(format!("{text} is not a number")),
+    }
 }

@@ -2,6 +2,7 @@
 //! step), the input placed for it, and a run with a progress bar that visits chosen steps.
 
 use crate::io::fld;
+use crate::lab::diagnostics::Vitals;
 use crate::sim::method::{Kernel, Method, Model};
 use crate::sim::params::TIME_STEP;
 use crate::sim::simulation::Simulation;
@@ -112,6 +113,13 @@ pub fn run_visiting(
         if step > 0 {
             simulation.step();
             progress.inc(1);
+            // A state with NaN or infinities is not drawn or exported as if it were one.
+            if let Some(id) = Vitals::of(simulation).non_finite {
+                progress.finish_and_clear();
+                return Err(
+                    format!("the run failed at step {step}: particle {id} is not finite").into(),
+                );
+            }
         }
         if step == steps || every.is_some_and(|every| step % every == 0) {
             visit(simulation, step)?;

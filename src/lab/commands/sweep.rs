@@ -1,6 +1,8 @@
 //! `fluid-lab sweep`: `fluid` measured over iteration counts (time, memory, energy) into a
 //! CSV.
 
+use super::same_file;
+use crate::io::input::read_regular_text;
 use crate::io::output::OutputFile;
 use crate::lab::energy::{EnergyMethod, Sources};
 use crate::lab::machine::Machine;
@@ -65,22 +67,19 @@ pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
             beside
         }
     };
-    let previous = match args.resume {
-        true => match std::fs::read_to_string(&args.output) {
-            Ok(text) => text,
-            Err(error) if error.kind() == std::io::ErrorKind::NotFound => String::new(),
-            Err(error) => {
-                return Err(format!("cannot read {}: {error}", args.output.display()).into())
-            }
-        },
-        false => String::new(),
-    };
-    let done = match previous.is_empty() {
-        true => HashSet::new(),
-        false => sweep::measured_keys(&previous)
-            .map_err(|error| format!("--resume: {}: {error}", args.output.display()))?,
-    };
     let output = OutputFile::create(&args.output)?;
+    if let Some(input) = args
+        .inputs
+        .iter()
+        .find(|input| same_file(input, &args.output))
+    {
+        return Err(format!(
+            "--output {} is the input {}",
+            args.output.display(),
+            input.display()
+        )
+        .into());
+    }
     let sources = Sources {
         perf: args.perf,
         ..Sources::default()
@@ -96,22 +95,48 @@ pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
         energy: EnergyMethod::detect(&sources),
         machine: Machine::this(),
     };
+    let previous = match args.resume {
+        true => match read_regular_text(&args.output) {
+            Ok(text) => text,
+            Err(error) if error.kind() == std::io::ErrorKind::NotFound => String::new(),
+            Err(error) => {
+                return Err(format!("cannot read {}: {error}", args.output.display()).into())
+            }
+        },
+        false => String::new(),
+    };
+    let done = match previous.is_empty() {
+        true => HashSet::new(),
+        false => sweep
+            .resumable(&previous)
+            .map_err(|error| format!("--resume: {}: {error}", args.output.display()))?,
+    };
+    drop(output);
+    // The CSV is rewritten, whole, after every record: a failure or a signal keeps the
+    // rows measured so far.
+    let write = |records: &[crate::lab::sweep::Record]| -> Result<(), Box<dyn Error>> {
+        let mut csv = sweep.csv(records)?;
+        if !previous.is_empty() {
+            let header_end = csv
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(csv.len(), |i| i + 1);
+            csv = [previous.as_bytes(), &csv[header_end..]].concat();
+        }
+        Ok(OutputFile::create(&args.output)?.commit(&csv)?)
+    };
     let mut records = Vec::new();
-    let measured = sweep.measure(&mut std::io::stderr().lock(), &done, &mut records);
-    let mut csv = sweep.csv(&records)?;
-    if !previous.is_empty() {
-        let header_end = csv
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(csv.len(), |i| i + 1);
-        csv = [previous.as_bytes(), &csv[header_end..]].concat();
-    }
+    let measured = sweep.measure(
+        &mut std::io::stderr().lock(),
+        &done,
+        &mut records,
+        &mut |records| write(records),
+    );
     let rows = done.len() + records.len();
     if let Err(error) = measured {
         if rows == 0 {
             return Err(error);
         }
-        output.commit(&csv)?;
         let (noun, verb, them) = match rows {
             1 => ("row", "is", "it"),
             _ => ("rows", "are", "them"),
@@ -122,7 +147,7 @@ pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
         )
         .into());
     }
-    output.commit(&csv)?;
+    write(&records)?;
     writeln!(stdout, "wrote {} ({rows} rows)", args.output.display())?;
     Ok(())
 }
