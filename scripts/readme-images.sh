@@ -4,17 +4,20 @@
 # the README also gives the command for an animated GIF of the dam break, which at about
 # 3 MB is not committed); the accuracy-speed and error-time charts of four scenes
 # (docs/accuracy/*/, scripts/accuracy-sweeps.sh) and the stability map of every model,
-# precision and time-step rule (docs/stability/).
+# precision and time-step rule (docs/stability/), and every model against the dam-break
+# experiment of Martin and Moyce (docs/validation/).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 cargo build --release --quiet --bin fluid-lab
 lab=target/release/fluid-lab
 mkdir -p docs/images target/scenes
-echo "method: $lab render, accuracy and stability (plotters, embedded DejaVu Sans)" >&2
+echo "method: $lab render, accuracy, stability and validate (plotters, embedded DejaVu Sans)" >&2
 "$lab" render data/in/large.fld docs/images/large.png --steps 0
 "$lab" scene dam-break target/scenes/dam-break.fld --ppm 300 --seed 1
 "$lab" render target/scenes/dam-break.fld docs/images/dam-break.png --model fluidanimate --steps 400
 # Accuracy against speed, and where each method fails (CSV, PNG and SVG in each folder).
 scripts/accuracy-sweeps.sh docs/accuracy
 "$lab" stability --kernels simd,mixed --output-dir docs/stability
+"$lab" validate dam-break --models course,fluidanimate --ppms 200,300,400 --until 4 \
+    --output-dir docs/validation

@@ -527,3 +527,65 @@ fn stability_reports_each_run_and_maps_them() {
         );
     }
 }
+
+#[test]
+fn a_short_dam_break_front_moves_as_the_experiment_s_and_the_course_model_fails_early() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = run_lab(&[
+        "validate".as_ref(),
+        "dam-break".as_ref(),
+        "--models".as_ref(),
+        "course".as_ref(),
+        "fluidanimate".as_ref(),
+        "--ppms".as_ref(),
+        "150".as_ref(),
+        "--until".as_ref(),
+        "2".as_ref(),
+        "--output-dir".as_ref(),
+        dir.path().as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let report = stdout(&output);
+    let course = report
+        .lines()
+        .find(|l| l.starts_with("model=course"))
+        .unwrap();
+    assert!(course.contains(" failed_at_T=0.0"), "{report}");
+    let stable = report
+        .lines()
+        .find(|l| l.starts_with("model=fluidanimate"))
+        .unwrap();
+    assert!(!stable.contains("failed"), "{report}");
+    for name in ["dam-break.csv", "dam-break.png", "dam-break.svg"] {
+        assert!(dir.path().join(name).is_file(), "{name}");
+    }
+    // The experiment's three points with T <= 2, each within 35% (a coarse column).
+    let errors = std::fs::read_to_string(dir.path().join("dam-break-errors.csv")).unwrap();
+    let compared: Vec<(f64, f64, f64)> = errors
+        .lines()
+        .filter(|line| line.starts_with("fluidanimate,"))
+        .filter_map(|line| {
+            let cells: Vec<&str> = line.split(',').collect();
+            let number = |k: usize| cells[k].parse::<f64>().ok();
+            Some((number(5)?, number(6)?, number(7)?))
+        })
+        .collect();
+    assert_eq!(compared.len(), 3, "{errors}");
+    for &(t, experiment, model) in &compared {
+        assert!(
+            (model - experiment).abs() < 0.35 * experiment,
+            "T = {t}: Z {model} against {experiment}"
+        );
+    }
+    assert!(
+        compared.windows(2).all(|w| w[1].2 > w[0].2),
+        "the front advances"
+    );
+    assert!(
+        errors
+            .lines()
+            .filter(|l| l.starts_with("course,"))
+            .all(|l| l.ends_with(",,")),
+        "the course model fails before the first point: {errors}"
+    );
+}

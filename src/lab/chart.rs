@@ -513,11 +513,10 @@ impl Drawing for Chart {
     }
 }
 
-/// A chart with a logarithmic y axis (and a linear or logarithmic x axis): lines (or
-/// points) of (x, y); points a log axis cannot show (not finite, or not positive) are
-/// left out.
+/// A chart of points (x, y), joined by lines or not, each axis linear or logarithmic;
+/// points an axis cannot show (not finite, or not positive on a log axis) are left out.
 #[derive(Clone, Debug, PartialEq)]
-pub struct LogChart {
+pub struct PointChart {
     /// The file stem.
     pub name: &'static str,
     /// The title.
@@ -526,8 +525,10 @@ pub struct LogChart {
     pub x_label: String,
     /// Whether the x axis is logarithmic (else linear, from 0).
     pub x_log: bool,
-    /// The y axis' description (logarithmic).
+    /// The y axis' description.
     pub y_label: String,
+    /// Whether the y axis is logarithmic (else linear, from 0).
+    pub y_log: bool,
     /// The series: legend text and points.
     pub series: Vec<(String, Vec<(f64, f64)>)>,
     /// Whether to join each series' points with lines (else points only).
@@ -543,10 +544,10 @@ pub struct LogChart {
     pub footer: String,
 }
 
-impl LogChart {
+impl PointChart {
     /// Whether the axes can show `point`.
     fn shows(&self, (x, y): (f64, f64)) -> bool {
-        x.is_finite() && y.is_finite() && y > 0.0 && (!self.x_log || x > 0.0)
+        x.is_finite() && y.is_finite() && (!self.y_log || y > 0.0) && (!self.x_log || x > 0.0)
     }
 
     /// The points drawn: those the axes can show.
@@ -573,21 +574,24 @@ impl LogChart {
         }
     }
 
-    /// The y axis: from half the smallest y to twice the largest (decades apart at least).
+    /// The y axis: logarithmic, from half the smallest y to twice the largest (decades
+    /// apart at least); linear, from 0 to past the largest.
     pub fn y_range(&self) -> Range<f64> {
         let (low, high) = self
             .drawn()
             .fold((f64::INFINITY, 0.0f64), |(lo, hi), (_, y)| {
                 (lo.min(y), hi.max(y))
             });
-        if high == 0.0 {
-            return 1e-3..1.0;
+        match (self.y_log, high > 0.0) {
+            (true, true) => (low / 2.0).min(high / 10.0)..(high * 2.0).min(f64::MAX),
+            (true, false) => 1e-3..1.0,
+            (false, true) => 0.0..(high * 1.1).min(f64::MAX),
+            (false, false) => 0.0..1.0,
         }
-        (low / 2.0).min(high / 10.0)..(high * 2.0).min(f64::MAX)
     }
 }
 
-impl Drawing for LogChart {
+impl Drawing for PointChart {
     fn name(&self) -> &str {
         self.name
     }
@@ -606,44 +610,60 @@ impl Drawing for LogChart {
             .margin(16)
             .x_label_area_size(44)
             .y_label_area_size(80);
-        if self.x_log {
-            let context = builder
-                .build_cartesian_2d(self.x_range().log_scale(), self.y_range().log_scale())?;
-            self.draw_in(context, &|&x| {
-                let digits = (1 - x.log10().floor() as i32).max(0) as usize;
-                format!("{x:.digits$}")
-            })?;
-        } else {
-            let context = builder.build_cartesian_2d(self.x_range(), self.y_range().log_scale())?;
-            self.draw_in(context, &|x| match x.fract() == 0.0 {
-                true => format!("{x:.0}"),
-                false => format!("{x:.1}"),
-            })?;
+        let log_x = |&x: &f64| {
+            let digits = (1 - x.log10().floor() as i32).max(0) as usize;
+            format!("{x:.digits$}")
+        };
+        let linear = |x: &f64| match x.fract() == 0.0 {
+            true => format!("{x:.0}"),
+            false => format!("{x:.1}"),
+        };
+        let log_y = |y: &f64| format!("{y:.0e}");
+        let (x, y) = (self.x_range(), self.y_range());
+        match (self.x_log, self.y_log) {
+            (true, true) => self.draw_in(
+                builder.build_cartesian_2d(x.log_scale(), y.log_scale())?,
+                &log_x,
+                &log_y,
+            )?,
+            (true, false) => self.draw_in(
+                builder.build_cartesian_2d(x.log_scale(), y)?,
+                &log_x,
+                &linear,
+            )?,
+            (false, true) => self.draw_in(
+                builder.build_cartesian_2d(x, y.log_scale())?,
+                &linear,
+                &log_y,
+            )?,
+            (false, false) => self.draw_in(builder.build_cartesian_2d(x, y)?, &linear, &linear)?,
         }
         root.present()?;
         Ok(())
     }
 }
 
-impl LogChart {
-    /// Draws the mesh, series, fronts, notes and legend in `context`, x labels by
-    /// `x_format`.
-    fn draw_in<'a, DB, X>(
+impl PointChart {
+    /// Draws the mesh, series, fronts, notes and legend in `context`, labels by
+    /// `x_format` and `y_format`.
+    fn draw_in<'a, DB, X, Y>(
         &self,
-        mut context: ChartContext<'a, DB, Cartesian2d<X, LogCoord<f64>>>,
+        mut context: ChartContext<'a, DB, Cartesian2d<X, Y>>,
         x_format: &dyn Fn(&f64) -> String,
+        y_format: &dyn Fn(&f64) -> String,
     ) -> Result<(), Box<dyn Error>>
     where
         DB: DrawingBackend + 'a,
         DB::ErrorType: 'static,
         X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+        Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
     {
         context
             .configure_mesh()
             .x_desc(self.x_label.as_str())
             .y_desc(self.y_label.as_str())
             .x_label_formatter(x_format)
-            .y_label_formatter(&|y| format!("{y:.0e}"))
+            .y_label_formatter(y_format)
             .label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", 16))
             .draw()?;

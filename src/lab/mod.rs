@@ -1,8 +1,9 @@
 //! The workbench wing (`fluid-lab`): everything `fluid`'s fixed contract leaves out, on
 //! the same library. Its concepts are modules here: generated [`scene`]s, per-state
 //! [`diagnostics`], [`accuracy`] against the reference trajectory, [`stability`] maps,
-//! iteration [`sweep`]s with their [`energy`] and [`machine`], [`chart`]s and [`render`]ed
-//! pictures. The command line is [`Lab`], one module of `commands/` per subcommand.
+//! iteration [`sweep`]s with their [`energy`] and [`machine`], [`chart`]s, [`render`]ed
+//! pictures and [`validation`] against experiments. The command line is [`Lab`], one
+//! module of `commands/` per subcommand.
 
 pub mod accuracy;
 pub mod chart;
@@ -14,6 +15,7 @@ pub mod render;
 pub mod scene;
 pub mod stability;
 pub mod sweep;
+pub mod validation;
 
 use clap::{Parser, Subcommand};
 use std::error::Error;
@@ -56,6 +58,9 @@ enum Command {
     Sweep(commands::sweep::SweepArgs),
     /// Chart a sweep CSV: time, energy and power against iterations, as PNG and SVG.
     Chart(commands::chart::ChartArgs),
+    /// Validate the models against an experiment (the dam break of Martin and Moyce,
+    /// 1952): fronts, errors at each experimental point, and a chart.
+    Validate(commands::validate::ValidateArgs),
 }
 
 impl Lab {
@@ -71,6 +76,7 @@ impl Lab {
             Command::Scene(args) => commands::scene::exec(args),
             Command::Sweep(args) => commands::sweep::exec(args, stdout),
             Command::Chart(args) => commands::chart::exec(args, stdout),
+            Command::Validate(args) => commands::validate::exec(args, stdout),
         }
     }
 }

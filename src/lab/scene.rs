@@ -55,14 +55,7 @@ pub fn generate(
     seed: u64,
     particles: Option<usize>,
 ) -> Result<Particles, String> {
-    if !(ppm.is_finite() && ppm > 0.0) {
-        return Err(format!(
-            "particles per metre {ppm} is not a finite number > 0"
-        ));
-    }
-    if let Err(error) = Grid::new(Params::new(ppm).h) {
-        return Err(format!("particles per metre {ppm} gives {error}"));
-    }
+    check_ppm(ppm)?;
     let needs_count = matches!(kind, SceneKind::RandomCloud | SceneKind::CornerBlock);
     if particles.is_some() && !needs_count {
         return Err(format!(
@@ -109,6 +102,43 @@ pub fn generate(
         ));
     }
     Ok(scene)
+}
+
+/// Particles per metre a scene can have: finite, > 0, and giving a grid over the box.
+fn check_ppm(ppm: f64) -> Result<(), String> {
+    if !(ppm.is_finite() && ppm > 0.0) {
+        return Err(format!(
+            "particles per metre {ppm} is not a finite number > 0"
+        ));
+    }
+    match Grid::new(Params::new(ppm).h) {
+        Ok(_) => Ok(()),
+        Err(error) => Err(format!("particles per metre {ppm} gives {error}")),
+    }
+}
+
+/// A column of fluid against the low-x wall, `width` wide and `height` high (metres),
+/// through the box's whole depth, on the jittered lattice at `ppm` (the dam break of the
+/// experiments: the full depth makes it the quasi-2D column of a channel).
+pub fn water_column(ppm: f64, seed: u64, width: f64, height: f64) -> Result<Particles, String> {
+    let extent = BOX_MAX - BOX_MIN;
+    let fits = |size: f64, room: f64| size.is_finite() && size > 0.0 && size <= room;
+    if !(fits(width, extent.x) && fits(height, extent.y)) {
+        return Err(format!(
+            "a column {width} m wide and {height} m high does not fit the box ({} x {} m)",
+            extent.x, extent.y
+        ));
+    }
+    check_ppm(ppm)?;
+    let column = lattice(ppm, seed, |p| {
+        p.x < BOX_MIN.x + width && p.y < BOX_MIN.y + height
+    });
+    if column.is_empty() {
+        return Err(format!(
+            "a column {width} m wide holds no particle at {ppm} per metre"
+        ));
+    }
+    Ok(column)
 }
 
 /// Lattice points along x, y and z at `ppm` particles per metre: floor(extent * ppm).

@@ -6,7 +6,7 @@ use super::simulation_args::{parse_courants, Courants};
 use crate::io::fld;
 use crate::io::output::OutputFile;
 use crate::lab::accuracy::{self, Candidate, Metric, Run, Sweep};
-use crate::lab::chart::{self, LogChart};
+use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
 use crate::sim::method::{Kernel, Method, Model};
 use crate::sim::params::TIME_STEP;
@@ -277,7 +277,7 @@ fn speed_chart(
     metric: Metric,
     scene: &str,
     footer: &str,
-) -> LogChart {
+) -> PointChart {
     let mut shown = vec![0, times.len() / 2, times.len() - 1];
     shown.dedup();
     let point = |run: &Run, k: usize| {
@@ -292,11 +292,12 @@ fn speed_chart(
         })
         .collect();
     let last = times.len() - 1;
-    LogChart {
+    PointChart {
         name: "accuracy-speed",
         title: format!("Error against cost, {scene} (lines: Pareto fronts)"),
         x_label: "CPU seconds per simulated second".into(),
         x_log: true,
+        y_log: true,
         y_label: format!("{} position error (m)", metric.name()),
         fronts: series
             .iter()
@@ -318,12 +319,13 @@ fn speed_chart(
 }
 
 /// The position error by `metric` against physical time, one line per method.
-fn time_chart(sweep: &Sweep, metric: Metric, scene: &str, footer: &str) -> LogChart {
-    LogChart {
+fn time_chart(sweep: &Sweep, metric: Metric, scene: &str, footer: &str) -> PointChart {
+    PointChart {
         name: "error-time",
         title: format!("Error against time, {scene}"),
         x_label: "physical time (ms)".into(),
         x_log: false,
+        y_log: true,
         y_label: format!("{} position error (m)", metric.name()),
         series: sweep
             .runs

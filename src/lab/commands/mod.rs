@@ -13,6 +13,7 @@ pub mod scene;
 pub mod simulation_args;
 pub mod stability;
 pub mod sweep;
+pub mod validate;
 
 use std::path::Path;
 

@@ -130,7 +130,7 @@ pub fn run_visiting(
 }
 
 /// Parses a positive, finite time step.
-fn parse_time_step(text: &str) -> Result<f64, String> {
+pub fn parse_time_step(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(dt) if is_time_step(dt) => Ok(dt),
         _ => Err(format!("{text} is not a positive time step")),
@@ -139,7 +139,7 @@ fn parse_time_step(text: &str) -> Result<f64, String> {
 
 /// Parses a Courant constant: finite, positive and at most 1 (beyond that a step outruns
 /// the time scale it is taken from).
-fn parse_courant(text: &str) -> Result<f64, String> {
+pub fn parse_courant(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(c) if c.is_finite() && c > 0.0 && c <= 1.0 => Ok(c),
         _ => Err(format!("{text} is not a Courant constant in (0, 1]")),

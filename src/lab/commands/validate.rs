@@ -1,0 +1,254 @@
+//! `fluid-lab validate dam-break`: every model against the dam-break experiment of Martin
+//! and Moyce (1952), at several resolutions: the fronts as a CSV, the errors at each
+//! experimental point as a CSV, and a chart of Z against T with the experiment's points.
+
+use super::create_output_dir;
+use super::simulation_args::{parse_courant, parse_time_step};
+use crate::io::output::OutputFile;
+use crate::lab::chart::{self, PointChart};
+use crate::lab::machine::Machine;
+use crate::lab::validation::{self, Collapse, Comparison, DamBreak, MARTIN_MOYCE};
+use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::params::TIME_STEP;
+use crate::sim::simulation::Simulation;
+use crate::sim::timestep::TimeStep;
+use clap::{Args, ValueEnum};
+use plotters::prelude::SeriesLabelPosition;
+use std::error::Error;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// The experiments a model can be validated against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Experiment {
+    /// The collapse of a water column 2a high on a dry floor: the surge front of Martin
+    /// and Moyce (1952), n^2 = 2.
+    DamBreak,
+}
+
+/// The arguments of `fluid-lab validate`.
+#[derive(Debug, Args)]
+pub struct ValidateArgs {
+    /// The experiment.
+    #[arg(value_enum)]
+    experiment: Experiment,
+    /// Folder for dam-break.csv, dam-break-errors.csv and dam-break.{png,svg}.
+    #[arg(long)]
+    output_dir: PathBuf,
+    /// Models to run.
+    #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = Model::ALL)]
+    models: Vec<Model>,
+    /// Particles per metre of the column, each run of every model.
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..,
+          default_values_t = [200.0, 300.0])]
+    ppms: Vec<f64>,
+    /// The column's width in metres (its height is twice it): a is the width of the
+    /// particles' columns within it (a multiple of the spacing). The box's 0.13 m length
+    /// lets the front run to Z = 0.13 / a.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.03)]
+    width: f64,
+    /// Run until the experiment's T = t sqrt(2 g / a) reaches this.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 4.0)]
+    until: f64,
+    /// Sample the front every this many steps.
+    #[arg(long, default_value_t = 5,
+          value_parser = clap::builder::RangedU64ValueParser::<u64>::new().range(1..))]
+    every: u64,
+    /// Pair-loop implementation.
+    #[arg(long, value_enum, default_value_t = Kernel::NATIVE)]
+    kernel: Kernel,
+    /// Fixed time step in seconds.
+    #[arg(long, allow_negative_numbers = true, default_value_t = TIME_STEP,
+          value_parser = parse_time_step)]
+    dt: f64,
+    /// Adaptive time step with this Courant constant instead of a fixed one.
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "dt", value_parser = parse_courant)]
+    adaptive: Option<f64>,
+    /// Seed of the lattice jitter.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// The CSV columns of the fronts.
+const FRONTS_HEADER: &str = "model,kernel,ppm,width_m,time_step,step,time_s,T,front_m,Z,\
+                             mean_density_error,max_density_error";
+/// The CSV columns of the comparisons.
+const ERRORS_HEADER: &str = "model,kernel,ppm,width_m,time_step,T,Z_experiment,Z_model,\
+                             relative_error";
+/// The experiment's points compared in the summary: T up to this.
+const SUMMARY_T: f64 = 3.6;
+
+/// One model at one resolution, run.
+struct Validated {
+    label: String,
+    collapse: Collapse,
+    comparisons: Vec<Comparison>,
+    seconds: f64,
+}
+
+/// Runs every model at every resolution against the experiment and writes the CSVs, the
+/// chart and a summary line per run.
+pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let Experiment::DamBreak = args.experiment;
+    if !(args.until.is_finite() && args.until > 0.0) {
+        return Err(format!("--until: {} is not a positive, finite T", args.until).into());
+    }
+    create_output_dir(&args.output_dir)?;
+    let fronts_path = args.output_dir.join("dam-break.csv");
+    let errors_path = args.output_dir.join("dam-break-errors.csv");
+    let (fronts_file, errors_file) = (
+        OutputFile::create(&fronts_path)?,
+        OutputFile::create(&errors_path)?,
+    );
+    let time_step = match args.adaptive {
+        Some(courant) => TimeStep::Adaptive { courant },
+        None => TimeStep::Fixed(args.dt),
+    };
+    let rule = match time_step {
+        TimeStep::Fixed(dt) => format!("fixed {dt} s"),
+        TimeStep::Adaptive { courant } => format!("adaptive C={courant}"),
+    };
+    let mut fronts = format!("{FRONTS_HEADER}\n");
+    let mut errors = format!("{ERRORS_HEADER}\n");
+    let mut runs = Vec::new();
+    for &model in &args.models {
+        for &ppm in &args.ppms {
+            let dam = DamBreak {
+                width: args.width,
+                ppm,
+                seed: args.seed,
+            };
+            let method = Method {
+                model,
+                kernel: args.kernel,
+            };
+            let mut simulation = Simulation::with_method(ppm, dam.particles()?, method)
+                .map_err(|error| format!("--ppms {ppm}: {error}"))?;
+            simulation.set_time_step(time_step);
+            let started = Instant::now();
+            let collapse = validation::collapse(&mut simulation, &dam, args.until, args.every);
+            let seconds = started.elapsed().as_secs_f64();
+            let comparisons = validation::compare(&collapse, &dam, simulation.params().h);
+            let cells = format!(
+                "{},{},{ppm},{},{rule}",
+                model.name(),
+                args.kernel.name(),
+                dam.column_width()
+            );
+            for sample in &collapse.samples {
+                fronts += &format!(
+                    "{cells},{},{},{},{},{},{},{}\n",
+                    sample.step,
+                    sample.time,
+                    sample.t,
+                    sample.front,
+                    sample.z,
+                    sample.mean_density_error,
+                    sample.max_density_error
+                );
+            }
+            for comparison in &comparisons {
+                let optional = |value: Option<f64>| value.map_or(String::new(), |v| v.to_string());
+                errors += &format!(
+                    "{cells},{},{},{},{}\n",
+                    comparison.t,
+                    comparison.z_experiment,
+                    optional(comparison.z_model),
+                    optional(comparison.relative_error())
+                );
+            }
+            let densest = collapse
+                .samples
+                .iter()
+                .map(|sample| sample.max_density_error)
+                .fold(0.0, f64::max);
+            let simulated = simulation.time();
+            let per_simulated_second = match simulated > 0.0 {
+                true => format!("{:.3}", seconds / simulated),
+                false => "none".to_string(),
+            };
+            let worst = validation::worst_error(&comparisons, SUMMARY_T)
+                .map_or("none".to_string(), |error| format!("{error:.3}"));
+            let failed = collapse.failure.map_or(String::new(), |(t, failure)| {
+                format!(" failed_at_T={t:.3} ({failure})")
+            });
+            writeln!(
+                stdout,
+                "model={} ppm={ppm} particles={} worst_error_T_le_{SUMMARY_T}={worst} \
+                 max_density_error={densest:.3} seconds={seconds:.3} \
+                 seconds_per_simulated_s={per_simulated_second}{failed}",
+                model.name(),
+                simulation.particles().len(),
+            )?;
+            let mut label = format!("{} at {ppm} per m", model.name());
+            if let Some((t, _)) = collapse.failure {
+                label += &format!(" (failed at T = {t:.2})");
+            }
+            runs.push(Validated {
+                label,
+                collapse,
+                comparisons,
+                seconds,
+            });
+        }
+    }
+    fronts_file.commit(fronts.as_bytes())?;
+    errors_file.commit(errors.as_bytes())?;
+    writeln!(stdout, "wrote {}", fronts_path.display())?;
+    writeln!(stdout, "wrote {}", errors_path.display())?;
+    let machine = Machine::this();
+    let footer = format!(
+        "column a = {} m, 2a high, {rule}, {} kernel; {}, commit {}; points: Martin and Moyce \
+         (1952); CPU s: {}",
+        args.width,
+        args.kernel.name(),
+        machine.cpu_model,
+        machine.commit,
+        runs.iter()
+            .map(|run| format!("{:.1}", run.seconds))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let chart = front_chart(&runs, &footer);
+    for path in chart::render(&chart, &args.output_dir, chart::SIZE)? {
+        writeln!(stdout, "wrote {}", path.display())?;
+    }
+    Ok(())
+}
+
+/// Z against T: the experiment's points, and each run's front (a line) with its value at
+/// each experimental T (points).
+fn front_chart(runs: &[Validated], footer: &str) -> PointChart {
+    let mut series = vec![("Martin and Moyce (1952)".to_string(), MARTIN_MOYCE.to_vec())];
+    let mut fronts = vec![Vec::new()];
+    for run in runs {
+        let at_experiment = run
+            .comparisons
+            .iter()
+            .filter_map(|comparison| Some((comparison.t, comparison.z_model?)))
+            .collect();
+        series.push((run.label.clone(), at_experiment));
+        fronts.push(
+            run.collapse
+                .samples
+                .iter()
+                .map(|sample| (sample.t, sample.z))
+                .collect(),
+        );
+    }
+    PointChart {
+        name: "dam-break",
+        title: "Dam break: surge front against the experiment".into(),
+        x_label: "T = t sqrt(2g/a)".into(),
+        x_log: false,
+        y_label: "Z = x / a".into(),
+        y_log: false,
+        series,
+        lines: false,
+        fronts,
+        notes: Vec::new(),
+        legend: SeriesLabelPosition::UpperLeft,
+        footer: footer.to_string(),
+    }
+}

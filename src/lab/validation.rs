@@ -1,0 +1,307 @@
+//! How close a model is to water: the collapse of a water column on a dry floor (the dam
+//! break) against the surge-front measurements of Martin and Moyce (1952), the case the
+//! SPH codes people trust (DualSPHysics, PySPH, SPHysics) validate with.
+//!
+//! A column `a` wide and `2a` high stands against the low-x wall, through the box's whole
+//! depth, and is released at t = 0. Its front, the distance x from that wall (a high
+//! quantile of x among the particles near the floor, [`FRONT_QUANTILE`], plus half a
+//! lattice spacing), is followed in the experiment's dimensionless variables: Z = x / a
+//! against T = t sqrt(2 g / a).
+
+use crate::lab::diagnostics::{self, Checks, Diagnostics, Failure, Vitals};
+use crate::lab::scene;
+use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY};
+use crate::sim::particles::Particles;
+use crate::sim::simulation::Simulation;
+
+/// Martin and Moyce (1952), Phil. Trans. R. Soc. A 244, n^2 = 2, a = 1.125 in: the surge
+/// front as (T, Z), as tabulated in PySPH's `pysph/examples/db_exp_data.py`.
+pub const MARTIN_MOYCE: [(f64, f64); 10] = [
+    (0.849, 1.245),
+    (1.212, 1.443),
+    (1.602, 1.884),
+    (2.283, 2.689),
+    (2.950, 3.728),
+    (3.598, 4.528),
+    (3.905, 4.999),
+    (4.592, 5.841),
+    (4.961, 6.271),
+    (5.316, 6.717),
+];
+
+/// The quantile of x near the floor taken as the front: high enough that its lag behind
+/// the leading edge stays small as the fluid spreads (1% of the spread), low enough that a
+/// few strays ahead do not move it. Half a lattice spacing is added, the fluid's extent
+/// beyond its last particles (the column of width a has its last particles at a - s/2).
+pub const FRONT_QUANTILE: f64 = 0.99;
+
+/// A dam break: the column's width `a` (its height is 2a) and its lattice.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DamBreak {
+    /// The column's width a (m).
+    pub width: f64,
+    /// Particles per metre of the lattice.
+    pub ppm: f64,
+    /// Seed of the lattice jitter.
+    pub seed: u64,
+}
+
+impl DamBreak {
+    /// The column's particles, at rest: a wide and 2a high (see [`Self::column_width`]).
+    pub fn particles(&self) -> Result<Particles, String> {
+        let a = self.column_width();
+        scene::water_column(self.ppm, self.seed, a, 2.0 * a)
+    }
+
+    /// The width of the column the lattice gives: its columns of particles (those whose
+    /// centre lies within `width`) times the spacing. This is the experiment's a.
+    pub fn column_width(&self) -> f64 {
+        (self.width * self.ppm - 0.5).ceil().max(1.0) / self.ppm
+    }
+
+    /// Seconds per unit of the experiment's T: sqrt(a / (2 g)).
+    pub fn time_unit(&self) -> f64 {
+        (self.column_width() / (2.0 * -GRAVITY.y)).sqrt()
+    }
+
+    /// The largest Z the box allows: its length over a (the front stops at the far wall).
+    pub fn largest_z(&self) -> f64 {
+        (BOX_MAX.x - BOX_MIN.x) / self.column_width()
+    }
+}
+
+/// The front at one moment of a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrontSample {
+    /// Steps run.
+    pub step: u64,
+    /// Simulated time (s).
+    pub time: f64,
+    /// The experiment's dimensionless time T.
+    pub t: f64,
+    /// The front's distance from the low-x wall (m).
+    pub front: f64,
+    /// The front over the column's width, Z.
+    pub z: f64,
+    /// The largest |rho - rho_0| / rho_0 of the state.
+    pub max_density_error: f64,
+    /// The mean |rho - rho_0| / rho_0 of the state.
+    pub mean_density_error: f64,
+}
+
+/// The fronts of a run, and why it stopped early, if it did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Collapse {
+    /// The samples, every few steps from step 0.
+    pub samples: Vec<FrontSample>,
+    /// The failure that stopped the run before the last T (and at which T).
+    pub failure: Option<(f64, Failure)>,
+}
+
+/// Runs `simulation` (the column of `dam`, placed) until the experiment's T reaches
+/// `until`, sampling the front at step 0 and every `every` steps. The run stops at the
+/// first failure of [`Checks`] (non-finite values, particles out of the box, energy
+/// growth): a model that blows up is reported, not followed.
+pub fn collapse(simulation: &mut Simulation, dam: &DamBreak, until: f64, every: u64) -> Collapse {
+    let unit = dam.time_unit();
+    let checks = Checks::from(&Vitals::of(simulation));
+    let sample = |simulation: &Simulation, step: u64| {
+        let state = Diagnostics::of(simulation, step);
+        let front = diagnostics::front_quantile(simulation, FRONT_QUANTILE)
+            .map_or(f64::NAN, |x| x + 0.5 / dam.ppm);
+        FrontSample {
+            step,
+            time: simulation.time(),
+            t: simulation.time() / unit,
+            front,
+            z: front / dam.column_width(),
+            max_density_error: state.max_density_error,
+            mean_density_error: state.mean_density_error,
+        }
+    };
+    let mut samples = vec![sample(simulation, 0)];
+    let mut step = 0;
+    let end = until * unit;
+    while !simulation.has_reached(end) {
+        simulation.step_towards(end);
+        step += 1;
+        if let Some(failure) = checks.failure(&Vitals::of(simulation)) {
+            return Collapse {
+                samples,
+                failure: Some((simulation.time() / unit, failure)),
+            };
+        }
+        if step % every == 0 || simulation.has_reached(end) {
+            samples.push(sample(simulation, step));
+        }
+    }
+    Collapse {
+        samples,
+        failure: None,
+    }
+}
+
+/// The model's front at one experimental point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Comparison {
+    /// The experiment's T.
+    pub t: f64,
+    /// The experiment's Z.
+    pub z_experiment: f64,
+    /// The model's Z at that T (linear between samples), if the run reached T and the
+    /// front had not reached the far wall.
+    pub z_model: Option<f64>,
+}
+
+impl Comparison {
+    /// (Z_model - Z_experiment) / Z_experiment.
+    pub fn relative_error(&self) -> Option<f64> {
+        self.z_model
+            .map(|z| (z - self.z_experiment) / self.z_experiment)
+    }
+}
+
+/// The run's front at every experimental T up to its last sample. A point whose Z is
+/// beyond what the box allows (less a smoothing length's margin) is left out: there the
+/// box, not the model, stops the front.
+pub fn compare(collapse: &Collapse, dam: &DamBreak, h: f64) -> Vec<Comparison> {
+    let samples = &collapse.samples;
+    let wall = dam.largest_z() - h / dam.column_width();
+    MARTIN_MOYCE
+        .iter()
+        .filter(|&&(_, z)| z < wall)
+        .map(|&(t, z_experiment)| {
+            let after = samples.iter().position(|sample| sample.t >= t);
+            let z_model = after.filter(|&i| i > 0).map(|i| {
+                let (a, b) = (&samples[i - 1], &samples[i]);
+                let share = (t - a.t) / (b.t - a.t);
+                a.z + share * (b.z - a.z)
+            });
+            Comparison {
+                t,
+                z_experiment,
+                z_model: z_model.filter(|z| z.is_finite()),
+            }
+        })
+        .collect()
+}
+
+/// The largest |relative error| over the comparisons with T at most `t`, if any was made.
+pub fn worst_error(comparisons: &[Comparison], t: f64) -> Option<f64> {
+    comparisons
+        .iter()
+        .filter(|comparison| comparison.t <= t)
+        .filter_map(Comparison::relative_error)
+        .map(f64::abs)
+        .reduce(f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dam() -> DamBreak {
+        DamBreak {
+            width: 0.03,
+            ppm: 200.0,
+            seed: 1,
+        }
+    }
+
+    fn sample(t: f64, z: f64) -> FrontSample {
+        FrontSample {
+            step: 0,
+            time: 0.0,
+            t,
+            front: z * 0.03,
+            z,
+            max_density_error: 0.0,
+            mean_density_error: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_column_is_a_wide_and_2a_high_through_the_whole_depth() {
+        let particles = dam().particles().unwrap();
+        let spacing = 1.0 / 200.0;
+        let (mut high, mut low) = (glam::DVec3::splat(f64::MIN), glam::DVec3::splat(f64::MAX));
+        for slot in 0..particles.len() {
+            high = high.max(particles.position(slot));
+            low = low.min(particles.position(slot));
+        }
+        let jitter = scene::JITTER * spacing;
+        assert!((low - (BOX_MIN + 0.5 * spacing)).abs().max_element() <= jitter + 1e-12);
+        assert!((high.x - (BOX_MIN.x + 0.03 - 0.5 * spacing)).abs() <= jitter + 1e-12);
+        assert!((high.y - (BOX_MIN.y + 0.06 - 0.5 * spacing)).abs() <= jitter + 1e-12);
+        assert!((high.z - (BOX_MAX.z - 0.5 * spacing)).abs() <= jitter + 1e-12);
+        assert_eq!(particles.len(), 6 * 12 * 26);
+    }
+
+    #[test]
+    fn time_and_length_follow_the_experiment_s_scaling() {
+        // T = t sqrt(2 g / a): for a = 0.03 m, one unit of T is sqrt(0.03 / 19.6) s.
+        assert!(
+            (dam().column_width() - 0.03).abs() < 1e-15,
+            "6 columns of 5 mm"
+        );
+        assert!((dam().time_unit() - 0.039123).abs() < 1e-6);
+        assert!((dam().largest_z() - 0.13 / 0.03).abs() < 1e-12);
+        // At 150 per metre, 4 columns of 6.67 mm have their centres within 30 mm.
+        let coarse = DamBreak {
+            ppm: 150.0,
+            ..dam()
+        };
+        assert!((coarse.column_width() - 4.0 / 150.0).abs() < 1e-15);
+        assert_eq!(
+            coarse.particles().unwrap().len(),
+            4 * 8 * 19,
+            "2a = 8 rows high"
+        );
+    }
+
+    #[test]
+    fn comparisons_interpolate_between_samples_and_stop_at_the_run_s_end_and_the_wall() {
+        let collapse = Collapse {
+            samples: vec![sample(0.0, 1.0), sample(1.0, 1.5), sample(2.0, 2.5)],
+            failure: None,
+        };
+        let comparisons = compare(&collapse, &dam(), 0.005);
+        // Z < 4.33 - 0.17: the first five points; T <= 2 sampled: the first three.
+        assert_eq!(comparisons.len(), 5);
+        let z = 1.0 + 0.849 * 0.5;
+        assert!((comparisons[0].z_model.unwrap() - z).abs() < 1e-12);
+        let error = comparisons[0].relative_error().unwrap();
+        assert!((error - (z - 1.245) / 1.245).abs() < 1e-12);
+        assert!((comparisons[2].z_model.unwrap() - (1.5 + 0.602)).abs() < 1e-12);
+        assert_eq!(comparisons[3].z_model, None, "T = 2.283 is after the run");
+        let worst = worst_error(&comparisons, 3.6).unwrap();
+        let expected = comparisons[..3]
+            .iter()
+            .map(|c| c.relative_error().unwrap().abs())
+            .fold(0.0, f64::max);
+        assert_eq!(worst, expected);
+        assert_eq!(worst_error(&comparisons, 0.5), None);
+    }
+
+    #[test]
+    fn a_released_column_spreads_and_the_run_stops_at_its_end() {
+        let dam = DamBreak {
+            width: 0.03,
+            ppm: 150.0,
+            seed: 1,
+        };
+        let method = crate::sim::method::Method {
+            model: crate::sim::method::Model::Fluidanimate,
+            kernel: crate::sim::method::Kernel::NATIVE,
+        };
+        let mut simulation =
+            Simulation::with_method(150.0, dam.particles().unwrap(), method).unwrap();
+        let collapse = collapse(&mut simulation, &dam, 1.0, 5);
+        assert_eq!(collapse.failure, None);
+        let (first, last) = (collapse.samples[0], *collapse.samples.last().unwrap());
+        assert!((first.z - 1.0).abs() < 0.1, "{first:?}");
+        assert!((last.t - 1.0).abs() < 1e-9, "{last:?}");
+        assert!(last.z > first.z + 0.05, "the front moves: {last:?}");
+        assert!(collapse.samples.windows(2).all(|w| w[1].step > w[0].step));
+    }
+}
