@@ -3,7 +3,7 @@
 use super::simulation_args::{load, run_visiting, Loaded, SimulationArgs};
 use crate::io::export::Snapshot;
 use crate::io::output::OutputFile;
-use clap::builder::RangedU64ValueParser;
+use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
@@ -17,7 +17,7 @@ pub struct ExportArgs {
     /// Folder for the files, named INPUT-STEM_STEP.vtk (or .csv).
     output_dir: PathBuf,
     /// Also export every this many steps (and step 0) [default: the final state only].
-    #[arg(long, allow_negative_numbers = true, value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
     every: Option<u64>,
     /// File format.
     #[arg(long, value_enum, default_value_t = ExportFormat::Vtk)]

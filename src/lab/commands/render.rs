@@ -4,7 +4,7 @@ use super::simulation_args::{load, run_visiting, Loaded, SimulationArgs};
 use crate::io::export::Snapshot;
 use crate::io::output::OutputFile;
 use crate::lab::render::{self, Animation, Colouring};
-use clap::builder::RangedU64ValueParser;
+use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
@@ -19,7 +19,7 @@ pub struct RenderArgs {
     /// animation of the run.
     output: PathBuf,
     /// Draw every this many steps (and step 0) [default for .gif: steps / 50].
-    #[arg(long, allow_negative_numbers = true, value_parser = RangedU64ValueParser::<u64>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
     every: Option<u64>,
     /// What the colours show.
     #[arg(long, value_enum, default_value_t = Colouring::Speed)]

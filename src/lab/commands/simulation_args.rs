@@ -20,7 +20,7 @@ pub struct SimulationArgs {
     pub input: PathBuf,
     /// Time steps to run (at most 2^63-1, as `fluid` takes).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1,
-          value_parser = clap::builder::RangedU64ValueParser::<u64>::new().range(0..=i64::MAX as u64))]
+          value_parser = clap::builder::RangedI64ValueParser::<u64>::new().range(0..))]
     pub steps: u64,
     /// Physical model.
     #[arg(long, value_enum, default_value_t = Model::Course)]

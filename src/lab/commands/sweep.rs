@@ -7,7 +7,7 @@ use crate::io::output::OutputFile;
 use crate::lab::energy::{EnergyMethod, Sources};
 use crate::lab::machine::Machine;
 use crate::lab::sweep::{self, Plan, Sweep};
-use clap::builder::RangedU64ValueParser;
+use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::collections::HashSet;
 use std::error::Error;
@@ -27,10 +27,10 @@ pub struct SweepArgs {
     /// Iteration counts (at most 2^63-1, as `fluid` takes), comma- or space-separated.
     #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..,
           default_values_t = sweep::DEFAULT_ITERATIONS,
-          value_parser = RangedU64ValueParser::<u64>::new().range(0..=i64::MAX as u64))]
+          value_parser = RangedI64ValueParser::<u64>::new().range(0..))]
     iterations: Vec<u64>,
     /// Runs per point, and idle-baseline windows.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = RangedU64ValueParser::<usize>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = RangedI64ValueParser::<usize>::new().range(1..))]
     repeats: usize,
     /// Seconds of each idle-baseline window.
     #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]

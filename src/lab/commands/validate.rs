@@ -53,7 +53,7 @@ pub struct ValidateArgs {
     until: f64,
     /// Sample the front every this many steps.
     #[arg(long, default_value_t = 5,
-          value_parser = clap::builder::RangedU64ValueParser::<u64>::new().range(1..))]
+          value_parser = clap::builder::RangedI64ValueParser::<u64>::new().range(1..))]
     every: u64,
     /// Pair-loop implementation.
     #[arg(long, value_enum, default_value_t = Kernel::NATIVE)]
