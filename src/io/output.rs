@@ -113,10 +113,7 @@ impl OutputFile {
     /// Writes `bytes` as the whole file. On failure the target is untouched (a temporary
     /// file is removed) except for a special file, which may have taken part of them.
     pub fn commit(self, bytes: &[u8]) -> Result<(), FileError> {
-        let failed = |error: std::io::Error| FileError::CannotWriteOutput {
-            file: self.name.clone(),
-            reason: os_reason(&error),
-        };
+        let failed = |error: std::io::Error| cannot_write(&self.name, &error);
         match self.sink {
             Sink::Direct(mut file) => file.write_all(bytes).map_err(failed),
             Sink::InPlace(mut file) => with_signals_held(|| {
@@ -135,34 +132,28 @@ impl OutputFile {
     /// Prepares the output for a writer that needs a path (an image encoder, which may
     /// choose the format by the path's extension): the [`Staged`] path it writes, ending
     /// in the target's extension, which [`Staged::commit`] then makes the output.
-    pub fn staged(mut self) -> Result<Staged, FileError> {
-        let cannot_open = |name: &OsString| FileError::CannotOpenOutput(name.clone());
+    pub fn staged(self) -> Result<Staged, FileError> {
         let mut suffix = OsString::from(".tmp");
         if let Some(extension) = self.target.extension() {
             suffix.push(".");
             suffix.push(extension);
         }
-        let scratch = match &mut self.sink {
-            Sink::Atomic(temporary) => {
-                let permissions = temporary.file.as_file().metadata().map(|m| m.permissions());
-                let permissions = permissions.map_err(|_| cannot_open(&self.name))?;
-                *temporary = Temporary::beside(&self.target, Some(permissions), &suffix)
-                    .map_err(|_| cannot_open(&self.name))?;
-                None
-            }
-            Sink::InPlace(_) | Sink::Direct(_) => {
-                let scratch = tempfile::Builder::new()
-                    .prefix(".fluid-staged")
-                    .suffix(&suffix)
-                    .tempfile()
-                    .map_err(|_| cannot_open(&self.name))?;
-                Some(Temporary::guarded(scratch))
-            }
+        let file = match &self.sink {
+            // Beside the target, with the mode its own temporary file has, to be renamed.
+            Sink::Atomic(temporary) => temporary.file.as_file().metadata().and_then(|meta| {
+                Temporary::beside(&self.target, Some(meta.permissions()), &suffix)
+            }),
+            // Anywhere: its bytes are copied into the target on commit.
+            Sink::InPlace(_) | Sink::Direct(_) => tempfile::Builder::new()
+                .prefix(".fluid-staged")
+                .suffix(&suffix)
+                .tempfile()
+                .map(Temporary::guarded),
         };
-        Ok(Staged {
-            output: self,
-            scratch,
-        })
+        match file {
+            Ok(file) => Ok(Staged { output: self, file }),
+            Err(_) => Err(FileError::CannotOpenOutput(self.name)),
+        }
     }
 }
 
@@ -170,44 +161,38 @@ impl OutputFile {
 #[derive(Debug)]
 pub struct Staged {
     output: OutputFile,
-    /// Where the writer writes when the output's own temporary file cannot serve.
-    scratch: Option<Temporary>,
+    /// The file the writer writes.
+    file: Temporary,
 }
 
 impl Staged {
     /// The path the writer writes (a temporary file, never the output itself).
     pub fn path(&self) -> &Path {
-        match (&self.scratch, &self.output.sink) {
-            (Some(scratch), _) => scratch.file.path(),
-            (None, Sink::Atomic(temporary)) => temporary.file.path(),
-            (None, _) => unreachable!("a staged output without a temporary file"),
-        }
+        self.file.file.path()
     }
 
-    /// Makes what the writer wrote the output.
+    /// Makes what the writer wrote the output: renamed over the target where the output
+    /// is written by rename, else copied into it.
     pub fn commit(self) -> Result<(), FileError> {
-        let output = self.output;
-        match (self.scratch, output.sink) {
-            (None, Sink::Atomic(temporary)) => {
-                let target = output.target;
-                temporary
-                    .persist(&target)
-                    .map_err(|error| FileError::CannotWriteOutput {
-                        file: output.name,
-                        reason: os_reason(&error),
-                    })
+        let Staged { output, file } = self;
+        match output.sink {
+            Sink::Atomic(_) => file
+                .persist(&output.target)
+                .map_err(|error| cannot_write(&output.name, &error)),
+            Sink::InPlace(_) | Sink::Direct(_) => {
+                let bytes = std::fs::read(file.file.path())
+                    .map_err(|error| cannot_write(&output.name, &error))?;
+                output.commit(&bytes)
             }
-            (Some(scratch), sink) => {
-                let bytes = std::fs::read(scratch.file.path()).map_err(|error| {
-                    FileError::CannotWriteOutput {
-                        file: output.name.clone(),
-                        reason: os_reason(&error),
-                    }
-                })?;
-                OutputFile { sink, ..output }.commit(&bytes)
-            }
-            (None, _) => unreachable!("a staged output without a temporary file"),
         }
+    }
+}
+
+/// The error of an output named `name` whose writing failed with `error`.
+fn cannot_write(name: &OsString, error: &std::io::Error) -> FileError {
+    FileError::CannotWriteOutput {
+        file: name.clone(),
+        reason: os_reason(error),
     }
 }
 
