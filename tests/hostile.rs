@@ -586,7 +586,11 @@ fn run_large(args: &[&OsStr]) {
 fn checkpoints_continue_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| -> PathBuf { dir.path().join(name) };
-    for time_step in [["--dt", "0.001"], ["--adaptive", "0.3"]] {
+    for time_step in [
+        ["--dt", "0.001"],
+        ["--adaptive", "0.3"],
+        ["--model", "wcsph"],
+    ] {
         let [rule, value] = time_step.map(OsStr::new);
         // 12 steps in one run, checkpointed at the end.
         run_large(&[
@@ -632,15 +636,20 @@ fn checkpoints_continue_bit_for_bit() {
         );
         assert_eq!(read("whole.fld"), read("resumed.fld"), "{time_step:?}");
     }
-    // A checkpoint of another run is refused.
-    let output = run_lab(&[
-        "run".as_ref(),
-        input("large").as_os_str(),
-        "--steps".as_ref(),
-        "12".as_ref(),
-        "--resume".as_ref(),
-        path("part.ck").as_os_str(),
-    ]);
+    // A checkpoint of another run is refused: the last is of the weakly compressible
+    // model, on its own CFL step.
+    let resume = |extra: &[&str]| {
+        let (large, checkpoint) = (input("large"), path("part.ck"));
+        let mut args: Vec<&OsStr> = vec!["run".as_ref(), large.as_os_str()];
+        args.extend(["--steps", "12"].map(OsStr::new));
+        args.extend(extra.iter().map(OsStr::new));
+        args.extend(["--resume".as_ref(), checkpoint.as_os_str()]);
+        run_lab(&args)
+    };
+    let output = resume(&[]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(stderr(&output).contains("a checkpoint of a run with another model or kernel"));
+    let output = resume(&["--model", "wcsph", "--dt", "1e-4"]);
     assert_eq!(exit_code(&output), 1);
     assert!(stderr(&output).contains("a checkpoint of a run with another time step"));
 }

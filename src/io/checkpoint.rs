@@ -1,12 +1,13 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCK2`; the step count (u64); the CRC-32 of the
+//! Layout (little-endian): the magic `FLUIDCK3`; the step count (u64); the CRC-32 of the
 //! input file the run started from (u32, so a resume from another input is refused);
 //! particles per
 //! metre and the time (f64); the model, kernel, time-step rule and last step's limit as
 //! length-prefixed names (u8 length), the time step's value (f64: dt or the Courant
-//! constant) and the last step's length (f64, NaN before the first step); the sparse flag
+//! constant), the last step's length (f64, NaN before the first step) and the weakly
+//! compressible model's sound speed (f64, NaN for the other models); the sparse flag
 //! (u8); the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a
 //! (x, y, z) and rho, n f64 each; last, the CRC-32 of every byte before it (u32), so a
 //! corrupted checkpoint is refused.
@@ -16,8 +17,8 @@ use crate::sim::particles::Particles;
 use crate::sim::simulation::Resumable;
 use crate::sim::timestep::{Limit, TimeStep};
 
-/// The first bytes of every checkpoint (format version 2).
-const MAGIC: &[u8; 8] = b"FLUIDCK2";
+/// The first bytes of every checkpoint (format version 3).
+const MAGIC: &[u8; 8] = b"FLUIDCK3";
 
 /// A checkpoint's content: the steps run and the state after them.
 #[derive(Debug, Clone, PartialEq)]
@@ -65,6 +66,7 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     }
     bytes.extend_from_slice(&value.to_le_bytes());
     bytes.extend_from_slice(&last_dt.to_le_bytes());
+    bytes.extend_from_slice(&state.sound_speed.unwrap_or(f64::NAN).to_le_bytes());
     bytes.push(u8::from(state.sparse));
     bytes.extend_from_slice(&(n as u64).to_le_bytes());
     for id in &particles.id {
@@ -91,7 +93,7 @@ fn fields(particles: &Particles) -> impl Iterator<Item = &Vec<f64>> {
 /// Decodes a checkpoint, or says what is wrong with it (never panics).
 pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     if bytes.get(..MAGIC.len()) != Some(&MAGIC[..]) {
-        return Err("it is not a fluid checkpoint (version 2)".into());
+        return Err("it is not a fluid checkpoint (version 3)".into());
     }
     let (body, checksum) = bytes.split_at(bytes.len().saturating_sub(4).max(MAGIC.len()));
     if checksum.len() != 4 || crc32fast::hash(body).to_le_bytes() != checksum {
@@ -123,6 +125,12 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         _ => return Err("unknown time-step rule".into()),
     };
     let last_dt = reader.f64()?;
+    let sound_speed = reader.f64()?;
+    let sound_speed = match model {
+        Model::Wcsph if sound_speed.is_finite() && sound_speed > 0.0 => Some(sound_speed),
+        Model::Wcsph => return Err("its sound speed is not a positive number".into()),
+        Model::Course | Model::Fluidanimate => None,
+    };
     let last_step = match limit?.as_str() {
         "none" => None,
         name => Some((
@@ -191,6 +199,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
             time,
             last_step,
             sparse,
+            sound_speed,
             particles,
         },
     })
@@ -282,7 +291,7 @@ mod tests {
         wrong_magic[7] = b'1';
         assert_eq!(
             decode(&wrong_magic).unwrap_err(),
-            "it is not a fluid checkpoint (version 2)"
+            "it is not a fluid checkpoint (version 3)"
         );
         for at in (8..bytes.len()).step_by(7) {
             let mut flipped = bytes.clone();

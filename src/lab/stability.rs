@@ -7,7 +7,6 @@ use crate::lab::chart::Drawing;
 use crate::lab::diagnostics::{self, Checks, Failure, Vitals};
 use crate::lab::scene::{self, SceneKind};
 use crate::sim::method::Method;
-use crate::sim::params::Params;
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::TimeStep;
 use plotters::coord::Shift;
@@ -117,8 +116,8 @@ pub fn watch(
     }
     let particles = scene::generate(scene, ppm, seed, None)?;
     let count = particles.len();
-    let mut simulation = Simulation::with_params(Params::new(ppm), particles, method)
-        .map_err(|error| error.to_string())?;
+    let mut simulation =
+        Simulation::with_method(ppm, particles, method).map_err(|error| error.to_string())?;
     simulation.set_time_step(time_step);
     let checks = Checks::from(&Vitals::of(&simulation));
     let (mut steps, mut failure) = (0, None);

@@ -1,6 +1,9 @@
-//! How a simulation is computed: which model (the course model or the stable
-//! fluidanimate variant) and which kernel (plain scalar loops, `f64x4` or `f64x8` lanes,
+//! How a simulation is computed: which model (the course model, the stable
+//! fluidanimate variant, or the weakly compressible model) and which kernel (plain scalar loops, `f64x4` or `f64x8` lanes,
 //! mixed f64/f32 lanes, or the compensated reference) runs the pair interactions.
+
+use crate::sim::params::TIME_STEP;
+use crate::sim::timestep::TimeStep;
 
 /// The physical model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
@@ -12,6 +15,11 @@ pub enum Model {
     /// The PARSEC fluidanimate variant: the viscosity term is also multiplied by
     /// `(h - dist)`, which keeps the fluid in the box.
     Fluidanimate,
+    /// Weakly compressible SPH as the validated codes run water (`sim::wcsph`): Tait's
+    /// equation of state (gamma 7, sound speed ten times the fastest fall), density by
+    /// the continuity equation with delta-SPH, Monaghan's viscosity, the Wendland kernel
+    /// (support 2.6 spacings), free-slip mirror walls, and a CFL time step by default.
+    Wcsph,
 }
 
 /// The implementation of the pair loops (density increment, acceleration transfer).
@@ -45,13 +53,25 @@ pub struct Method {
 
 impl Model {
     /// Every model, in a fixed order.
-    pub const ALL: [Model; 2] = [Model::Course, Model::Fluidanimate];
+    pub const ALL: [Model; 3] = [Model::Course, Model::Fluidanimate, Model::Wcsph];
 
     /// The model's name in benchmark labels, command lines and CSV files.
     pub fn name(self) -> &'static str {
         match self {
             Model::Course => "course",
             Model::Fluidanimate => "fluidanimate",
+            Model::Wcsph => "wcsph",
+        }
+    }
+
+    /// The time-step rule the model runs with unless told otherwise: the course's fixed
+    /// 1 ms, or for the stiff weakly compressible model its CFL step.
+    pub fn default_time_step(self) -> TimeStep {
+        match self {
+            Model::Course | Model::Fluidanimate => TimeStep::Fixed(TIME_STEP),
+            Model::Wcsph => TimeStep::Adaptive {
+                courant: crate::sim::wcsph::COURANT,
+            },
         }
     }
 }
@@ -111,7 +131,10 @@ mod tests {
     #[test]
     fn names_follow_the_variants_and_the_command_line() {
         use clap::ValueEnum;
-        assert_eq!(Model::ALL.map(Model::name), ["course", "fluidanimate"]);
+        assert_eq!(
+            Model::ALL.map(Model::name),
+            ["course", "fluidanimate", "wcsph"]
+        );
         assert_eq!(
             Kernel::ALL.map(Kernel::name),
             ["scalar", "simd", "simd8", "mixed", "reference"]

@@ -21,6 +21,7 @@ pub mod simulation;
 pub mod skin;
 pub mod stages;
 pub mod timestep;
+pub mod wcsph;
 
 /// The bytes `vector` holds on the heap (its capacity, not its length).
 pub(crate) fn heap_bytes<T>(vector: &Vec<T>) -> usize {

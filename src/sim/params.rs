@@ -1,6 +1,7 @@
 //! The course model's constants (SPEC.md section 3, with the errata of section 7) and the
 //! values derived from an input's particles per metre.
 
+use crate::sim::method::Model;
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -34,7 +35,9 @@ pub const MIN_DISTANCE_SQUARED: f64 = 1e-12;
 pub struct Params {
     /// Particles per metre, as read (widened from f32).
     pub ppm: f64,
-    /// Smoothing length h.
+    /// Smoothing length h of the course models: the pair cut-off (for the weakly
+    /// compressible model, whose own constants are in [`crate::sim::wcsph`], its kernel's
+    /// support radius).
     pub h: f64,
     /// h^2, the squared cut-off distance.
     pub h2: f64,
@@ -55,7 +58,19 @@ pub struct Params {
 impl Params {
     /// Derives every parameter from the particles per metre (which must be finite and > 0).
     pub fn new(ppm: f64) -> Self {
-        let h = RADIUS_MULTIPLIER / ppm;
+        Self::with_cutoff(ppm, RADIUS_MULTIPLIER / ppm)
+    }
+
+    /// The parameters of `model` at `ppm`: [`Self::new`]'s, with the weakly compressible
+    /// model's cut-off (its kernel's support) as h.
+    pub fn for_model(ppm: f64, model: Model) -> Self {
+        match model {
+            Model::Course | Model::Fluidanimate => Self::new(ppm),
+            Model::Wcsph => Self::with_cutoff(ppm, crate::sim::wcsph::SUPPORT / ppm),
+        }
+    }
+
+    fn with_cutoff(ppm: f64, h: f64) -> Self {
         let h2 = h * h;
         let h6 = h2 * h2 * h2;
         let mass = FLUID_DENSITY / ppm.powi(3);

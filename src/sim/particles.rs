@@ -115,6 +115,15 @@ impl Particles {
         self.reset_densities_and_accelerations();
     }
 
+    /// As [`Self::gather_kinematics`], the densities carried over too (for a model whose
+    /// density is a state of its own).
+    pub fn gather_with_densities(&mut self, source: &Particles, order: &[u32]) {
+        self.gather_kinematics(source, order);
+        for (t, &k) in self.rho.iter_mut().zip(order) {
+            *t = source.rho[k as usize];
+        }
+    }
+
     /// The particles in the order `order` (slot k holds slot `order[k]` of `self`), every
     /// field kept and every array padded.
     pub fn permuted(&self, order: &[u32]) -> Particles {
@@ -138,6 +147,12 @@ impl Particles {
         let n = self.len() + PADDING;
         self.rho.clear();
         self.rho.resize(n, 0.0);
+        self.reset_accelerations();
+    }
+
+    /// Acceleration = gravity for every particle (and padding), densities kept.
+    pub fn reset_accelerations(&mut self) {
+        let n = self.len() + PADDING;
         for (axis, g) in self.a.iter_mut().zip(GRAVITY.to_array()) {
             axis.clear();
             axis.resize(n, g);
@@ -194,6 +209,20 @@ mod tests {
         assert_eq!(target.rho, [0.0; 3 + PADDING]);
         assert_eq!(target.acceleration(2), GRAVITY);
         assert_eq!(target.p[0].len(), 3 + PADDING);
+    }
+
+    #[test]
+    fn densities_can_be_carried_over_and_kept() {
+        let mut source = Particles::zeroed(3);
+        source.rho = vec![1.0, 2.0, 3.0];
+        let mut target = Particles::default();
+        target.gather_with_densities(&source, &[2, 0, 1]);
+        assert_eq!(target.rho[..3], [3.0, 1.0, 2.0]);
+        assert_eq!(target.rho.len(), 3 + PADDING);
+        target.a[0][1] = 5.0;
+        target.reset_accelerations();
+        assert_eq!(target.rho[..3], [3.0, 1.0, 2.0]);
+        assert_eq!(target.acceleration(1), GRAVITY);
     }
 
     #[test]

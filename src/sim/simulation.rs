@@ -4,14 +4,15 @@
 
 use crate::sim::cells::CellOrder;
 use crate::sim::grid::{Grid, GridSizeError};
-use crate::sim::kernel::{self, Candidates, ClosePairs};
-use crate::sim::method::Method;
+use crate::sim::kernel::{self, Candidates, ClosePairs, Viscosity};
+use crate::sim::method::{Method, Model};
 use crate::sim::neighbours::{Tile, TileSearch};
 use crate::sim::params::Params;
 use crate::sim::particles::Particles;
 use crate::sim::skin::Skin;
 use crate::sim::stages::{self, Stage};
 use crate::sim::timestep::{self, Leapfrog, Limit, TimeStep};
+use crate::sim::wcsph::{self, Wcsph};
 
 /// Everything a simulation needs to go on exactly as it would have (a checkpoint): its
 /// particles in their slot order, and the state the next step reads besides them.
@@ -29,7 +30,11 @@ pub struct Resumable {
     pub last_step: Option<(f64, Limit)>,
     /// Whether the last sort found the particles sparse (see [`CellOrder::is_sparse`]).
     pub sparse: bool,
-    /// The particles, in slot order, unpadded.
+    /// The weakly compressible model's sound speed (m/s), chosen at its start; none for
+    /// the other models.
+    pub sound_speed: Option<f64>,
+    /// The particles, in slot order, unpadded (with the densities the next step reads,
+    /// for the weakly compressible model).
     pub particles: Particles,
 }
 
@@ -57,6 +62,31 @@ pub struct Simulation {
     last_step: Option<(f64, Limit)>,
     /// Lists reused with a skin, if the run asked for them.
     skin: Option<Skin>,
+    /// The weakly compressible model's constants and buffers, if it runs.
+    weakly_compressible: Option<WeaklyCompressible>,
+}
+
+/// The weakly compressible model's constants and the per-slot buffers of its pair loop.
+#[derive(Debug, Clone)]
+struct WeaklyCompressible {
+    model: Wcsph,
+    /// p / rho^2 of each slot (padded).
+    pressure_terms: Vec<f64>,
+    /// drho/dt of each slot (padded).
+    rates: Vec<f64>,
+    /// The velocities the pair loop reads (padded): [`wcsph::predicted_velocity`].
+    velocities: crate::sim::particles::AxisArrays,
+}
+
+impl WeaklyCompressible {
+    fn new(model: Wcsph) -> Self {
+        WeaklyCompressible {
+            model,
+            pressure_terms: Vec::new(),
+            rates: Vec::new(),
+            velocities: Default::default(),
+        }
+    }
 }
 
 impl Simulation {
@@ -67,12 +97,15 @@ impl Simulation {
     }
 
     /// As [`Self::new`], with a chosen model and kernel.
+    /// The weakly compressible model starts with the densities of water at rest below
+    /// the fluid's top ([`Wcsph::settle_densities`]), a sound speed for the height of its
+    /// highest particle, and its CFL time step.
     pub fn with_method(
         ppm: f64,
         particles: Particles,
         method: Method,
     ) -> Result<Self, GridSizeError> {
-        Self::with_params(Params::new(ppm), particles, method)
+        Self::with_params(Params::for_model(ppm, method.model), particles, method)
     }
 
     /// As [`Self::with_method`], with parameters of one's own (e.g. another time step).
@@ -83,6 +116,13 @@ impl Simulation {
     ) -> Result<Self, GridSizeError> {
         let grid = Grid::new(params.h)?;
         let mut simulation = Self::unplaced(params, grid, method, particles);
+        if method.model == Model::Wcsph {
+            let ppm = params.ppm;
+            let model = Wcsph::new(ppm, Wcsph::sound_speed_for(ppm, &simulation.particles));
+            model.settle_densities(ppm, &mut simulation.particles);
+            simulation.weakly_compressible = Some(WeaklyCompressible::new(model));
+            simulation.time_step = Model::Wcsph.default_time_step();
+        }
         simulation.reposition();
         Ok(simulation)
     }
@@ -120,6 +160,7 @@ impl Simulation {
             time: 0.0,
             last_step: None,
             skin: None,
+            weakly_compressible: None,
         }
     }
 
@@ -157,6 +198,9 @@ impl Simulation {
             + self.search.heap_bytes()
             + self.close.heap_bytes()
             + self.skin.as_ref().map_or(0, Skin::heap_bytes)
+            + self.weakly_compressible.as_ref().map_or(0, |w| {
+                crate::sim::heap_bytes(&w.pressure_terms) + crate::sim::heap_bytes(&w.rates)
+            })
     }
 
     /// The tiles of candidate pairs of the current step.
@@ -164,12 +208,27 @@ impl Simulation {
         self.search.tiles()
     }
 
-    /// A copy that goes on with another model and kernel.
+    /// A copy that goes on with another model and kernel. A copy that switches to or from
+    /// the weakly compressible model is set up as [`Self::with_method`] sets up a start
+    /// (its parameters, densities and time-step rule), at the same time.
     pub fn clone_with_method(&self, method: Method) -> Simulation {
+        let same_physics = (method.model == Model::Wcsph) == (self.method.model == Model::Wcsph);
+        if !same_physics {
+            let particles = self.particles.unpadded();
+            if let Ok(mut copy) = Simulation::with_method(self.params.ppm, particles, method) {
+                copy.time = self.time;
+                return copy;
+            }
+        }
         let mut copy = self.clone();
         copy.method = method;
         copy.close_found = false;
         copy
+    }
+
+    /// The weakly compressible model's constants, if it runs.
+    pub fn weakly_compressible(&self) -> Option<&Wcsph> {
+        self.weakly_compressible.as_ref().map(|w| &w.model)
     }
 
     /// What a checkpoint keeps: the state from which [`Self::resume`] goes on bit for bit.
@@ -185,6 +244,7 @@ impl Simulation {
             time: self.time,
             last_step: self.last_step,
             sparse: self.cells.is_sparse(),
+            sound_speed: self.weakly_compressible().map(|model| model.sound_speed),
             particles: self.particles.unpadded(),
         })
     }
@@ -192,9 +252,13 @@ impl Simulation {
     /// The simulation of a [`Self::resumable`] state: its next step is the one the
     /// checkpointed simulation would have taken.
     pub fn resume(state: Resumable) -> Result<Self, GridSizeError> {
-        let params = Params::new(state.ppm);
+        let params = Params::for_model(state.ppm, state.method.model);
         let grid = Grid::new(params.h)?;
         let mut simulation = Self::unplaced(params, grid, state.method, state.particles);
+        if state.method.model == Model::Wcsph {
+            let model = Wcsph::new(state.ppm, state.sound_speed.unwrap_or(f64::NAN));
+            simulation.weakly_compressible = Some(WeaklyCompressible::new(model));
+        }
         simulation.set_time_step(state.time_step);
         simulation.cells = CellOrder::resumed(state.sparse);
         simulation.time = state.time;
@@ -242,8 +306,14 @@ impl Simulation {
     /// A copy whose densities are those of the current positions (stages 1, 3 and 4 run on
     /// the copy), with the copy's cell order and tiles: for looking at a state without
     /// disturbing the run.
+    /// The weakly compressible model's densities are states of their own: its copy is
+    /// only placed (stage 1).
     pub fn with_fresh_densities(&self) -> Simulation {
         let mut copy = self.clone();
+        if self.weakly_compressible.is_some() {
+            copy.run_stage(Stage::Reposition);
+            return copy;
+        }
         for stage in [
             Stage::Reposition,
             Stage::IncrementDensities,
@@ -285,6 +355,10 @@ impl Simulation {
     /// One time step of the rule's length, cut to `longest` (> 0) if it is longer by more
     /// than 1e-9 relative.
     fn step_within(&mut self, longest: f64) {
+        if self.weakly_compressible.is_some() {
+            self.weakly_compressible_step(longest);
+            return;
+        }
         for stage in [
             Stage::Reposition,
             Stage::IncrementDensities,
@@ -299,24 +373,124 @@ impl Simulation {
                 timestep::adaptive_step(&self.params, self.method.model, &self.particles, courant)
             }
         };
-        let (dt, limit) = if chosen > longest * (1.0 + 1e-9) {
-            (longest, Limit::Landing)
-        } else {
-            (chosen, limit)
-        };
-        let previous = self.last_step.map_or(dt, |(previous, _)| previous);
-        stages::advance(
-            self.cells.walls(),
-            Leapfrog::after(previous, dt),
-            &mut self.particles,
-        );
+        let (dt, limit) = Self::within(chosen, limit, longest);
+        stages::advance(self.cells.walls(), self.leapfrog(dt), &mut self.particles);
         self.time += dt;
         self.last_step = Some((dt, limit));
     }
 
-    /// Runs one stage alone (for trace comparisons and stage benchmarks).
+    /// A step of `chosen` (set by `limit`), cut to `longest` if longer by more than 1e-9
+    /// relative.
+    fn within(chosen: f64, limit: Limit, longest: f64) -> (f64, Limit) {
+        if chosen > longest * (1.0 + 1e-9) {
+            (longest, Limit::Landing)
+        } else {
+            (chosen, limit)
+        }
+    }
+
+    /// The leapfrog of a step of `dt` after the last one.
+    fn leapfrog(&self, dt: f64) -> Leapfrog {
+        let previous = self.last_step.map_or(dt, |(previous, _)| previous);
+        Leapfrog::after(previous, dt)
+    }
+
+    /// One step of the weakly compressible model: placement, its pair loop, the step's
+    /// length (the CFL step, or a fixed one), the leapfrog within the box's walls, and
+    /// the densities advanced by their rates over the step.
+    fn weakly_compressible_step(&mut self, longest: f64) {
+        self.run_stage(Stage::Reposition);
+        self.run_stage(Stage::TransferAccelerations);
+        let model = self
+            .weakly_compressible()
+            .expect("the model runs")
+            .to_owned();
+        let (chosen, limit) = match self.time_step {
+            TimeStep::Fixed(dt) => (dt, Limit::Fixed),
+            TimeStep::Adaptive { courant } => model.time_step(&self.particles, courant),
+        };
+        let (dt, limit) = Self::within(chosen, limit, longest);
+        stages::advance_within_box(self.leapfrog(dt), &mut self.particles);
+        let n = self.particles.len();
+        let rates = &self
+            .weakly_compressible
+            .as_ref()
+            .expect("the model runs")
+            .rates;
+        wcsph::advance_densities(dt, &rates[..n], &mut self.particles.rho[..n]);
+        self.time += dt;
+        self.last_step = Some((dt, limit));
+    }
+
+    /// The weakly compressible model's pair loop on the current state: accelerations
+    /// (gravity plus pairs) and density rates.
+    fn interact_weakly_compressible(&mut self) {
+        let Some(weakly) = self.weakly_compressible.as_mut() else {
+            return;
+        };
+        let particles = &mut self.particles;
+        let n = particles.len();
+        let padded = n + crate::sim::particles::PADDING;
+        weakly.pressure_terms.clear();
+        weakly.pressure_terms.extend(
+            particles.rho[..n]
+                .iter()
+                .map(|&rho| weakly.model.pressure(rho) / (rho * rho)),
+        );
+        weakly.pressure_terms.resize(padded, 0.0);
+        weakly.rates.clear();
+        weakly.rates.resize(padded, 0.0);
+        for (axis, velocities) in weakly.velocities.iter_mut().enumerate() {
+            let (hv, v) = (&particles.hv[axis][..n], &particles.v[axis][..n]);
+            velocities.clear();
+            velocities.extend(
+                hv.iter()
+                    .zip(v)
+                    .map(|(&hv, &v)| wcsph::predicted_velocity(hv, v)),
+            );
+            velocities.resize(padded, 0.0);
+        }
+        particles.reset_accelerations();
+        let Particles { id, p, rho, a, .. } = particles;
+        let state = kernel::State {
+            p,
+            v: &weakly.velocities,
+            rho,
+            pressure_terms: &weakly.pressure_terms,
+        };
+        let mut rates = kernel::Rates {
+            a,
+            rho: &mut weakly.rates,
+        };
+        let kernel = self.method.kernel;
+        kernel::interact_weakly_compressible(
+            kernel,
+            &weakly.model,
+            self.search.tiles(),
+            state,
+            id,
+            &mut rates,
+        );
+    }
+
+    /// Runs one stage alone (for trace comparisons and stage benchmarks). The weakly
+    /// compressible model has one pair stage: its [`Stage::TransferAccelerations`]
+    /// computes the accelerations and density rates, and its density stages do nothing
+    /// (its densities are states, advanced with the positions).
     pub fn run_stage(&mut self, stage: Stage) {
+        if self.weakly_compressible.is_some() {
+            match stage {
+                Stage::IncrementDensities | Stage::TransformDensities => return,
+                Stage::InitAccelerations => return self.particles.reset_accelerations(),
+                Stage::TransferAccelerations => return self.interact_weakly_compressible(),
+                _ => {}
+            }
+        }
         let Method { model, kernel } = self.method;
+        let viscosity = match model {
+            Model::Fluidanimate => Viscosity::Fluidanimate,
+            Model::Course | Model::Wcsph => Viscosity::Course,
+        };
         let params = &self.params;
         let n = self.particles.len();
         let particles = &mut self.particles;
@@ -349,7 +523,9 @@ impl Simulation {
                 let Particles {
                     id, p, v, rho, a, ..
                 } = particles;
-                kernel::transfer_accelerations(kernel, model, params, candidates, p, v, rho, id, a);
+                kernel::transfer_accelerations(
+                    kernel, viscosity, params, candidates, p, v, rho, id, a,
+                );
             }
             Stage::CollideWithWalls => stages::collide_with_walls(walls, params.dt, particles),
             Stage::Move => stages::move_particles(params.dt, particles),
@@ -364,7 +540,7 @@ impl Simulation {
         let moved = match &self.skin {
             Some(skin) if !skin.is_stale(&self.particles) => {
                 // The lists of an earlier step still hold every pair closer than h.
-                self.particles.reset_densities_and_accelerations();
+                self.reset_for_pairs();
                 self.cells.refresh_walls(&self.grid, &self.particles);
                 self.close_found = false;
                 return;
@@ -373,16 +549,27 @@ impl Simulation {
             None => self.cells.sort(&self.grid, &self.particles),
         };
         if moved {
-            self.spare
-                .gather_kinematics(&self.particles, self.cells.order());
+            let order = self.cells.order();
+            match self.weakly_compressible {
+                Some(_) => self.spare.gather_with_densities(&self.particles, order),
+                None => self.spare.gather_kinematics(&self.particles, order),
+            }
             std::mem::swap(&mut self.particles, &mut self.spare);
         } else {
-            self.particles.reset_densities_and_accelerations();
+            self.reset_for_pairs();
         }
         if let Some(skin) = &mut self.skin {
             skin.record(&self.particles);
         }
         self.find_tiles();
+    }
+
+    /// Stage 2: accelerations to gravity, and densities to zero unless they are states.
+    fn reset_for_pairs(&mut self) {
+        match self.weakly_compressible {
+            Some(_) => self.particles.reset_accelerations(),
+            None => self.particles.reset_densities_and_accelerations(),
+        }
     }
 
     fn find_tiles(&mut self) {

@@ -85,6 +85,8 @@ pub fn viscous_rate(params: &Params, model: Model) -> f64 {
     let weight = match model {
         Model::Course => 1.0,
         Model::Fluidanimate => params.h,
+        // Its viscosity is Monaghan's, within its own CFL step (crate::sim::wcsph).
+        Model::Wcsph => 0.0,
     };
     neighbours * params.viscosity_factor * weight / (FLUID_DENSITY * FLUID_DENSITY)
 }

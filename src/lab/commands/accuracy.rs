@@ -67,7 +67,7 @@ impl AccuracyArgs {
     fn times(&self) -> Result<Vec<f64>, String> {
         let times = self.times.clone().unwrap_or_else(|| match self.model {
             Model::Course => vec![1e-3, 2e-3, 3e-3],
-            Model::Fluidanimate => (1..=12).map(|k| k as f64 * 4e-3).collect(),
+            Model::Fluidanimate | Model::Wcsph => (1..=12).map(|k| k as f64 * 4e-3).collect(),
         });
         let positive = times.iter().all(|&t| t.is_finite() && t > 0.0);
         if times.is_empty() || !positive || !times.is_sorted_by(|a, b| a < b) {
@@ -81,6 +81,8 @@ impl AccuracyArgs {
         let factors = self.dt_factors.clone().unwrap_or_else(|| match self.model {
             Model::Course => vec![0.125, 0.25, 0.5, 1.0],
             Model::Fluidanimate => vec![0.25, 0.5, 1.0, 2.0, 4.0],
+            // The stiff model's CFL step is near 0.1 ms at 300 per metre.
+            Model::Wcsph => vec![0.025, 0.05, 0.1, 0.2],
         });
         let fixed: Vec<f64> = factors.iter().map(|f| f * TIME_STEP).collect();
         if !fixed.iter().all(|&dt| dt.is_finite() && dt > 0.0) {

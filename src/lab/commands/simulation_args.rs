@@ -4,7 +4,6 @@
 use crate::io::fld;
 use crate::lab::diagnostics::Vitals;
 use crate::sim::method::{Kernel, Method, Model};
-use crate::sim::params::TIME_STEP;
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::TimeStep;
 use clap::Args;
@@ -28,12 +27,14 @@ pub struct SimulationArgs {
     /// Pair-loop implementation (default: the widest f64 lanes the build's CPU has).
     #[arg(long, value_enum, default_value_t = Kernel::NATIVE)]
     pub kernel: Kernel,
-    /// Time step in seconds (fixed).
-    #[arg(long, allow_negative_numbers = true, default_value_t = TIME_STEP, value_parser = parse_time_step)]
-    pub dt: f64,
+    /// Time step in seconds (fixed; default: the model's own rule, the course's 1 ms or
+    /// the weakly compressible model's CFL step).
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_time_step)]
+    pub dt: Option<f64>,
     /// Adaptive time step instead of a fixed one: each step C times the shortest of
     /// sqrt(h/|a|), h/(c+|hv|), and the explicit limits of the viscosity and of the
-    /// walls (C about 0.2-0.4).
+    /// walls (C about 0.2-0.4); for the weakly compressible model its CFL step, the
+    /// shorter of sqrt(h/|a|) and h/(c_0+|hv|) (C about 0.2, its default).
     #[arg(long, allow_negative_numbers = true, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
     pub adaptive: Option<f64>,
     /// Reuse the cell order and tiles with a skin this many smoothing lengths wide,
@@ -44,11 +45,12 @@ pub struct SimulationArgs {
 }
 
 impl SimulationArgs {
-    /// The time-step rule the arguments ask for.
+    /// The time-step rule the arguments ask for, or the model's own.
     pub fn time_step(&self) -> TimeStep {
-        match self.adaptive {
-            Some(courant) => TimeStep::Adaptive { courant },
-            None => TimeStep::Fixed(self.dt),
+        match (self.adaptive, self.dt) {
+            (Some(courant), _) => TimeStep::Adaptive { courant },
+            (None, Some(dt)) => TimeStep::Fixed(dt),
+            (None, None) => self.model.default_time_step(),
         }
     }
 }

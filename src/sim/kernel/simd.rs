@@ -350,7 +350,7 @@ fn all_groups<L: Lanes>(partners: usize) -> u64 {
 
 /// Panics unless every array leaves room for loads of `lanes` lanes at the last slot
 /// `n - 1`.
-fn assert_padded(n: usize, lanes: usize, arrays: &[&[f64]]) {
+pub(super) fn assert_padded(n: usize, lanes: usize, arrays: &[&[f64]]) {
     assert!(
         PADDING + 1 >= lanes,
         "{lanes} lanes need more than {PADDING} padding"
@@ -361,7 +361,7 @@ fn assert_padded(n: usize, lanes: usize, arrays: &[&[f64]]) {
     );
 }
 
-fn slots_used(tiles: &[Tile]) -> usize {
+pub(super) fn slots_used(tiles: &[Tile]) -> usize {
     tiles
         .iter()
         .map(|t| t.second_end as usize)

@@ -1,0 +1,613 @@
+//! The weakly compressible model's pair loop ([`crate::sim::wcsph`]): in one pass over the
+//! tiles, each pair's pressure and viscosity acceleration and its density rates (the
+//! continuity equation and the delta-SPH diffusion), added to both particles. A particle
+//! within one support radius of a wall also meets the mirror images of its partners
+//! across that wall (and across two or three walls at an edge or corner) and its own:
+//! free-slip walls. An image of j is within the support of i only if j is within the
+//! support of i and both are near that wall (|p_i - M p_j| >= |p_i - p_j| when both are
+//! on the wall's side), so the images need no search of their own: each pair of the
+//! tiles whose first particle is near a wall is also evaluated mirrored, and the image's
+//! terms go to i and, mirrored back, to j. An image's pressure is its particle's plus the
+//! hydrostatic difference between them, rho g . (p' - p) (Adami et al. 2012): across the
+//! floor the pressure keeps growing with depth, so the wall holds water at rest.
+//!
+//! Three implementations: [`scalar`] (one pair at a time), [`lanes`] (a lane-width of
+//! partners at a time, on any [`Lanes`]) and [`reference`] (each particle's terms summed
+//! on their own in id order with compensated sums). All share [`pair`]'s formulas.
+
+use super::reference::Neumaier;
+use super::simd::{assert_padded, slots_used, Lanes};
+use crate::sim::neighbours::Tile;
+use crate::sim::params::GRAVITY;
+use crate::sim::particles::{vector_at, AxisArrays};
+use crate::sim::wcsph::{NearWalls, Wcsph, ARTIFICIAL_VISCOSITY, DENSITY_DIFFUSION};
+use glam::DVec3;
+
+/// What the pair loop reads: positions, velocities, densities and each particle's
+/// p / rho^2.
+#[derive(Debug, Clone, Copy)]
+pub struct State<'a> {
+    /// Positions.
+    pub p: &'a AxisArrays,
+    /// Velocities: [`crate::sim::wcsph::predicted_velocity`].
+    pub v: &'a AxisArrays,
+    /// Densities.
+    pub rho: &'a [f64],
+    /// p / rho^2 of each particle.
+    pub pressure_terms: &'a [f64],
+}
+
+/// What the pair loop adds to: accelerations and density rates.
+#[derive(Debug)]
+pub struct Rates<'a> {
+    /// Accelerations (gravity on entry).
+    pub a: &'a mut AxisArrays,
+    /// drho/dt (zero on entry).
+    pub rho: &'a mut [f64],
+}
+
+/// The terms of particle i with partner (or image) j at offset `d` = p_i - p_j and
+/// velocity difference `dv` = v_i - v_j: i's acceleration (j gets its opposite) and the
+/// density rates of i and j; `None` beyond the support.
+#[inline(always)]
+pub(super) fn pair(
+    model: &Wcsph,
+    d: DVec3,
+    dv: DVec3,
+    [rho_i, rho_j]: [f64; 2],
+    [pressure_i, pressure_j]: [f64; 2],
+) -> Option<(DVec3, [f64; 2])> {
+    let r2 = d.length_squared();
+    if r2 >= model.support * model.support {
+        return None;
+    }
+    let mass_gradient = model.mass * model.gradient(r2.sqrt());
+    let approach = dv.dot(d);
+    let inverse = 1.0 / (r2 + model.eta2);
+    let viscosity =
+        (-2.0 * ARTIFICIAL_VISCOSITY * model.sound_speed * model.h * approach * inverse
+            / (rho_i + rho_j))
+            .max(0.0);
+    let acceleration = d * (mass_gradient * (pressure_i + pressure_j + viscosity));
+    let continuity = -mass_gradient * approach;
+    let diffusion =
+        2.0 * DENSITY_DIFFUSION * model.h * model.sound_speed * mass_gradient * r2 * inverse;
+    let rates = [
+        continuity + diffusion * (rho_j - rho_i) / rho_j,
+        continuity + diffusion * (rho_i - rho_j) / rho_i,
+    ];
+    Some((acceleration, rates))
+}
+
+/// `vector` with the axes of `set` (bits) negated: the reflection's linear part.
+fn reflected(vector: DVec3, set: u8) -> DVec3 {
+    let flip = |axis: usize| if set & (1 << axis) != 0 { -1.0 } else { 1.0 };
+    vector * DVec3::new(flip(0), flip(1), flip(2))
+}
+
+/// The image of the point `p` across the walls of `set`.
+fn mirrored(p: DVec3, set: u8, walls: &NearWalls) -> DVec3 {
+    let wall = DVec3::from_array(walls.at);
+    let image = 2.0 * wall - p;
+    DVec3::select(
+        glam::BVec3::new(set & 1 != 0, set & 2 != 0, set & 4 != 0),
+        image,
+        p,
+    )
+}
+
+/// The p / rho^2 of the image at `image` of a particle at `p` with `pressure` (p / rho^2)
+/// and density `rho`: its pressure plus rho g . (image - p).
+fn image_pressure(pressure: f64, rho: f64, p: DVec3, image: DVec3) -> f64 {
+    pressure + GRAVITY.dot(image - p) / rho
+}
+
+/// Every particle's terms with its own images (only it receives them).
+fn self_images(model: &Wcsph, state: State, n: usize, rates: &mut Rates) {
+    for i in 0..n {
+        let p = vector_at(state.p, i);
+        let walls = NearWalls::of(p.to_array(), model.support);
+        let v = vector_at(state.v, i);
+        let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
+        for set in walls.images() {
+            let image = mirrored(p, set, &walls);
+            let dv = v - reflected(v, set);
+            let pressures = [pressure, image_pressure(pressure, rho, p, image)];
+            if let Some((da, [rate, _])) = pair(model, p - image, dv, [rho; 2], pressures) {
+                for axis in 0..3 {
+                    rates.a[axis][i] += da[axis];
+                }
+                rates.rho[i] += rate;
+            }
+        }
+    }
+}
+
+/// The pair loop one pair at a time.
+pub(super) fn scalar(model: &Wcsph, tiles: &[Tile], state: State, n: usize, rates: &mut Rates) {
+    for tile in tiles {
+        for i in tile.firsts() {
+            let (p_i, v_i) = (vector_at(state.p, i), vector_at(state.v, i));
+            let walls = NearWalls::of(p_i.to_array(), model.support);
+            for j in tile.partners(i) {
+                let (p_j, v_j) = (vector_at(state.p, j), vector_at(state.v, j));
+                let rho = [state.rho[i], state.rho[j]];
+                let images = std::iter::once(0).chain(walls.images());
+                for set in images {
+                    let image = mirrored(p_j, set, &walls);
+                    let dv = v_i - reflected(v_j, set);
+                    let pressure_j = image_pressure(state.pressure_terms[j], rho[1], p_j, image);
+                    let pressure = [state.pressure_terms[i], pressure_j];
+                    let d = p_i - image;
+                    if let Some((da, [rate_i, rate_j])) = pair(model, d, dv, rho, pressure) {
+                        // j meets the image of i, whose pressure is i's own plus its
+                        // hydrostatic difference (the same as j's image's off the floor).
+                        let image_i = mirrored(p_i, set, &walls);
+                        let pressure_i =
+                            image_pressure(state.pressure_terms[i], rho[0], p_i, image_i);
+                        let pressure = [pressure_i, state.pressure_terms[j]];
+                        let da_j = match set & 0b010 {
+                            0 => da,
+                            _ => pair(model, d, dv, rho, pressure).map_or(DVec3::ZERO, |t| t.0),
+                        };
+                        let back = reflected(da_j, set);
+                        for axis in 0..3 {
+                            rates.a[axis][i] += da[axis];
+                            rates.a[axis][j] -= back[axis];
+                        }
+                        rates.rho[i] += rate_i;
+                        rates.rho[j] += rate_j;
+                    }
+                }
+            }
+        }
+    }
+    self_images(model, state, n, rates);
+}
+
+/// The pair loop with each particle's terms summed on their own over its partners and
+/// images in id order, with compensated sums: the reference trajectory's.
+pub(super) fn reference(
+    model: &Wcsph,
+    tiles: &[Tile],
+    state: State,
+    id: &[u32],
+    n: usize,
+    rates: &mut Rates,
+) {
+    let support2 = model.support * model.support;
+    let mut partners = vec![Vec::new(); n];
+    for tile in tiles {
+        for i in tile.firsts() {
+            for j in tile.partners(i) {
+                let r2 = (vector_at(state.p, i) - vector_at(state.p, j)).length_squared();
+                if r2 < support2 {
+                    partners[i].push(j as u32);
+                    partners[j].push(i as u32);
+                }
+            }
+        }
+    }
+    for (i, list) in partners.iter_mut().enumerate() {
+        list.push(i as u32);
+        list.sort_unstable_by_key(|&j| id[j as usize]);
+        let (p_i, v_i) = (vector_at(state.p, i), vector_at(state.v, i));
+        let walls = NearWalls::of(p_i.to_array(), model.support);
+        let mut a = [0, 1, 2].map(|axis| Neumaier::new(rates.a[axis][i]));
+        let mut rate = Neumaier::new(rates.rho[i]);
+        for &j in list.iter() {
+            let j = j as usize;
+            let (p_j, v_j) = (vector_at(state.p, j), vector_at(state.v, j));
+            let rho = [state.rho[i], state.rho[j]];
+            let own = usize::from(j == i);
+            for set in std::iter::once(0).chain(walls.images()).skip(own) {
+                let image = mirrored(p_j, set, &walls);
+                let dv = v_i - reflected(v_j, set);
+                let pressure_j = image_pressure(state.pressure_terms[j], rho[1], p_j, image);
+                let pressure = [state.pressure_terms[i], pressure_j];
+                if let Some((da, [rate_i, _])) = pair(model, p_i - image, dv, rho, pressure) {
+                    for (sum, term) in a.iter_mut().zip(da.to_array()) {
+                        sum.add(term);
+                    }
+                    rate.add(rate_i);
+                }
+            }
+        }
+        for (axis, sum) in a.into_iter().enumerate() {
+            rates.a[axis][i] = sum.total();
+        }
+        rates.rho[i] = rate.total();
+    }
+}
+
+/// The particle whose partners a group loop visits.
+struct First {
+    p: [f64; 3],
+    v: [f64; 3],
+    rho: f64,
+    pressure: f64,
+    walls: NearWalls,
+}
+
+/// The arrays and constants of the lanes loop.
+struct Pairs<'a, L: Lanes> {
+    state: State<'a>,
+    support2: L::V,
+    over_2h: L::V,
+    one: L::V,
+    zero: L::V,
+    mass_gradient: L::V,
+    viscosity: L::V,
+    diffusion: L::V,
+    eta2: L::V,
+    twice_gravity: L::V,
+}
+
+/// One group's terms: i's acceleration and the partners' (before reflection; per axis),
+/// and the rates of i and of the partners.
+type GroupTerms<L> = (
+    [<L as Lanes>::V; 3],
+    [<L as Lanes>::V; 3],
+    <L as Lanes>::V,
+    <L as Lanes>::V,
+);
+
+impl<L: Lanes> Pairs<'_, L> {
+    /// The terms of `first` with partners j..j+LANES (lanes of `lanes`), or with their
+    /// images across the walls of `set` (0: the partners themselves); zero in lanes beyond
+    /// the support, `None` if every lane is.
+    ///
+    /// # Safety
+    /// `j + LANES` is within every array.
+    #[inline(always)]
+    unsafe fn group(&self, first: &First, j: usize, lanes: L::V, set: u8) -> Option<GroupTerms<L>> {
+        let State { p, v, .. } = self.state;
+        let across = |axis: usize| set & (1 << axis) != 0;
+        // SAFETY (both closures): guaranteed by the caller.
+        let offset = |axis: usize| unsafe {
+            if across(axis) {
+                L::differences(&p[axis], j, 2.0 * first.walls.at[axis] - first.p[axis])
+            } else {
+                L::offsets(&p[axis], j, first.p[axis])
+            }
+        };
+        let velocity = |axis: usize| unsafe {
+            if across(axis) {
+                L::differences(&v[axis], j, -first.v[axis])
+            } else {
+                L::offsets(&v[axis], j, first.v[axis])
+            }
+        };
+        let d = [offset(0), offset(1), offset(2)];
+        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let close = L::lt(r2, self.support2) & lanes;
+        if !L::any(close) {
+            return None;
+        }
+        let w = self.one - L::sqrt(r2) * self.over_2h;
+        let mass_gradient = self.mass_gradient * (w * w * w);
+        let dv = [velocity(0), velocity(1), velocity(2)];
+        let approach = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
+        let inverse = self.one / (r2 + self.eta2);
+        // SAFETY: guaranteed by the caller.
+        let (rho_j, pressure_j) = unsafe {
+            (
+                L::load(self.state.rho, j),
+                L::load(self.state.pressure_terms, j),
+            )
+        };
+        let rho_i = L::splat(first.rho);
+        let pressure_i = L::splat(first.pressure);
+        // Across the floor or ceiling an image's pressure differs from its particle's by
+        // rho g_y (y' - y): for j's image y'_j - y_j = 2 (y_i - w) - 2 d_y, for i's
+        // image (which j meets) 2 (w - y_i).
+        let (pressure_sum_i, pressure_sum_j) = if across(1) {
+            let height = first.p[1] - first.walls.at[1];
+            let lift = L::splat(2.0 * GRAVITY.y * height) - self.twice_gravity * d[1];
+            let image_i = first.pressure - 2.0 * GRAVITY.y * height / first.rho;
+            (
+                pressure_i + pressure_j + lift / rho_j,
+                L::splat(image_i) + pressure_j,
+            )
+        } else {
+            (pressure_i + pressure_j, pressure_i + pressure_j)
+        };
+        let viscosity = L::max(
+            self.zero - self.viscosity * approach * inverse / (rho_i + rho_j),
+            self.zero,
+        );
+        let scale = mass_gradient * (pressure_sum_i + viscosity);
+        let continuity = self.zero - mass_gradient * approach;
+        let diffusion = self.diffusion * mass_gradient * r2 * inverse;
+        let difference = rho_j - rho_i;
+        let rate_i = (continuity + diffusion * difference / rho_j) & close;
+        let rate_j = (continuity - diffusion * difference / rho_i) & close;
+        let da = [
+            (d[0] * scale) & close,
+            (d[1] * scale) & close,
+            (d[2] * scale) & close,
+        ];
+        let da_j = if across(1) {
+            let scale = mass_gradient * (pressure_sum_j + viscosity);
+            [
+                (d[0] * scale) & close,
+                (d[1] * scale) & close,
+                (d[2] * scale) & close,
+            ]
+        } else {
+            da
+        };
+        Some((da, da_j, rate_i, rate_j))
+    }
+}
+
+/// The pair loop on `L` lanes.
+pub(super) fn lanes<L: Lanes>(
+    model: &Wcsph,
+    tiles: &[Tile],
+    state: State,
+    n: usize,
+    rates: &mut Rates,
+) {
+    let ([x, y, z], [vx, vy, vz]) = (state.p, state.v);
+    let [ax, ay, az] = &mut *rates.a;
+    let arrays = [&x[..], y, z, vx, vy, vz, state.rho, state.pressure_terms];
+    assert_padded(slots_used(tiles), L::LANES, &arrays);
+    assert_padded(slots_used(tiles), L::LANES, &[ax, ay, az, rates.rho]);
+    let pairs = Pairs::<L> {
+        state,
+        support2: L::splat(model.support * model.support),
+        over_2h: L::splat(0.5 / model.h),
+        one: L::splat(1.0),
+        zero: L::splat(0.0),
+        mass_gradient: L::splat(model.mass * model.gradient_factor),
+        viscosity: L::splat(2.0 * ARTIFICIAL_VISCOSITY * model.sound_speed * model.h),
+        diffusion: L::splat(2.0 * DENSITY_DIFFUSION * model.h * model.sound_speed),
+        eta2: L::splat(model.eta2),
+        twice_gravity: L::splat(2.0 * GRAVITY.y),
+    };
+    let mut a = [ax, ay, az];
+    for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
+        for i in cell_tiles[0].firsts() {
+            let position = [x[i], y[i], z[i]];
+            let first = First {
+                p: position,
+                v: [vx[i], vy[i], vz[i]],
+                rho: state.rho[i],
+                pressure: state.pressure_terms[i],
+                walls: NearWalls::of(position, model.support),
+            };
+            let (mut sum, mut rate) = ([L::ZERO_SUM; 3], L::ZERO_SUM);
+            let mut visit = |j: usize, lanes: L::V, set: u8| {
+                // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded
+                // checked that every array holds slots_used(tiles) + PADDING elements,
+                // PADDING >= LANES - 1, so j + LANES <= len.
+                let Some((da, da_j, rate_i, rate_j)) =
+                    (unsafe { pairs.group(&first, j, lanes, set) })
+                else {
+                    return;
+                };
+                for axis in 0..3 {
+                    L::accumulate(&mut sum[axis], da[axis]);
+                    // SAFETY: as above. The image's force on j is mirrored back.
+                    unsafe {
+                        if set & (1 << axis) != 0 {
+                            L::add_to(a[axis], j, da_j[axis]);
+                        } else {
+                            L::subtract_from(a[axis], j, da_j[axis]);
+                        }
+                    }
+                }
+                L::accumulate(&mut rate, rate_i);
+                // SAFETY: as above.
+                unsafe { L::add_to(rates.rho, j, rate_j) };
+            };
+            for tile in cell_tiles {
+                let partners = tile.partners(i);
+                let mut j = partners.start;
+                while j < partners.end {
+                    let lanes = if j + L::LANES <= partners.end {
+                        L::all()
+                    } else {
+                        L::first(partners.end - j)
+                    };
+                    visit(j, lanes, 0);
+                    for set in first.walls.images() {
+                        visit(j, lanes, set);
+                    }
+                    j += L::LANES;
+                }
+            }
+            for axis in 0..3 {
+                a[axis][i] += L::total(sum[axis]);
+            }
+            rates.rho[i] += L::total(rate);
+        }
+    }
+    self_images(model, state, n, rates);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::kernel::interact_weakly_compressible;
+    use crate::sim::method::{Kernel, Method, Model};
+    use crate::sim::params::{BOX_MAX, BOX_MIN};
+    use crate::sim::particles::{Particles, PADDING};
+    use crate::sim::simulation::Simulation;
+
+    /// A jittered block of `size` particles a spacing (1 / `ppm`) apart from `corner`,
+    /// with random velocities and densities within 1% of rest.
+    fn block(ppm: f64, size: [usize; 3], corner: DVec3, seed: u64) -> Particles {
+        let mut random = fastrand::Rng::with_seed(seed);
+        let n = size[0] * size[1] * size[2];
+        let mut particles = Particles::zeroed(n);
+        for slot in 0..n {
+            let k = [
+                slot % size[0],
+                slot / size[0] % size[1],
+                slot / (size[0] * size[1]),
+            ];
+            for axis in 0..3 {
+                let offset = (k[axis] as f64 + 0.5 + 0.3 * (random.f64() - 0.5)) / ppm;
+                particles.p[axis][slot] = corner[axis] + offset;
+                particles.hv[axis][slot] = 0.4 * (random.f64() - 0.5);
+            }
+            particles.rho[slot] = 1000.0 * (1.0 + 0.02 * (random.f64() - 0.5));
+        }
+        particles
+    }
+
+    /// The pair loop of `kernel` on `particles` (densities as given, velocities their
+    /// hv), placed in cell order: accelerations and density rates by particle id.
+    fn pass(
+        kernel: Kernel,
+        model: &Wcsph,
+        ppm: f64,
+        particles: &Particles,
+    ) -> (Vec<DVec3>, Vec<f64>) {
+        let method = Method {
+            model: Model::Wcsph,
+            kernel,
+        };
+        let sim = Simulation::with_method(ppm, particles.clone(), method).unwrap();
+        let placed = sim.particles();
+        let n = placed.len();
+        // The densities as given (the simulation settled its own), in slot order.
+        let mut rho: Vec<f64> = placed
+            .id
+            .iter()
+            .map(|&id| particles.rho[id as usize])
+            .collect();
+        let mut pressure_terms: Vec<f64> =
+            rho.iter().map(|&r| model.pressure(r) / (r * r)).collect();
+        rho.resize(n + PADDING, 0.0);
+        pressure_terms.resize(n + PADDING, 0.0);
+        let mut a = placed.a.clone();
+        for axis in &mut a {
+            axis.fill(0.0);
+        }
+        let mut rates = vec![0.0; n + PADDING];
+        let state = State {
+            p: &placed.p,
+            v: &placed.hv,
+            rho: &rho,
+            pressure_terms: &pressure_terms,
+        };
+        let mut out = Rates {
+            a: &mut a,
+            rho: &mut rates,
+        };
+        interact_weakly_compressible(kernel, model, sim.tiles(), state, &placed.id, &mut out);
+        let (mut by_id_a, mut by_id_rate) = (vec![DVec3::ZERO; n], vec![0.0; n]);
+        for (slot, (&id, &rate)) in placed.id.iter().zip(&rates).enumerate() {
+            by_id_a[id as usize] = vector_at(&a, slot);
+            by_id_rate[id as usize] = rate;
+        }
+        (by_id_a, by_id_rate)
+    }
+
+    /// The largest difference between two results, relative to the largest value.
+    fn difference(a: &(Vec<DVec3>, Vec<f64>), b: &(Vec<DVec3>, Vec<f64>)) -> (f64, f64) {
+        let largest_a = a.0.iter().map(|v| v.length()).fold(0.0, f64::max);
+        let largest_rate = a.1.iter().map(|r| r.abs()).fold(0.0, f64::max);
+        let da =
+            a.0.iter()
+                .zip(&b.0)
+                .map(|(x, y)| (*x - *y).length())
+                .fold(0.0, f64::max);
+        let dr =
+            a.1.iter()
+                .zip(&b.1)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max);
+        (da / largest_a, dr / largest_rate)
+    }
+
+    #[test]
+    fn every_kernel_computes_the_same_terms_walls_included() {
+        // A block in the box's low corner: images across one, two and three walls.
+        let ppm = 300.0;
+        let particles = block(ppm, [12, 11, 13], BOX_MIN, 7);
+        let model = Wcsph::new(ppm, 10.0);
+        let scalar = pass(Kernel::Scalar, &model, ppm, &particles);
+        assert!(scalar.0.iter().all(|a| a.is_finite() && *a != DVec3::ZERO));
+        for (kernel, tolerance) in [
+            (Kernel::Simd, 1e-12),
+            (Kernel::Simd8, 1e-12),
+            (Kernel::Reference, 1e-12),
+            (Kernel::Mixed, 1e-4),
+        ] {
+            let (da, drate) = difference(&scalar, &pass(kernel, &model, ppm, &particles));
+            println!("{kernel:?}: {da:.2e} {drate:.2e}");
+            assert!(
+                da < tolerance && drate < tolerance,
+                "{kernel:?}: {da:e} {drate:e}"
+            );
+        }
+    }
+
+    /// The terms of a block near the walls of `axes` (images), against those of the same
+    /// block with its mirror images across every subset of those walls made particles,
+    /// moved by `shift` to where no wall is near: the largest differences.
+    fn against_explicit_images(axes: u8, corner: DVec3, shift: DVec3) -> [(f64, f64); 2] {
+        let ppm = 200.0;
+        let particles = block(ppm, [6, 5, 7], corner, 3);
+        let n = particles.len();
+        let walls = NearWalls {
+            axes,
+            at: BOX_MIN.to_array(),
+        };
+        let model = Wcsph::new(ppm, 10.0);
+        let sets: Vec<u8> = std::iter::once(0).chain(walls.images()).collect();
+        let mut explicit = Particles::zeroed(sets.len() * n);
+        for (copy, &set) in sets.iter().enumerate() {
+            for slot in 0..n {
+                let p = particles.position(slot);
+                let image = mirrored(p, set, &walls);
+                let v = reflected(particles.half_velocity(slot), set);
+                let target = copy * n + slot;
+                for axis in 0..3 {
+                    explicit.p[axis][target] = (image + shift)[axis];
+                    explicit.hv[axis][target] = v[axis];
+                }
+                // An image's density carries its hydrostatic pressure difference.
+                let rho = particles.rho[slot];
+                let pressure = model.pressure(rho) + rho * GRAVITY.dot(image - p);
+                explicit.rho[target] = 1000.0 * (1.0 + pressure / model.stiffness).powf(1.0 / 7.0);
+            }
+        }
+        let moved = explicit.p[0..3].iter().enumerate().all(|(axis, values)| {
+            values[..explicit.len()]
+                .iter()
+                .all(|&x| x - BOX_MIN[axis] > model.support && BOX_MAX[axis] - x > model.support)
+        });
+        assert!(moved, "the explicit images are near a wall");
+        [Kernel::Scalar, Kernel::Simd].map(|kernel| {
+            let with_images = pass(kernel, &model, ppm, &particles);
+            let (a, rate) = pass(kernel, &model, ppm, &explicit);
+            let block = (a[..n].to_vec(), rate[..n].to_vec());
+            difference(&with_images, &block)
+        })
+    }
+
+    #[test]
+    fn the_walls_are_the_mirror_images_of_the_particles_near_them() {
+        // An edge of two side walls (images across each and both): exactly the terms of
+        // explicit images, up to rounding.
+        let corner = DVec3::new(BOX_MIN.x, 0.0, BOX_MIN.z);
+        let shift = DVec3::new(0.05, 0.0, 0.05);
+        for (da, drate) in against_explicit_images(0b101, corner, shift) {
+            assert!(da < 1e-12 && drate < 1e-12, "{da:e} {drate:e}");
+        }
+        // The floor and a side wall: an image's pressure is hydrostatic, which explicit
+        // particles can only carry in their density, so their viscosity and diffusion
+        // see that density where the images see their particles': a few 1e-4 and 1e-3.
+        let corner = DVec3::new(BOX_MIN.x, BOX_MIN.y, -0.01);
+        let shift = DVec3::new(0.05, 0.07, 0.0);
+        for (da, drate) in against_explicit_images(0b011, corner, shift) {
+            println!("{da:.2e} {drate:.2e}");
+            assert!(da < 1e-3 && drate < 1e-2, "{da:e} {drate:e}");
+        }
+    }
+}

@@ -1,0 +1,402 @@
+//! The weakly compressible model ([`crate::sim::method::Model::Wcsph`]), designed as the
+//! validated SPH codes run water (DualSPHysics, PySPH): the density is a state of its own,
+//! advanced by the continuity equation with Molteni and Colagrossi's delta-SPH diffusion;
+//! the pressure follows Tait's equation of state, stiff enough (a sound speed ten times
+//! the fastest expected flow) to hold the density within about 1% of rest; Monaghan's
+//! artificial viscosity; the Wendland C2 kernel; free-slip walls made of the mirror images
+//! of the particles near them; and a time step from a CFL condition.
+//!
+//! This module holds the model's constants and per-particle parts (equation of state,
+//! kernel, initial densities, time step, density update); its pair loop is in
+//! [`crate::sim::kernel`].
+
+use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
+use crate::sim::particles::Particles;
+use crate::sim::timestep::Limit;
+use std::collections::HashMap;
+use std::f64::consts::PI;
+
+/// The smoothing length in lattice spacings: h = 1.3 / ppm, so the kernel's support 2h
+/// holds about 74 neighbours.
+pub const SMOOTHING: f64 = 1.3;
+/// The kernel's support radius in lattice spacings (2h): the pair cut-off.
+pub const SUPPORT: f64 = 2.0 * SMOOTHING;
+/// Tait's exponent gamma.
+pub const GAMMA: i32 = 7;
+/// The sound speed over the fastest expected flow speed (sqrt(2 g H) of a fall from the
+/// top of the fluid): a Mach number of 0.1 keeps density variations near 1%.
+pub const SOUND_SPEED_FACTOR: f64 = 10.0;
+/// Monaghan's artificial viscosity alpha.
+pub const ARTIFICIAL_VISCOSITY: f64 = 0.1;
+/// The delta-SPH density diffusion coefficient delta.
+pub const DENSITY_DIFFUSION: f64 = 0.1;
+/// The default Courant constant of the CFL time step.
+pub const COURANT: f64 = 0.2;
+
+/// The model's constants for one resolution and sound speed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wcsph {
+    /// Smoothing length h (m).
+    pub h: f64,
+    /// Support radius 2h (m), the pair cut-off.
+    pub support: f64,
+    /// Particle mass rho_0 / ppm^3 (kg).
+    pub mass: f64,
+    /// Sound speed c_0 (m/s).
+    pub sound_speed: f64,
+    /// Tait's stiffness B = c_0^2 rho_0 / gamma (Pa).
+    pub stiffness: f64,
+    /// 0.01 h^2, which keeps the viscosity and diffusion terms finite at r = 0.
+    pub eta2: f64,
+    /// G(0) of [`Self::gradient`]: 5 alpha_D / h^2, alpha_D = 21 / (16 pi h^3).
+    pub gradient_factor: f64,
+}
+
+impl Wcsph {
+    /// The constants at `ppm` particles per metre with sound speed `sound_speed` (m/s).
+    pub fn new(ppm: f64, sound_speed: f64) -> Self {
+        let h = SMOOTHING / ppm;
+        let alpha_d = 21.0 / (16.0 * PI * h.powi(3));
+        Wcsph {
+            h,
+            support: SUPPORT / ppm,
+            mass: FLUID_DENSITY / ppm.powi(3),
+            sound_speed,
+            stiffness: sound_speed * sound_speed * FLUID_DENSITY / f64::from(GAMMA),
+            eta2: 0.01 * h * h,
+            gradient_factor: 5.0 * alpha_d / (h * h),
+        }
+    }
+
+    /// The sound speed for `particles`: [`SOUND_SPEED_FACTOR`] times sqrt(2 g H), H the
+    /// height of the highest particle above the floor (at least one support radius, so a
+    /// film on the floor still gets a stiff law).
+    pub fn sound_speed_for(ppm: f64, particles: &Particles) -> f64 {
+        let top = particles.p[1][..particles.len()]
+            .iter()
+            .copied()
+            .filter(|y| y.is_finite())
+            .fold(BOX_MIN.y, f64::max);
+        let height = (top - BOX_MIN.y).max(SUPPORT / ppm);
+        SOUND_SPEED_FACTOR * (2.0 * -GRAVITY.y * height).sqrt()
+    }
+
+    /// Tait's equation of state: p = B ((rho / rho_0)^gamma - 1).
+    pub fn pressure(&self, rho: f64) -> f64 {
+        self.stiffness * ((rho / FLUID_DENSITY).powi(GAMMA) - 1.0)
+    }
+
+    /// The density whose pressure is that of water at rest `depth` metres below the
+    /// surface, rho_0 g depth: Tait's law inverted.
+    pub fn density_at_depth(&self, depth: f64) -> f64 {
+        let pressure = FLUID_DENSITY * -GRAVITY.y * depth;
+        FLUID_DENSITY * (1.0 + pressure / self.stiffness).powf(1.0 / f64::from(GAMMA))
+    }
+
+    /// The kernel gradient's factor G(r) >= 0, with grad_i W(r_ij) = -G r_ij: for the
+    /// Wendland C2 kernel W = alpha_D (1 - q/2)^4 (2q + 1), q = r / h, it is
+    /// 5 alpha_D / h^2 (1 - q/2)^3 within the support and 0 beyond.
+    pub fn gradient(&self, r: f64) -> f64 {
+        let w = (1.0 - 0.5 * r / self.h).max(0.0);
+        self.gradient_factor * w * w * w
+    }
+
+    /// Sets the densities of `particles` to those of water at rest below the top of the
+    /// fluid above each: the particles are binned into columns one support radius wide
+    /// in x and z, and each gets the density of its depth below the highest particle of
+    /// its column plus half a spacing (the fluid's surface, where a settled tank puts
+    /// it too). A column at rest then starts near its equilibrium.
+    pub fn settle_densities(&self, ppm: f64, particles: &mut Particles) {
+        let n = particles.len();
+        let column = |slot: usize| {
+            let bin = |axis: usize| {
+                ((particles.p[axis][slot] - BOX_MIN[axis]) / self.support).floor() as i64
+            };
+            (bin(0), bin(2))
+        };
+        let mut tops: HashMap<(i64, i64), f64> = HashMap::new();
+        for slot in 0..n {
+            let top = tops.entry(column(slot)).or_insert(f64::MIN);
+            *top = top.max(particles.p[1][slot]);
+        }
+        let densities: Vec<f64> = (0..n)
+            .map(|slot| {
+                let depth = tops[&column(slot)] - particles.p[1][slot] + 0.5 / ppm;
+                self.density_at_depth(depth)
+            })
+            .collect();
+        particles.rho[..n].copy_from_slice(&densities);
+    }
+
+    /// The CFL time step of a state whose accelerations are computed: C times the
+    /// smaller of the force criterion sqrt(h / |a|) and the acoustic one
+    /// h / (c_0 + |hv|), of the particles with the largest acceleration and half-step
+    /// speed, and the criterion that set it. Non-finite values are skipped.
+    pub fn time_step(&self, particles: &Particles, courant: f64) -> (f64, Limit) {
+        let n = particles.len();
+        let largest = |arrays: &[Vec<f64>; 3]| {
+            (0..n)
+                .map(|s| arrays[0][s].powi(2) + arrays[1][s].powi(2) + arrays[2][s].powi(2))
+                .filter(|x| x.is_finite())
+                .fold(0.0f64, f64::max)
+                .sqrt()
+        };
+        let force = (self.h / largest(&particles.a)).sqrt();
+        let speed = self.h / (self.sound_speed + largest(&particles.hv));
+        if force < speed {
+            (courant * force, Limit::Force)
+        } else {
+            (courant * speed, Limit::Speed)
+        }
+    }
+}
+
+/// The walls a particle's mirror images are taken across: per axis, the nearer box wall
+/// if the particle is within one support radius of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NearWalls {
+    /// Bit k set if the particle is near a wall of axis k.
+    pub axes: u8,
+    /// The coordinate of that wall, per axis (unused where the bit is clear).
+    pub at: [f64; 3],
+}
+
+impl NearWalls {
+    /// The walls within `support` of `position`.
+    pub fn of(position: [f64; 3], support: f64) -> Self {
+        let mut near = NearWalls {
+            axes: 0,
+            at: [0.0; 3],
+        };
+        for axis in 0..3 {
+            let (low, high) = (
+                position[axis] - BOX_MIN[axis],
+                BOX_MAX[axis] - position[axis],
+            );
+            if low.min(high) < support {
+                near.axes |= 1 << axis;
+                near.at[axis] = if low <= high {
+                    BOX_MIN[axis]
+                } else {
+                    BOX_MAX[axis]
+                };
+            }
+        }
+        near
+    }
+
+    /// Every non-empty set of the near walls' axes (as bits): the images across one wall,
+    /// two (an edge) and three (a corner).
+    pub fn images(self) -> impl Iterator<Item = u8> {
+        (1..8u8).filter(move |&set| set & !self.axes == 0)
+    }
+}
+
+/// The velocity the pair loop of a step takes for a particle whose half-step velocity
+/// is `hv` (hv_{n-1/2}) and velocity `v` (v_{n-1}): hv_{n+1/2} predicted from the last
+/// step's acceleration, hv + dt a_{n-1} = 3 hv - 2 v (exact for equal steps, where
+/// v_{n-1} = hv - a_{n-1} dt / 2).
+///
+/// The densities are advanced by rates from it: rho_{n+1} = rho_n + dt drho/dt. Rates
+/// from hv_{n-1/2} itself would make the density lag the velocity by a step, and sound
+/// waves grow by (1 + (omega dt)^2)^(1/2) a step (a resting tank rings ever louder);
+/// from the predicted hv_{n+1/2} they are damped by (omega dt)^2 / 2 a step, and
+/// motions slower than sound are not changed.
+pub fn predicted_velocity(hv: f64, v: f64) -> f64 {
+    3.0 * hv - 2.0 * v
+}
+
+/// The density update of a step of `dt`: rho += dt drho/dt for the first `n` slots.
+pub fn advance_densities(dt: f64, rates: &[f64], rho: &mut [f64]) {
+    for (rho, rate) in rho.iter_mut().zip(rates) {
+        *rho += dt * rate;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_equation_of_state_is_tait_s_with_gamma_7() {
+        let model = Wcsph::new(300.0, 10.0);
+        assert_eq!(model.stiffness, 100.0 * 1000.0 / 7.0);
+        assert_eq!(model.pressure(FLUID_DENSITY), 0.0);
+        // 1% compression: B (1.01^7 - 1) = 7.2% of B; and the inverse at 1 m depth.
+        let p = model.pressure(1010.0);
+        assert!((p - model.stiffness * (1.01f64.powi(7) - 1.0)).abs() < 1e-9);
+        assert!((p / model.stiffness - 0.072_135).abs() < 1e-6);
+        let rho = model.density_at_depth(0.06);
+        assert!((model.pressure(rho) - 1000.0 * 9.8 * 0.06).abs() < 1e-9);
+        assert!(model.pressure(990.0) < 0.0, "tension below rest density");
+    }
+
+    #[test]
+    fn the_kernel_gradient_is_wendland_s_and_vanishes_at_the_support() {
+        let model = Wcsph::new(200.0, 10.0);
+        let h = model.h;
+        // Numerical derivative of W = alpha_D (1 - q/2)^4 (2q + 1) against -G r.
+        let alpha_d = 21.0 / (16.0 * PI * h.powi(3));
+        let w = |r: f64| {
+            let q = r / h;
+            alpha_d * (1.0 - q / 2.0).powi(4) * (2.0 * q + 1.0)
+        };
+        for r in [0.3 * h, h, 1.7 * h] {
+            let e = 1e-7 * h;
+            let slope = (w(r + e) - w(r - e)) / (2.0 * e);
+            assert!(((-model.gradient(r) * r) - slope).abs() < 1e-6 * slope.abs());
+        }
+        assert_eq!(model.gradient(2.0 * h), 0.0);
+        assert_eq!(model.gradient(3.0 * h), 0.0);
+        assert_eq!(model.support, 2.0 * h);
+    }
+
+    #[test]
+    fn the_sound_speed_is_ten_times_the_fall_speed_from_the_top() {
+        let mut particles = Particles::zeroed(2);
+        particles.p[1] = vec![BOX_MIN.y + 0.01, BOX_MIN.y + 0.05];
+        let c = Wcsph::sound_speed_for(300.0, &particles);
+        assert!((c - 10.0 * (2.0 * 9.8 * 0.05f64).sqrt()).abs() < 1e-12);
+        // A film on the floor still gets the speed of one support radius.
+        particles.p[1] = vec![BOX_MIN.y; 2];
+        let c = Wcsph::sound_speed_for(300.0, &particles);
+        assert!((c - 10.0 * (2.0 * 9.8 * SUPPORT / 300.0).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_cfl_step_follows_the_sound_speed_or_the_largest_force() {
+        let model = Wcsph::new(300.0, 10.0);
+        let mut particles = Particles::zeroed(3);
+        particles.hv[0][1] = 2.0;
+        particles.a[1][2] = -9.8;
+        let (dt, limit) = model.time_step(&particles, 0.2);
+        assert_eq!(limit, Limit::Speed);
+        assert!((dt - 0.2 * model.h / 12.0).abs() < 1e-18);
+        particles.a[1][2] = -1e6;
+        let (dt, limit) = model.time_step(&particles, 0.2);
+        assert_eq!(limit, Limit::Force);
+        assert!((dt - 0.2 * (model.h / 1e6).sqrt()).abs() < 1e-18);
+        particles.a[1][0] = f64::NAN;
+        assert_eq!(model.time_step(&particles, 0.2), (dt, limit));
+    }
+
+    #[test]
+    fn settled_densities_are_hydrostatic_below_each_column_s_top() {
+        let ppm = 100.0;
+        let model = Wcsph::new(ppm, 10.0);
+        // Two columns: one 3 particles high, one alone on the floor.
+        let mut particles = Particles::zeroed(4);
+        for (slot, (x, y)) in [(0.005, 0.005), (0.005, 0.015), (0.005, 0.025), (0.1, 0.005)]
+            .into_iter()
+            .enumerate()
+        {
+            particles.p[0][slot] = BOX_MIN.x + x;
+            particles.p[1][slot] = BOX_MIN.y + y;
+            particles.p[2][slot] = 0.0;
+        }
+        model.settle_densities(ppm, &mut particles);
+        for (slot, depth) in [(0, 0.025), (1, 0.015), (2, 0.005), (3, 0.005)] {
+            let pressure = model.pressure(particles.rho[slot]);
+            assert!(
+                (pressure - 9800.0 * depth).abs() < 1e-9,
+                "{slot}: {pressure}"
+            );
+        }
+    }
+
+    #[test]
+    fn images_are_taken_across_the_nearer_wall_of_each_near_axis() {
+        let support = 0.01;
+        let middle = NearWalls::of([0.0, 0.0, 0.0], support);
+        assert_eq!(middle.axes, 0);
+        assert_eq!(middle.images().count(), 0);
+        let corner = NearWalls::of(
+            [BOX_MIN.x + 0.002, BOX_MIN.y + 0.009, BOX_MAX.z - 0.001],
+            support,
+        );
+        assert_eq!(corner.axes, 0b111);
+        assert_eq!(corner.at, [BOX_MIN.x, BOX_MIN.y, BOX_MAX.z]);
+        assert_eq!(
+            corner.images().collect::<Vec<_>>(),
+            (1..8).collect::<Vec<_>>()
+        );
+        let floor = NearWalls::of([0.0, BOX_MIN.y + 0.005, 0.0], support);
+        assert_eq!(floor.images().collect::<Vec<_>>(), [0b010]);
+    }
+
+    /// A tank `depth` deep over the whole floor at `ppm`, on the lattice, at rest, run
+    /// with the weakly compressible model until `settle` seconds, then until `end`: each
+    /// layer's pressure, averaged over the steps after `settle`, over rho_0 g d (d its
+    /// depth below the surface, half a spacing above the top layer), from the floor up;
+    /// and the fastest particle at the end.
+    fn resting_tank(ppm: f64, depth: f64, settle: f64, end: f64) -> (Vec<f64>, f64) {
+        use crate::sim::method::{Kernel, Method, Model};
+        use crate::sim::simulation::Simulation;
+        let counts = [
+            (BOX_MAX.x - BOX_MIN.x) * ppm,
+            depth * ppm,
+            (BOX_MAX.z - BOX_MIN.z) * ppm,
+        ]
+        .map(|count| count.round() as usize);
+        let n = counts.iter().product();
+        let mut particles = Particles::zeroed(n);
+        for slot in 0..n {
+            let k = [
+                slot % counts[0],
+                slot / counts[0] % counts[1],
+                slot / (counts[0] * counts[1]),
+            ];
+            for axis in 0..3 {
+                particles.p[axis][slot] = BOX_MIN[axis] + (k[axis] as f64 + 0.5) / ppm;
+            }
+        }
+        let method = Method {
+            model: Model::Wcsph,
+            kernel: Kernel::NATIVE,
+        };
+        let mut sim = Simulation::with_method(ppm, particles, method).unwrap();
+        let model = *sim.weakly_compressible().unwrap();
+        while !sim.has_reached(settle) {
+            sim.step_towards(settle);
+        }
+        let mut sums = vec![(0.0, 0usize); counts[1]];
+        while !sim.has_reached(end) {
+            sim.step_towards(end);
+            let p = sim.particles();
+            for slot in 0..n {
+                let layer = ((p.p[1][slot] - BOX_MIN.y) * ppm).floor() as usize;
+                let sum = &mut sums[layer.min(counts[1] - 1)];
+                sum.0 += model.pressure(p.rho[slot]);
+                sum.1 += 1;
+            }
+        }
+        let ratios = sums
+            .iter()
+            .enumerate()
+            .map(|(layer, (sum, count))| {
+                let d = depth - (layer as f64 + 0.5) / ppm;
+                sum / *count as f64 / (FLUID_DENSITY * -GRAVITY.y * d)
+            })
+            .collect();
+        let p = sim.particles();
+        let fastest = (0..n)
+            .map(|slot| p.velocity(slot).length())
+            .fold(0.0, f64::max);
+        (ratios, fastest)
+    }
+
+    #[test]
+    fn a_resting_tank_holds_the_hydrostatic_pressure() {
+        // 6 layers at 100 per metre, 0.2 s to settle (about 10 sound crossings), then
+        // averaged over 0.1 s: every layer below the surface's own is within 5% of
+        // rho_0 g d, and the water stays at rest.
+        let (ratios, fastest) = resting_tank(100.0, 0.06, 0.2, 0.3);
+        println!("{ratios:.3?} fastest {fastest:.3e} m/s");
+        let below_the_surface = &ratios[..ratios.len() - 1];
+        assert!(
+            below_the_surface.iter().all(|r| (r - 1.0).abs() < 0.05),
+            "{ratios:?}"
+        );
+        assert!(fastest < 0.05, "{fastest} m/s");
+    }
+}
