@@ -19,5 +19,5 @@ echo "method: $lab render, accuracy, stability and validate (plotters, embedded 
 # Accuracy against speed, and where each method fails (CSV, PNG and SVG in each folder).
 scripts/accuracy-sweeps.sh docs/accuracy
 "$lab" stability --kernels simd,mixed --output-dir docs/stability
-"$lab" validate dam-break --models course,fluidanimate --ppms 200,300,400 --until 4 \
-    --output-dir docs/validation
+"$lab" validate dam-break --models course,fluidanimate,wcsph --ppms 200,300,400 --width 0.026 \
+    --until 3.65 --output-dir docs/validation | tee docs/validation/summary.txt

@@ -95,13 +95,16 @@ pub struct Candidate {
 }
 
 impl Candidate {
-    /// The f64 default: `fluid`'s kernel at the course's fixed 1 ms, lists rebuilt every
-    /// step.
-    pub const DEFAULT: Candidate = Candidate {
-        kernel: Kernel::NATIVE,
-        time_step: TimeStep::Fixed(TIME_STEP),
-        skin: None,
-    };
+    /// The f64 default of `model`: `fluid`'s kernel on the model's own time step (the
+    /// course's fixed 1 ms, or the weakly compressible model's CFL step), lists rebuilt
+    /// every step.
+    pub fn default_for(model: Model) -> Candidate {
+        Candidate {
+            kernel: Kernel::NATIVE,
+            time_step: model.default_time_step(),
+            skin: None,
+        }
+    }
 
     /// A short label: `simd dt 0.5 ms`, `mixed C 0.3 skin 0.2h`, `reference dt 23.93 µs`.
     pub fn label(&self) -> String {
@@ -129,9 +132,10 @@ impl Candidate {
     }
 
     /// Every kernel with every fixed step and every adaptive constant, each with lists
-    /// rebuilt every step and with each of `skins`; the default first (added if the
+    /// rebuilt every step and with each of `skins`; `model`'s default first (added if the
     /// lists leave it out).
     pub fn product(
+        model: Model,
         kernels: &[Kernel],
         fixed: &[f64],
         courants: &[f64],
@@ -145,7 +149,7 @@ impl Candidate {
         let skins: Vec<Option<f64>> = std::iter::once(None)
             .chain(skins.iter().copied().map(Some))
             .collect();
-        let mut candidates = vec![Candidate::DEFAULT];
+        let mut candidates = vec![Candidate::default_for(model)];
         for time_step in rules {
             for &kernel in kernels {
                 for &skin in &skins {
@@ -332,6 +336,8 @@ pub struct Sweep {
     pub runs: Vec<Run>,
     /// The shortest step of the methods that reached every time (s).
     pub shortest_step: f64,
+    /// The model's default method ([`Candidate::default_for`]).
+    pub default: Candidate,
 }
 
 /// The shortest adaptive step the sweep follows (s), a thousandth of the course's.
@@ -360,10 +366,12 @@ fn run(
     sampling: Sampling,
     mut observe: impl FnMut(&Simulation),
 ) -> Result<Run, String> {
-    let mut simulation = start.clone_with_method(Method {
-        model,
-        kernel: candidate.kernel,
-    });
+    let mut simulation = start
+        .clone_with_method(Method {
+            model,
+            kernel: candidate.kernel,
+        })
+        .map_err(|error| format!("the {} model: {error}", model.name()))?;
     simulation.set_time_step(candidate.time_step);
     let h = simulation.params().h;
     simulation
@@ -489,6 +497,7 @@ pub fn sweep(
         reference,
         runs,
         shortest_step: shortest,
+        default: Candidate::default_for(model),
     })
 }
 
@@ -579,11 +588,9 @@ impl Sweep {
             .min_by(|a, b| a.final_cost().total_cmp(&b.final_cost()))
     }
 
-    /// The run of [`Candidate::DEFAULT`].
+    /// The run of the model's default method.
     pub fn default_run(&self) -> Option<&Run> {
-        self.runs
-            .iter()
-            .find(|run| run.candidate == Candidate::DEFAULT)
+        self.runs.iter().find(|run| run.candidate == self.default)
     }
 }
 
@@ -661,12 +668,13 @@ mod tests {
     #[test]
     fn candidates_are_every_kernel_with_every_rule_the_default_first() {
         let candidates = Candidate::product(
+            Model::Fluidanimate,
             &[Kernel::Mixed, Kernel::NATIVE],
             &[5e-4, TIME_STEP],
             &[0.3],
             &[],
         );
-        assert_eq!(candidates[0], Candidate::DEFAULT);
+        assert_eq!(candidates[0], Candidate::default_for(Model::Fluidanimate));
         assert_eq!(candidates.len(), 6, "{candidates:?}");
         let labels: Vec<String> = candidates.iter().map(Candidate::label).collect();
         assert!(
@@ -680,14 +688,17 @@ mod tests {
             skin: None,
         };
         assert_eq!(fine.label(), "reference dt 25.00 µs");
-        let skins = Candidate::product(&[Kernel::Simd], &[TIME_STEP], &[], &[0.2]);
+        let skins = Candidate::product(Model::Course, &[Kernel::Simd], &[TIME_STEP], &[], &[0.2]);
         assert_eq!(skins.len(), 2, "{skins:?}");
         assert_eq!(skins[1].label(), "simd dt 1 ms skin 0.2h");
         // Without the default in the lists, it is added.
         assert_eq!(
-            Candidate::product(&[Kernel::Mixed], &[], &[0.3], &[])[0],
-            Candidate::DEFAULT
+            Candidate::product(Model::Course, &[Kernel::Mixed], &[], &[0.3], &[])[0],
+            Candidate::default_for(Model::Course)
         );
+        // The weakly compressible model's default is its CFL step.
+        let stiff = Candidate::product(Model::Wcsph, &[Kernel::Mixed], &[1e-5], &[], &[]);
+        assert_eq!(stiff[0].time_step, TimeStep::Adaptive { courant: 0.2 });
     }
 
     fn observed(
@@ -825,7 +836,10 @@ mod tests {
             .fold(f64::INFINITY, f64::min);
         assert_eq!(fastest.final_cost(), cheapest);
         assert_eq!(sweep.fastest_within(1e-30, Metric::Median), None);
-        assert_eq!(sweep.default_run().unwrap().candidate, Candidate::DEFAULT);
+        assert_eq!(
+            sweep.default_run().unwrap().candidate,
+            Candidate::default_for(Model::Fluidanimate)
+        );
         let machine = Machine::this();
         let text = sweep.csv("corner.fld", 300, Model::Fluidanimate, &machine);
         assert_eq!(text.lines().count(), 4 + 4 * 2);
@@ -869,7 +883,7 @@ mod tests {
         assert_eq!(why, Failure::StepCollapsed);
         assert!(when > 0.0 && when < 1e-3);
         assert!(collapsed.samples.is_empty());
-        let failed = to_1_ms(&broken, Candidate::DEFAULT);
+        let failed = to_1_ms(&broken, Candidate::default_for(Model::Fluidanimate));
         let why = failed.failure.as_ref().unwrap().1;
         assert!(matches!(why, Failure::NonFinite(_)), "{why}");
         assert_eq!(failed.final_cost(), f64::INFINITY);

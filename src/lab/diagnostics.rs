@@ -3,7 +3,7 @@
 //! the checks that call a run failed (non-finite values, energy growing past a bound,
 //! particles leaving the box).
 
-use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
+use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY, RADIUS_MULTIPLIER};
 use crate::sim::particles::vector_at;
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::Limit;
@@ -201,15 +201,18 @@ pub fn step_collapsed(simulation: &Simulation, shortest: f64) -> bool {
 const FRONT_PARTICLES: usize = 10;
 
 /// The front of a fluid spreading along +x: the 95th percentile of x (measured from the
-/// box's low-x wall) among the particles within 2h of the floor, so that a few strays
-/// ahead of the fluid do not move it. `None` with fewer than [`FRONT_PARTICLES`] there.
+/// box's low-x wall) among the particles within 2h of the floor (h the course's
+/// smoothing length, 1.695 spacings, whatever the model, so that every model's front is
+/// taken in the same band), so that a few strays ahead of the fluid do not move it.
+/// `None` with fewer than [`FRONT_PARTICLES`] there.
 pub fn front(simulation: &Simulation) -> Option<f64> {
     front_quantile(simulation, 0.95)
 }
 
 /// As [`front`], with the `quantile` (in (0, 1]) of x among the particles near the floor.
 pub fn front_quantile(simulation: &Simulation, quantile: f64) -> Option<f64> {
-    let (particles, h) = (simulation.particles(), simulation.params().h);
+    let particles = simulation.particles();
+    let h = RADIUS_MULTIPLIER / simulation.params().ppm;
     let mut xs: Vec<f64> = (0..particles.len())
         .filter(|&slot| {
             let y = particles.p[1][slot];

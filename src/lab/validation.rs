@@ -10,7 +10,7 @@
 
 use crate::lab::diagnostics::{self, Checks, Diagnostics, Failure, Vitals};
 use crate::lab::scene;
-use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY};
+use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY, RADIUS_MULTIPLIER};
 use crate::sim::particles::Particles;
 use crate::sim::simulation::Simulation;
 
@@ -162,11 +162,12 @@ impl Comparison {
 }
 
 /// The run's front at every experimental T up to its last sample. A point whose Z is
-/// beyond what the box allows (less a smoothing length's margin) is left out: there the
-/// box, not the model, stops the front.
-pub fn compare(collapse: &Collapse, dam: &DamBreak, h: f64) -> Vec<Comparison> {
+/// beyond what the box allows (less a margin of the course's smoothing length, 1.695
+/// spacings, for every model) is left out: there the box, not the model, stops the front.
+pub fn compare(collapse: &Collapse, dam: &DamBreak) -> Vec<Comparison> {
     let samples = &collapse.samples;
-    let wall = dam.largest_z() - h / dam.column_width();
+    let margin = RADIUS_MULTIPLIER / dam.ppm;
+    let wall = dam.largest_z() - margin / dam.column_width();
     MARTIN_MOYCE
         .iter()
         .filter(|&&(_, z)| z < wall)
@@ -265,8 +266,9 @@ mod tests {
             samples: vec![sample(0.0, 1.0), sample(1.0, 1.5), sample(2.0, 2.5)],
             failure: None,
         };
-        let comparisons = compare(&collapse, &dam(), 0.005);
-        // Z < 4.33 - 0.17: the first five points; T <= 2 sampled: the first three.
+        let comparisons = compare(&collapse, &dam());
+        // Z < 4.33 - 0.28 (1.695 spacings of 5 mm over 30 mm): the first five points;
+        // T <= 2 sampled: the first three.
         assert_eq!(comparisons.len(), 5);
         let z = 1.0 + 0.849 * 0.5;
         assert!((comparisons[0].z_model.unwrap() - z).abs() < 1e-12);

@@ -108,7 +108,8 @@ impl Simulation {
         Self::with_params(Params::for_model(ppm, method.model), particles, method)
     }
 
-    /// As [`Self::with_method`], with parameters of one's own (e.g. another time step).
+    /// As [`Self::with_method`], with parameters of one's own (e.g. another time step, the
+    /// course models' fixed step; `params.h` must be the model's cut-off).
     pub fn with_params(
         params: Params,
         particles: Particles,
@@ -116,12 +117,10 @@ impl Simulation {
     ) -> Result<Self, GridSizeError> {
         let grid = Grid::new(params.h)?;
         let mut simulation = Self::unplaced(params, grid, method, particles);
-        if method.model == Model::Wcsph {
-            let ppm = params.ppm;
-            let model = Wcsph::new(ppm, Wcsph::sound_speed_for(ppm, &simulation.particles));
-            model.settle_densities(ppm, &mut simulation.particles);
-            simulation.weakly_compressible = Some(WeaklyCompressible::new(model));
-            simulation.time_step = Model::Wcsph.default_time_step();
+        if let Some(weakly) = &simulation.weakly_compressible {
+            weakly
+                .model
+                .settle_densities(params.ppm, &mut simulation.particles);
         }
         simulation.reposition();
         Ok(simulation)
@@ -144,8 +143,18 @@ impl Simulation {
         simulation
     }
 
+    /// The simulation before stage 1; the weakly compressible model gets the sound speed
+    /// of `particles` (its densities as given).
     fn unplaced(params: Params, grid: Grid, method: Method, mut particles: Particles) -> Self {
         particles.pad();
+        let weakly_compressible = (method.model == Model::Wcsph).then(|| {
+            let sound_speed = Wcsph::sound_speed_for(params.ppm, &particles);
+            WeaklyCompressible::new(Wcsph::new(params.ppm, sound_speed))
+        });
+        let time_step = match method.model {
+            Model::Course | Model::Fluidanimate => TimeStep::Fixed(params.dt),
+            Model::Wcsph => Model::Wcsph.default_time_step(),
+        };
         Self {
             params,
             grid,
@@ -156,11 +165,11 @@ impl Simulation {
             close: ClosePairs::default(),
             close_found: false,
             spare: Particles::default(),
-            time_step: TimeStep::Fixed(params.dt),
+            time_step,
             time: 0.0,
             last_step: None,
             skin: None,
-            weakly_compressible: None,
+            weakly_compressible,
         }
     }
 
@@ -199,7 +208,8 @@ impl Simulation {
             + self.close.heap_bytes()
             + self.skin.as_ref().map_or(0, Skin::heap_bytes)
             + self.weakly_compressible.as_ref().map_or(0, |w| {
-                crate::sim::heap_bytes(&w.pressure_terms) + crate::sim::heap_bytes(&w.rates)
+                let axes: usize = w.velocities.iter().map(crate::sim::heap_bytes).sum();
+                crate::sim::heap_bytes(&w.pressure_terms) + crate::sim::heap_bytes(&w.rates) + axes
             })
     }
 
@@ -210,20 +220,20 @@ impl Simulation {
 
     /// A copy that goes on with another model and kernel. A copy that switches to or from
     /// the weakly compressible model is set up as [`Self::with_method`] sets up a start
-    /// (its parameters, densities and time-step rule), at the same time.
-    pub fn clone_with_method(&self, method: Method) -> Simulation {
+    /// (its parameters, densities and time-step rule), at the same time; its cut-off may
+    /// admit no grid.
+    pub fn clone_with_method(&self, method: Method) -> Result<Simulation, GridSizeError> {
         let same_physics = (method.model == Model::Wcsph) == (self.method.model == Model::Wcsph);
         if !same_physics {
             let particles = self.particles.unpadded();
-            if let Ok(mut copy) = Simulation::with_method(self.params.ppm, particles, method) {
-                copy.time = self.time;
-                return copy;
-            }
+            let mut copy = Simulation::with_method(self.params.ppm, particles, method)?;
+            copy.time = self.time;
+            return Ok(copy);
         }
         let mut copy = self.clone();
         copy.method = method;
         copy.close_found = false;
-        copy
+        Ok(copy)
     }
 
     /// The weakly compressible model's constants, if it runs.
@@ -255,9 +265,10 @@ impl Simulation {
         let params = Params::for_model(state.ppm, state.method.model);
         let grid = Grid::new(params.h)?;
         let mut simulation = Self::unplaced(params, grid, state.method, state.particles);
-        if state.method.model == Model::Wcsph {
-            let model = Wcsph::new(state.ppm, state.sound_speed.unwrap_or(f64::NAN));
-            simulation.weakly_compressible = Some(WeaklyCompressible::new(model));
+        if let (Some(weakly), Some(sound_speed)) =
+            (&mut simulation.weakly_compressible, state.sound_speed)
+        {
+            weakly.model = Wcsph::new(state.ppm, sound_speed);
         }
         simulation.set_time_step(state.time_step);
         simulation.cells = CellOrder::resumed(state.sparse);
@@ -478,18 +489,11 @@ impl Simulation {
     /// computes the accelerations and density rates, and its density stages do nothing
     /// (its densities are states, advanced with the positions).
     pub fn run_stage(&mut self, stage: Stage) {
-        if self.weakly_compressible.is_some() {
-            match stage {
-                Stage::IncrementDensities | Stage::TransformDensities => return,
-                Stage::InitAccelerations => return self.particles.reset_accelerations(),
-                Stage::TransferAccelerations => return self.interact_weakly_compressible(),
-                _ => {}
-            }
-        }
         let Method { model, kernel } = self.method;
         let viscosity = match model {
+            Model::Course => Viscosity::Course,
             Model::Fluidanimate => Viscosity::Fluidanimate,
-            Model::Course | Model::Wcsph => Viscosity::Course,
+            Model::Wcsph => return self.run_weakly_compressible_stage(stage),
         };
         let params = &self.params;
         let n = self.particles.len();
@@ -530,6 +534,20 @@ impl Simulation {
             Stage::CollideWithWalls => stages::collide_with_walls(walls, params.dt, particles),
             Stage::Move => stages::move_particles(params.dt, particles),
             Stage::InteractWithBoundary => stages::interact_with_boundary(walls, particles),
+        }
+    }
+
+    /// [`Self::run_stage`] for the weakly compressible model: no wall penalty, its one pair
+    /// pass, and the mirror of particles beyond any wall of the box.
+    fn run_weakly_compressible_stage(&mut self, stage: Stage) {
+        let particles = &mut self.particles;
+        match stage {
+            Stage::Reposition => self.reposition(),
+            Stage::InitAccelerations => particles.reset_accelerations(),
+            Stage::IncrementDensities | Stage::TransformDensities | Stage::CollideWithWalls => {}
+            Stage::TransferAccelerations => self.interact_weakly_compressible(),
+            Stage::Move => stages::move_particles(self.params.dt, particles),
+            Stage::InteractWithBoundary => stages::reflect_into_box(particles),
         }
     }
 

@@ -245,16 +245,34 @@ pub fn advance(walls: &Walls, step: Leapfrog, particles: &mut Particles) {
     }
 }
 
+/// Both walls of an axis, for every lane.
+const EVERY_WALL: (f64x4, f64x4) = (
+    f64x4::new([f64::from_bits(u64::MAX); LANES]),
+    f64x4::new([f64::from_bits(u64::MAX); LANES]),
+);
+
 /// The leapfrog of `step` for every particle, then every particle beyond a wall of the
 /// box mirrored back with its velocities reversed on that axis (a last guard: the weakly
 /// compressible model's walls are its particles' mirror images, and no penalty).
 pub fn advance_within_box(step: Leapfrog, particles: &mut Particles) {
     let n = particles.len();
-    let every = f64x4::splat(f64::from_bits(u64::MAX));
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
         for_each_group(n, &[], axis, fields, |_, [p, hv, v, a]| {
-            let [p, hv, v] = bounce(axis, (every, every), motion(step, [p, hv, v, a]));
+            let [p, hv, v] = bounce(axis, EVERY_WALL, motion(step, [p, hv, v, a]));
+            [p, hv, v, a]
+        });
+    }
+}
+
+/// The mirror of [`advance_within_box`] alone: every particle beyond a wall of the box
+/// mirrored back, its velocities reversed on that axis.
+pub fn reflect_into_box(particles: &mut Particles) {
+    let n = particles.len();
+    for axis in 0..3 {
+        let fields = axis_fields(particles, axis);
+        for_each_group(n, &[], axis, fields, |_, [p, hv, v, a]| {
+            let [p, hv, v] = bounce(axis, EVERY_WALL, [p, hv, v]);
             [p, hv, v, a]
         });
     }

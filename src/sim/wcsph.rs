@@ -152,7 +152,9 @@ impl Wcsph {
 }
 
 /// The walls a particle's mirror images are taken across: per axis, the nearer box wall
-/// if the particle is within one support radius of it.
+/// if the particle is within one support radius of it. (Below 41 particles per metre a
+/// particle can be within reach of both walls of x or z; only the nearer's images are
+/// taken, and the kernels may differ in which they take: a column so coarse is no fluid.)
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NearWalls {
     /// Bit k set if the particle is near a wall of axis k.
@@ -206,7 +208,7 @@ pub fn predicted_velocity(hv: f64, v: f64) -> f64 {
     3.0 * hv - 2.0 * v
 }
 
-/// The density update of a step of `dt`: rho += dt drho/dt for the first `n` slots.
+/// The density update of a step of `dt`: rho += dt drho/dt, slot by slot.
 pub fn advance_densities(dt: f64, rates: &[f64], rho: &mut [f64]) {
     for (rho, rate) in rho.iter_mut().zip(rates) {
         *rho += dt * rate;

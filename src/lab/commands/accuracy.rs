@@ -32,7 +32,8 @@ pub struct AccuracyArgs {
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = [Kernel::NATIVE, Kernel::Mixed])]
     kernels: Vec<Kernel>,
     /// Fixed time steps, as multiples of the course's 1 ms (default: 0.25, 0.5, 1, 2
-    /// and 4 for fluidanimate; 0.125, 0.25, 0.5 and 1 for the course model).
+    /// and 4 for fluidanimate; 0.125, 0.25, 0.5 and 1 for the course model; 0.025, 0.05,
+    /// 0.1 and 0.2 for wcsph).
     #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
     dt_factors: Option<Vec<f64>>,
     /// Courant constants of the adaptive time step ("" for none).
@@ -43,7 +44,7 @@ pub struct AccuracyArgs {
     #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
     skins: Vec<f64>,
     /// Physical times (s) at which states are compared, ascending (default: every 4 ms to
-    /// 48 ms for fluidanimate; 1, 2 and 3 ms for the course model, which is chaotic
+    /// 48 ms for fluidanimate and wcsph; 1, 2 and 3 ms for the course model, which is chaotic
     /// after). Each method is sampled at the end of its first step at or after each; the
     /// accuracy-speed chart shows the first, a middle and the last.
     #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
@@ -96,6 +97,7 @@ impl AccuracyArgs {
             return Err("--skins needs widths in (0, 1] smoothing lengths".into());
         }
         Ok(Candidate::product(
+            self.model,
             &self.kernels,
             &fixed,
             &Courants::all(&self.adaptive),
@@ -121,7 +123,11 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     let scene = fld::read(&args.input)?;
     let particles = scene.particles.len();
     let name = args.input.display().to_string();
-    let start = scene.into_simulation(Method::default(), &name)?;
+    let method = Method {
+        model: args.model,
+        kernel: Kernel::NATIVE,
+    };
+    let start = scene.into_simulation(method, &name)?;
     let file_name = args.input.file_name().unwrap_or_default().to_string_lossy();
     let sweep = accuracy::sweep(&start, args.model, &candidates, &times, args.reference_dt)?;
     let reference_step = match sweep.reference.candidate.time_step {
@@ -167,7 +173,10 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
             why.1
         )?;
     }
-    let h = start.params().h;
+    // The smoothing length (the weakly compressible model's own, half its cut-off).
+    let h = start
+        .weakly_compressible()
+        .map_or(start.params().h, |model| model.h);
     for budget in &args.budget {
         writeln!(stdout, "{}", choice(&sweep, budget, h, metric))?;
     }

@@ -127,7 +127,7 @@ pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
             let started = Instant::now();
             let collapse = validation::collapse(&mut simulation, &dam, args.until, args.every);
             let seconds = started.elapsed().as_secs_f64();
-            let comparisons = validation::compare(&collapse, &dam, simulation.params().h);
+            let comparisons = validation::compare(&collapse, &dam);
             let cells = format!(
                 "{},{},{ppm},{},{rule}",
                 model.name(),

@@ -172,8 +172,8 @@ fn lanes_transfer<L: Lanes>(
 }
 
 /// The weakly compressible model's pair loop: adds every pair's (and wall image's)
-/// acceleration and density rates to `rates`, over the tiles. `id` orders the reference
-/// kernel's sums; `n` is the particle count.
+/// acceleration and density rates to `rates`, over the tiles. `id` (each slot's
+/// particle) orders the reference kernel's sums.
 pub fn interact_weakly_compressible(
     kernel: Kernel,
     model: &Wcsph,

@@ -58,7 +58,9 @@ pub(super) fn pair(
     [pressure_i, pressure_j]: [f64; 2],
 ) -> Option<(DVec3, [f64; 2])> {
     let r2 = d.length_squared();
-    if r2 >= model.support * model.support {
+    let within = r2 < model.support * model.support;
+    if !within {
+        // Beyond the support, or not a number: as the lanes' mask takes it.
         return None;
     }
     let mass_gradient = model.mass * model.gradient(r2.sqrt());
@@ -96,10 +98,16 @@ fn mirrored(p: DVec3, set: u8, walls: &NearWalls) -> DVec3 {
     )
 }
 
-/// The p / rho^2 of the image at `image` of a particle at `p` with `pressure` (p / rho^2)
-/// and density `rho`: its pressure plus rho g . (image - p).
-fn image_pressure(pressure: f64, rho: f64, p: DVec3, image: DVec3) -> f64 {
-    pressure + GRAVITY.dot(image - p) / rho
+/// The p / rho^2 and density of the image at `image` of a particle at `p` with
+/// `pressure` (p / rho^2) and density `rho`: as water at rest continues, its pressure is
+/// the particle's plus rho g . (image - p), and its density the particle's plus that
+/// over c0^2 (Tait's law near rest).
+fn image_of(model: &Wcsph, pressure: f64, rho: f64, p: DVec3, image: DVec3) -> (f64, f64) {
+    let lift = GRAVITY.dot(image - p);
+    let inverse_c2 = 1.0 / (model.sound_speed * model.sound_speed);
+    let rho_image = rho * (1.0 + lift * inverse_c2);
+    let pressure_image = (pressure * rho * rho + rho * lift) / (rho_image * rho_image);
+    (pressure_image, rho_image)
 }
 
 /// Every particle's terms with its own images (only it receives them).
@@ -112,8 +120,9 @@ fn self_images(model: &Wcsph, state: State, n: usize, rates: &mut Rates) {
         for set in walls.images() {
             let image = mirrored(p, set, &walls);
             let dv = v - reflected(v, set);
-            let pressures = [pressure, image_pressure(pressure, rho, p, image)];
-            if let Some((da, [rate, _])) = pair(model, p - image, dv, [rho; 2], pressures) {
+            let (pressure_image, rho_image) = image_of(model, pressure, rho, p, image);
+            let (pressures, densities) = ([pressure, pressure_image], [rho, rho_image]);
+            if let Some((da, [rate, _])) = pair(model, p - image, dv, densities, pressures) {
                 for axis in 0..3 {
                     rates.a[axis][i] += da[axis];
                 }
@@ -131,24 +140,29 @@ pub(super) fn scalar(model: &Wcsph, tiles: &[Tile], state: State, n: usize, rate
             let walls = NearWalls::of(p_i.to_array(), model.support);
             for j in tile.partners(i) {
                 let (p_j, v_j) = (vector_at(state.p, j), vector_at(state.v, j));
-                let rho = [state.rho[i], state.rho[j]];
+                let (rho_i, rho_j) = (state.rho[i], state.rho[j]);
+                let (pressure_i, pressure_j) = (state.pressure_terms[i], state.pressure_terms[j]);
                 let images = std::iter::once(0).chain(walls.images());
                 for set in images {
                     let image = mirrored(p_j, set, &walls);
                     let dv = v_i - reflected(v_j, set);
-                    let pressure_j = image_pressure(state.pressure_terms[j], rho[1], p_j, image);
-                    let pressure = [state.pressure_terms[i], pressure_j];
+                    let (pressure_image, rho_image) =
+                        image_of(model, pressure_j, rho_j, p_j, image);
+                    let pressures = [pressure_i, pressure_image];
                     let d = p_i - image;
-                    if let Some((da, [rate_i, rate_j])) = pair(model, d, dv, rho, pressure) {
-                        // j meets the image of i, whose pressure is i's own plus its
-                        // hydrostatic difference (the same as j's image's off the floor).
-                        let image_i = mirrored(p_i, set, &walls);
-                        let pressure_i =
-                            image_pressure(state.pressure_terms[i], rho[0], p_i, image_i);
-                        let pressure = [pressure_i, state.pressure_terms[j]];
-                        let da_j = match set & 0b010 {
-                            0 => da,
-                            _ => pair(model, d, dv, rho, pressure).map_or(DVec3::ZERO, |t| t.0),
+                    let terms = pair(model, d, dv, [rho_i, rho_image], pressures);
+                    if let Some((da, [rate_i, rate_j])) = terms {
+                        // j meets the image of i, which across the floor or ceiling has
+                        // its own hydrostatic pressure and density.
+                        let (da_j, rate_j) = if set & 0b010 == 0 {
+                            (da, rate_j)
+                        } else {
+                            let image_i = mirrored(p_i, set, &walls);
+                            let (pressure_image, rho_image) =
+                                image_of(model, pressure_i, rho_i, p_i, image_i);
+                            let pressures = [pressure_image, pressure_j];
+                            let terms = pair(model, d, dv, [rho_image, rho_j], pressures);
+                            terms.map_or((DVec3::ZERO, 0.0), |(da_j, [_, rate_j])| (da_j, rate_j))
                         };
                         let back = reflected(da_j, set);
                         for axis in 0..3 {
@@ -198,13 +212,14 @@ pub(super) fn reference(
         for &j in list.iter() {
             let j = j as usize;
             let (p_j, v_j) = (vector_at(state.p, j), vector_at(state.v, j));
-            let rho = [state.rho[i], state.rho[j]];
+            let (pressure_j, rho_j) = (state.pressure_terms[j], state.rho[j]);
             let own = usize::from(j == i);
             for set in std::iter::once(0).chain(walls.images()).skip(own) {
                 let image = mirrored(p_j, set, &walls);
                 let dv = v_i - reflected(v_j, set);
-                let pressure_j = image_pressure(state.pressure_terms[j], rho[1], p_j, image);
-                let pressure = [state.pressure_terms[i], pressure_j];
+                let (pressure_image, rho_image) = image_of(model, pressure_j, rho_j, p_j, image);
+                let pressure = [state.pressure_terms[i], pressure_image];
+                let rho = [state.rho[i], rho_image];
                 if let Some((da, [rate_i, _])) = pair(model, p_i - image, dv, rho, pressure) {
                     for (sum, term) in a.iter_mut().zip(da.to_array()) {
                         sum.add(term);
@@ -241,6 +256,8 @@ struct Pairs<'a, L: Lanes> {
     diffusion: L::V,
     eta2: L::V,
     twice_gravity: L::V,
+    inverse_sound_speed2: L::V,
+    inverse_c2: f64,
 }
 
 /// One group's terms: i's acceleration and the partners' (before reflection; per axis),
@@ -298,46 +315,49 @@ impl<L: Lanes> Pairs<'_, L> {
         };
         let rho_i = L::splat(first.rho);
         let pressure_i = L::splat(first.pressure);
-        // Across the floor or ceiling an image's pressure differs from its particle's by
-        // rho g_y (y' - y): for j's image y'_j - y_j = 2 (y_i - w) - 2 d_y, for i's
-        // image (which j meets) 2 (w - y_i).
-        let (pressure_sum_i, pressure_sum_j) = if across(1) {
-            let height = first.p[1] - first.walls.at[1];
-            let lift = L::splat(2.0 * GRAVITY.y * height) - self.twice_gravity * d[1];
-            let image_i = first.pressure - 2.0 * GRAVITY.y * height / first.rho;
-            (
-                pressure_i + pressure_j + lift / rho_j,
-                L::splat(image_i) + pressure_j,
+        let viscosity = |rho_a: L::V, rho_b: L::V| {
+            L::max(
+                self.zero - self.viscosity * approach * inverse / (rho_a + rho_b),
+                self.zero,
             )
-        } else {
-            (pressure_i + pressure_j, pressure_i + pressure_j)
         };
-        let viscosity = L::max(
-            self.zero - self.viscosity * approach * inverse / (rho_i + rho_j),
-            self.zero,
-        );
-        let scale = mass_gradient * (pressure_sum_i + viscosity);
         let continuity = self.zero - mass_gradient * approach;
         let diffusion = self.diffusion * mass_gradient * r2 * inverse;
-        let difference = rho_j - rho_i;
-        let rate_i = (continuity + diffusion * difference / rho_j) & close;
-        let rate_j = (continuity - diffusion * difference / rho_i) & close;
-        let da = [
-            (d[0] * scale) & close,
-            (d[1] * scale) & close,
-            (d[2] * scale) & close,
-        ];
-        let da_j = if across(1) {
-            let scale = mass_gradient * (pressure_sum_j + viscosity);
+        let terms = |scale: L::V| {
             [
                 (d[0] * scale) & close,
                 (d[1] * scale) & close,
                 (d[2] * scale) & close,
             ]
-        } else {
-            da
         };
-        Some((da, da_j, rate_i, rate_j))
+        if !across(1) {
+            let scale = mass_gradient * (pressure_i + pressure_j + viscosity(rho_i, rho_j));
+            let difference = rho_j - rho_i;
+            let rate_i = (continuity + diffusion * difference / rho_j) & close;
+            let rate_j = (continuity - diffusion * difference / rho_i) & close;
+            let da = terms(scale);
+            return Some((da, da, rate_i, rate_j));
+        }
+        // Across the floor or ceiling an image's pressure differs from its particle's by
+        // rho g_y (y' - y), and its density by that over c0^2: j's image lies
+        // y'_j - y_j = 2 (y_i - w) - 2 d_y from j, and i's image (which j meets)
+        // 2 (w - y_i) from i.
+        let height = first.p[1] - first.walls.at[1];
+        let lift_j = self.twice_gravity * (L::splat(height) - d[1]);
+        let rho_j_image = rho_j + rho_j * lift_j * self.inverse_sound_speed2;
+        let pressure_j_image = (pressure_j * rho_j + lift_j) * rho_j / (rho_j_image * rho_j_image);
+        let lift_i = -2.0 * GRAVITY.y * height;
+        let rho_i_image = first.rho * (1.0 + lift_i * self.inverse_c2);
+        let pressure_i_image =
+            (first.pressure * first.rho + lift_i) * first.rho / (rho_i_image * rho_i_image);
+        let (rho_i_image, pressure_i_image) = (L::splat(rho_i_image), L::splat(pressure_i_image));
+        let scale_i =
+            mass_gradient * (pressure_i + pressure_j_image + viscosity(rho_i, rho_j_image));
+        let scale_j =
+            mass_gradient * (pressure_i_image + pressure_j + viscosity(rho_i_image, rho_j));
+        let rate_i = (continuity + diffusion * (rho_j_image - rho_i) / rho_j_image) & close;
+        let rate_j = (continuity + diffusion * (rho_i_image - rho_j) / rho_i_image) & close;
+        Some((terms(scale_i), terms(scale_j), rate_i, rate_j))
     }
 }
 
@@ -365,6 +385,8 @@ pub(super) fn lanes<L: Lanes>(
         diffusion: L::splat(2.0 * DENSITY_DIFFUSION * model.h * model.sound_speed),
         eta2: L::splat(model.eta2),
         twice_gravity: L::splat(2.0 * GRAVITY.y),
+        inverse_sound_speed2: L::splat(1.0 / (model.sound_speed * model.sound_speed)),
+        inverse_c2: 1.0 / (model.sound_speed * model.sound_speed),
     };
     let mut a = [ax, ay, az];
     for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
@@ -536,7 +558,7 @@ mod tests {
             (Kernel::Simd, 1e-12),
             (Kernel::Simd8, 1e-12),
             (Kernel::Reference, 1e-12),
-            (Kernel::Mixed, 1e-4),
+            (Kernel::Mixed, 5e-6),
         ] {
             let (da, drate) = difference(&scalar, &pass(kernel, &model, ppm, &particles));
             println!("{kernel:?}: {da:.2e} {drate:.2e}");
@@ -600,14 +622,13 @@ mod tests {
         for (da, drate) in against_explicit_images(0b101, corner, shift) {
             assert!(da < 1e-12 && drate < 1e-12, "{da:e} {drate:e}");
         }
-        // The floor and a side wall: an image's pressure is hydrostatic, which explicit
-        // particles can only carry in their density, so their viscosity and diffusion
-        // see that density where the images see their particles': a few 1e-4 and 1e-3.
+        // The floor and a side wall: an image's density continues water at rest by
+        // Tait's law near rest (p - p_j over c0^2), the explicit images' by the law
+        // itself, which differ in the second order: 2e-5 and 9e-5 here.
         let corner = DVec3::new(BOX_MIN.x, BOX_MIN.y, -0.01);
         let shift = DVec3::new(0.05, 0.07, 0.0);
         for (da, drate) in against_explicit_images(0b011, corner, shift) {
-            println!("{da:.2e} {drate:.2e}");
-            assert!(da < 1e-3 && drate < 1e-2, "{da:e} {drate:e}");
+            assert!(da < 1e-4 && drate < 3e-4, "{da:e} {drate:e}");
         }
     }
 }
