@@ -7,9 +7,10 @@
 //! support of i and both are near that wall (|p_i - M p_j| >= |p_i - p_j| when both are
 //! on the wall's side), so the images need no search of their own: each pair of the
 //! tiles whose first particle is near a wall is also evaluated mirrored, and the image's
-//! terms go to i and, mirrored back, to j. An image's pressure is its particle's plus the
-//! hydrostatic difference between them, rho g . (p' - p) (Adami et al. 2012): across the
-//! floor the pressure keeps growing with depth, so the wall holds water at rest.
+//! terms go to i and, mirrored back, to j. Across the floor an image's pressure is its
+//! particle's plus the hydrostatic difference between them, rho g . (p' - p) (Adami et
+//! al. 2012), and its density follows: the pressure keeps growing with depth, so the
+//! floor holds water at rest.
 //!
 //! Three implementations: [`scalar`] (one pair at a time), [`lanes`] (a lane-width of
 //! partners at a time, on any [`Lanes`]) and [`reference`] (each particle's terms summed
@@ -18,7 +19,7 @@
 use super::reference::Neumaier;
 use super::simd::{assert_padded, slots_used, Lanes};
 use crate::sim::neighbours::Tile;
-use crate::sim::params::GRAVITY;
+use crate::sim::params::{BOX_MIN, GRAVITY};
 use crate::sim::particles::{vector_at, AxisArrays};
 use crate::sim::wcsph::{NearWalls, Wcsph, ARTIFICIAL_VISCOSITY, DENSITY_DIFFUSION};
 use glam::DVec3;
@@ -99,11 +100,12 @@ fn mirrored(p: DVec3, set: u8, walls: &NearWalls) -> DVec3 {
 }
 
 /// The p / rho^2 and density of the image at `image` of a particle at `p` with
-/// `pressure` (p / rho^2) and density `rho`: as water at rest continues, its pressure is
-/// the particle's plus rho g . (image - p), and its density the particle's plus that
-/// over c0^2 (Tait's law near rest).
+/// `pressure` (p / rho^2) and density `rho`: below the floor, as water at rest continues,
+/// its pressure is the particle's plus rho g . (image - p), and its density the
+/// particle's plus that over c0^2 (Tait's law near rest). Above the ceiling (water
+/// splashed against it, not resting under it) and beside the side walls, the particle's.
 fn image_of(model: &Wcsph, pressure: f64, rho: f64, p: DVec3, image: DVec3) -> (f64, f64) {
-    let lift = GRAVITY.dot(image - p);
+    let lift = GRAVITY.dot(image - p).max(0.0);
     let inverse_c2 = 1.0 / (model.sound_speed * model.sound_speed);
     let rho_image = rho * (1.0 + lift * inverse_c2);
     let pressure_image = (pressure * rho * rho + rho * lift) / (rho_image * rho_image);
@@ -330,7 +332,7 @@ impl<L: Lanes> Pairs<'_, L> {
                 (d[2] * scale) & close,
             ]
         };
-        if !across(1) {
+        if !(across(1) && first.walls.at[1] == BOX_MIN.y) {
             let scale = mass_gradient * (pressure_i + pressure_j + viscosity(rho_i, rho_j));
             let difference = rho_j - rho_i;
             let rate_i = (continuity + diffusion * difference / rho_j) & close;
@@ -338,7 +340,7 @@ impl<L: Lanes> Pairs<'_, L> {
             let da = terms(scale);
             return Some((da, da, rate_i, rate_j));
         }
-        // Across the floor or ceiling an image's pressure differs from its particle's by
+        // Across the floor an image's pressure differs from its particle's by
         // rho g_y (y' - y), and its density by that over c0^2: j's image lies
         // y'_j - y_j = 2 (y_i - w) - 2 d_y from j, and i's image (which j meets)
         // 2 (w - y_i) from i.
@@ -454,7 +456,7 @@ mod tests {
     use super::*;
     use crate::sim::kernel::interact_weakly_compressible;
     use crate::sim::method::{Kernel, Method, Model};
-    use crate::sim::params::{BOX_MAX, BOX_MIN};
+    use crate::sim::params::BOX_MAX;
     use crate::sim::particles::{Particles, PADDING};
     use crate::sim::simulation::Simulation;
 
