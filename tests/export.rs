@@ -128,6 +128,138 @@ fn vtk_exports_of_a_run_match_the_input_and_the_reference_outputs() {
     }
 }
 
+/// Parses a `.vtp` that `fluid-lab export --format vtp` writes (XML header, arrays
+/// appended raw with UInt64 sizes): every array by name, as f64, with its components.
+fn parse_vtp(bytes: &[u8]) -> HashMap<String, (usize, Vec<f64>)> {
+    let marker = b"<AppendedData encoding=\"raw\">";
+    let at = bytes
+        .windows(marker.len())
+        .position(|w| w == marker)
+        .expect("appended data");
+    let header = format!("{}</VTKFile>", std::str::from_utf8(&bytes[..at]).unwrap());
+    let document = roxmltree::Document::parse(&header).unwrap();
+    let root = document.root_element();
+    assert_eq!(root.attribute("type"), Some("PolyData"));
+    assert_eq!(root.attribute("byte_order"), Some("LittleEndian"));
+    assert_eq!(root.attribute("header_type"), Some("UInt64"));
+    let underscore = at
+        + marker.len()
+        + bytes[at + marker.len()..]
+            .iter()
+            .position(|&b| b == b'_')
+            .unwrap();
+    let data = &bytes[underscore + 1..];
+    let mut arrays = HashMap::new();
+    for array in root.descendants().filter(|n| n.has_tag_name("DataArray")) {
+        assert_eq!(array.attribute("format"), Some("appended"));
+        let offset: usize = array.attribute("offset").unwrap().parse().unwrap();
+        let components: usize = array
+            .attribute("NumberOfComponents")
+            .unwrap()
+            .parse()
+            .unwrap();
+        let size = u64::from_le_bytes(data[offset..offset + 8].try_into().unwrap()) as usize;
+        let raw = &data[offset + 8..offset + 8 + size];
+        let values: Vec<f64> = match array.attribute("type").unwrap() {
+            "Float32" => raw
+                .chunks(4)
+                .map(|c| f32::from_le_bytes(c.try_into().unwrap()) as f64)
+                .collect(),
+            "Float64" => raw
+                .chunks(8)
+                .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+                .collect(),
+            "Int32" => raw
+                .chunks(4)
+                .map(|c| i32::from_le_bytes(c.try_into().unwrap()) as f64)
+                .collect(),
+            "Int64" => raw
+                .chunks(8)
+                .map(|c| i64::from_le_bytes(c.try_into().unwrap()) as f64)
+                .collect(),
+            other => panic!("unexpected type {other}"),
+        };
+        arrays.insert(
+            array.attribute("Name").unwrap().to_string(),
+            (components, values),
+        );
+    }
+    assert!(bytes.ends_with(b"</AppendedData>\n</VTKFile>\n"));
+    arrays
+}
+
+#[test]
+fn a_vtp_series_opens_with_physical_times_and_holds_the_states() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let run = |format: &str, folder: &str| {
+        let out = dir.path().join(folder);
+        let args = [
+            small.to_str().unwrap(),
+            out.to_str().unwrap(),
+            "--steps",
+            "2",
+        ];
+        export(&[
+            "export", args[0], args[1], args[2], args[3], "--every", "1", "--format", format,
+        ]);
+        out
+    };
+    let (vtp, vtk) = (run("vtp", "vtp"), run("vtk", "vtk"));
+    // The collection names every frame with its physical time (1 ms steps).
+    let collection = std::fs::read_to_string(vtp.join("small.pvd")).unwrap();
+    let document = roxmltree::Document::parse(&collection).unwrap();
+    assert_eq!(
+        document.root_element().attribute("type"),
+        Some("Collection")
+    );
+    let frames: Vec<(f64, String)> = document
+        .descendants()
+        .filter(|n| n.has_tag_name("DataSet"))
+        .map(|n| {
+            let time = n.attribute("timestep").unwrap().parse().unwrap();
+            (time, n.attribute("file").unwrap().to_string())
+        })
+        .collect();
+    assert_eq!(frames.len(), 3, "{collection}");
+    for (step, (time, file)) in frames.iter().enumerate() {
+        assert!((time - step as f64 * 1e-3).abs() < 1e-15, "{time}");
+        assert_eq!(file, &format!("small_{step:06}.vtp"));
+        let arrays = parse_vtp(&std::fs::read(vtp.join(file)).unwrap());
+        // Every array equals the legacy export of the same state, and the points and
+        // velocities the input and the reference outputs.
+        let legacy =
+            parse_vtk(&std::fs::read_to_string(vtk.join(format!("small_{step:06}.vtk"))).unwrap());
+        let points: Vec<f64> = legacy.points.iter().flatten().copied().collect();
+        assert_eq!(arrays["Points"], (3, points));
+        for name in ["velocity", "half_velocity", "density", "block", "id"] {
+            assert_eq!(arrays[name].1, legacy.arrays[name], "{file}: {name}");
+        }
+        let n = 4800;
+        assert_eq!(
+            arrays["connectivity"].1,
+            (0..n).map(f64::from).collect::<Vec<_>>()
+        );
+        assert_eq!(
+            arrays["offsets"].1,
+            (1..=n).map(f64::from).collect::<Vec<_>>()
+        );
+        if step < 2 {
+            let truth = match step {
+                0 => std::fs::read(&small).unwrap(),
+                _ => std::fs::read(reference_output("small", 1)).unwrap(),
+            };
+            let truth = fld::parse(&truth, file).unwrap().particles;
+            for i in 0..n as usize {
+                for axis in 0..3 {
+                    assert_eq!(arrays["Points"].1[3 * i + axis], truth.p[axis][i]);
+                    assert_eq!(arrays["velocity"].1[3 * i + axis], truth.v[axis][i]);
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn csv_exports_hold_the_final_state_only_by_default() {
     let dir = tempfile::tempdir().unwrap();

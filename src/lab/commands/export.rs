@@ -1,7 +1,8 @@
-//! `fluid-lab export`: a state, or a run every k steps, as VTK (ParaView) or CSV files.
+//! `fluid-lab export`: a state, or a run every k steps, as VTK (legacy ASCII, or XML with
+//! binary arrays and a `.pvd` time series, for ParaView) or CSV files.
 
 use super::simulation_args::{load, run_visiting, Loaded, SimulationArgs};
-use crate::io::export::Snapshot;
+use crate::io::export::{pvd_collection, Snapshot};
 use crate::io::output::OutputFile;
 use clap::builder::RangedI64ValueParser;
 use clap::Args;
@@ -14,7 +15,7 @@ use std::path::PathBuf;
 pub struct ExportArgs {
     #[command(flatten)]
     simulation: SimulationArgs,
-    /// Folder for the files, named INPUT-STEM_STEP.vtk (or .csv).
+    /// Folder for the files, named INPUT-STEM_STEP.vtk (or .csv, .vtp).
     output_dir: PathBuf,
     /// Also export every this many steps (and step 0) [default: the final state only].
     #[arg(long, allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
@@ -31,6 +32,9 @@ pub enum ExportFormat {
     Vtk,
     /// One row per particle.
     Csv,
+    /// VTK XML PolyData with raw binary arrays, and INPUT-STEM.pvd, the collection of the
+    /// files with each one's physical time (ParaView plays it in simulated time).
+    Vtp,
 }
 
 /// Runs the scene and writes the states asked for, one file each.
@@ -43,20 +47,33 @@ pub fn exec(args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
     } = load(&args.simulation)?;
     super::create_output_dir(&args.output_dir)?;
     let steps = args.simulation.steps;
+    let collection = args.output_dir.join(format!("{stem}.pvd"));
+    let mut frames = Vec::new();
     run_visiting(&mut simulation, steps, args.every, |simulation, step| {
         let snapshot = Snapshot::of(simulation, step);
-        let (text, extension) = match args.format {
+        let (bytes, extension) = match args.format {
             ExportFormat::Vtk => (
-                snapshot.to_vtk(&format!("fluid: {name}, step {step}")),
+                snapshot
+                    .to_vtk(&format!("fluid: {name}, step {step}"))
+                    .into_bytes(),
                 "vtk",
             ),
-            ExportFormat::Csv => (snapshot.to_csv(), "csv"),
+            ExportFormat::Csv => (snapshot.to_csv().into_bytes(), "csv"),
+            ExportFormat::Vtp => (snapshot.to_vtp(), "vtp"),
         };
-        let path = args
-            .output_dir
-            .join(format!("{stem}_{step:06}.{extension}"));
-        OutputFile::create(&path)?.commit(text.as_bytes())?;
+        let file = format!("{stem}_{step:06}.{extension}");
+        let path = args.output_dir.join(&file);
+        OutputFile::create(&path)?.commit(&bytes)?;
         writeln!(stdout, "wrote {}", path.display())?;
+        if args.format == ExportFormat::Vtp {
+            // Rewritten with every frame, so a stopped run leaves the series so far.
+            frames.push((file, snapshot.time));
+            OutputFile::create(&collection)?.commit(pvd_collection(&frames).as_bytes())?;
+        }
         Ok(())
-    })
+    })?;
+    if args.format == ExportFormat::Vtp {
+        writeln!(stdout, "wrote {}", collection.display())?;
+    }
+    Ok(())
 }
