@@ -205,16 +205,19 @@ impl Snapshot {
             ));
             offset += 8 + bytes.len();
         }
-        let mut text = format!(
+        // Points, then the point data, then the vertex lists.
+        let text = format!(
             "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"1.0\" \
              byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<PolyData>\n\
              <Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"{n}\">\n\
-             <Points>{}</Points>\n<PointData>{}{}{}{}{}</PointData>\n\
-             <Verts>{}{}</Verts>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_",
-            tags[0], tags[1], tags[2], tags[3], tags[4], tags[5], tags[6], tags[7]
+             <Points>{}</Points>\n<PointData>{}</PointData>\n\
+             <Verts>{}</Verts>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_",
+            tags[0],
+            tags[1..6].concat(),
+            tags[6..].concat()
         );
-        text.shrink_to_fit();
-        let mut bytes = text.into_bytes();
+        let mut bytes = Vec::with_capacity(text.len() + offset + 64);
+        bytes.extend_from_slice(text.as_bytes());
         for (_, _, _, data) in &arrays {
             bytes.extend_from_slice(&(data.len() as u64).to_le_bytes());
             bytes.extend_from_slice(data);

@@ -1,6 +1,7 @@
 //! How a simulation is computed: which model (the course model, the stable
-//! fluidanimate variant, or the weakly compressible model) and which kernel (plain scalar loops, `f64x4` or `f64x8` lanes,
-//! mixed f64/f32 lanes, or the compensated reference) runs the pair interactions.
+//! fluidanimate variant, or the weakly compressible model) and which kernel (plain scalar
+//! loops, `f64x4` or `f64x8` lanes, mixed f64/f32 lanes, or the compensated reference)
+//! runs the pair interactions.
 
 use crate::sim::params::TIME_STEP;
 use crate::sim::timestep::TimeStep;

@@ -412,29 +412,22 @@ impl Simulation {
     fn weakly_compressible_step(&mut self, longest: f64) {
         self.run_stage(Stage::Reposition);
         self.run_stage(Stage::TransferAccelerations);
-        let model = self
-            .weakly_compressible()
-            .expect("the model runs")
-            .to_owned();
+        let weakly = self.weakly_compressible.as_ref().expect("the model runs");
         let (chosen, limit) = match self.time_step {
             TimeStep::Fixed(dt) => (dt, Limit::Fixed),
-            TimeStep::Adaptive { courant } => model.time_step(&self.particles, courant),
+            TimeStep::Adaptive { courant } => weakly.model.time_step(&self.particles, courant),
         };
         let (dt, limit) = Self::within(chosen, limit, longest);
-        stages::advance_within_box(self.leapfrog(dt), &mut self.particles);
+        let step = self.leapfrog(dt);
+        stages::advance_within_box(step, &mut self.particles);
         let n = self.particles.len();
-        let rates = &self
-            .weakly_compressible
-            .as_ref()
-            .expect("the model runs")
-            .rates;
-        wcsph::advance_densities(dt, &rates[..n], &mut self.particles.rho[..n]);
+        wcsph::advance_densities(dt, &weakly.rates[..n], &mut self.particles.rho[..n]);
         self.time += dt;
         self.last_step = Some((dt, limit));
     }
 
-    /// The weakly compressible model's pair loop on the current state: accelerations
-    /// (gravity plus pairs) and density rates.
+    /// The weakly compressible model's pair loop on the current state: its pair terms
+    /// added to the accelerations (gravity after stage 2), and the density rates.
     fn interact_weakly_compressible(&mut self) {
         let Some(weakly) = self.weakly_compressible.as_mut() else {
             return;
@@ -461,7 +454,6 @@ impl Simulation {
             );
             velocities.resize(padded, 0.0);
         }
-        particles.reset_accelerations();
         let Particles { id, p, rho, a, .. } = particles;
         let state = kernel::State {
             p,

@@ -47,11 +47,17 @@ pub struct SimulationArgs {
 impl SimulationArgs {
     /// The time-step rule the arguments ask for, or the model's own.
     pub fn time_step(&self) -> TimeStep {
-        match (self.adaptive, self.dt) {
-            (Some(courant), _) => TimeStep::Adaptive { courant },
-            (None, Some(dt)) => TimeStep::Fixed(dt),
-            (None, None) => self.model.default_time_step(),
-        }
+        asked_time_step(self.adaptive, self.dt).unwrap_or(self.model.default_time_step())
+    }
+}
+
+/// The time-step rule `--adaptive C` or `--dt DT` ask for (the adaptive one if both are
+/// given), if either is.
+pub fn asked_time_step(adaptive: Option<f64>, dt: Option<f64>) -> Option<TimeStep> {
+    match (adaptive, dt) {
+        (Some(courant), _) => Some(TimeStep::Adaptive { courant }),
+        (None, Some(dt)) => Some(TimeStep::Fixed(dt)),
+        (None, None) => None,
     }
 }
 

@@ -3,7 +3,7 @@
 //! experimental point as a CSV, and a chart of Z against T with the experiment's points.
 
 use super::create_output_dir;
-use super::simulation_args::{parse_courant, parse_time_step};
+use super::simulation_args::{asked_time_step, parse_courant, parse_time_step};
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
@@ -100,11 +100,7 @@ pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
         OutputFile::create(&fronts_path)?,
         OutputFile::create(&errors_path)?,
     );
-    let asked = match (args.adaptive, args.dt) {
-        (Some(courant), _) => Some(TimeStep::Adaptive { courant }),
-        (None, Some(dt)) => Some(TimeStep::Fixed(dt)),
-        (None, None) => None,
-    };
+    let asked = asked_time_step(args.adaptive, args.dt);
     let mut fronts = format!("{FRONTS_HEADER}\n");
     let mut errors = format!("{ERRORS_HEADER}\n");
     let mut runs = Vec::new();

@@ -154,9 +154,9 @@ pub(super) fn scalar(model: &Wcsph, tiles: &[Tile], state: State, n: usize, rate
                     let d = p_i - image;
                     let terms = pair(model, d, dv, [rho_i, rho_image], pressures);
                     if let Some((da, [rate_i, rate_j])) = terms {
-                        // j meets the image of i, which across the floor or ceiling has
-                        // its own hydrostatic pressure and density.
-                        let (da_j, rate_j) = if set & 0b010 == 0 {
+                        // j meets the image of i, which across the floor has its own
+                        // hydrostatic pressure and density.
+                        let (da_j, rate_j) = if set & 0b010 == 0 || walls.at[1] != BOX_MIN.y {
                             (da, rate_j)
                         } else {
                             let image_i = mirrored(p_i, set, &walls);
@@ -244,6 +244,9 @@ struct First {
     rho: f64,
     pressure: f64,
     walls: NearWalls,
+    /// Near the floor: the p / rho^2 and density of its image below it ([`image_of`]),
+    /// which its partners meet.
+    floor_image: Option<(f64, f64)>,
 }
 
 /// The arrays and constants of the lanes loop.
@@ -259,7 +262,6 @@ struct Pairs<'a, L: Lanes> {
     eta2: L::V,
     twice_gravity: L::V,
     inverse_sound_speed2: L::V,
-    inverse_c2: f64,
 }
 
 /// One group's terms: i's acceleration and the partners' (before reflection; per axis),
@@ -332,26 +334,22 @@ impl<L: Lanes> Pairs<'_, L> {
                 (d[2] * scale) & close,
             ]
         };
-        if !(across(1) && first.walls.at[1] == BOX_MIN.y) {
+        let floor_image = first.floor_image.filter(|_| across(1));
+        let Some((pressure_i_image, rho_i_image)) = floor_image else {
             let scale = mass_gradient * (pressure_i + pressure_j + viscosity(rho_i, rho_j));
             let difference = rho_j - rho_i;
             let rate_i = (continuity + diffusion * difference / rho_j) & close;
             let rate_j = (continuity - diffusion * difference / rho_i) & close;
             let da = terms(scale);
             return Some((da, da, rate_i, rate_j));
-        }
+        };
         // Across the floor an image's pressure differs from its particle's by
-        // rho g_y (y' - y), and its density by that over c0^2: j's image lies
-        // y'_j - y_j = 2 (y_i - w) - 2 d_y from j, and i's image (which j meets)
-        // 2 (w - y_i) from i.
+        // rho g_y (y' - y), and its density by that over c0^2 ([`image_of`]): j's image
+        // lies y'_j - y_j = 2 (y_i - w) - 2 d_y from j; i's is the first's own.
         let height = first.p[1] - first.walls.at[1];
         let lift_j = self.twice_gravity * (L::splat(height) - d[1]);
         let rho_j_image = rho_j + rho_j * lift_j * self.inverse_sound_speed2;
         let pressure_j_image = (pressure_j * rho_j + lift_j) * rho_j / (rho_j_image * rho_j_image);
-        let lift_i = -2.0 * GRAVITY.y * height;
-        let rho_i_image = first.rho * (1.0 + lift_i * self.inverse_c2);
-        let pressure_i_image =
-            (first.pressure * first.rho + lift_i) * first.rho / (rho_i_image * rho_i_image);
         let (rho_i_image, pressure_i_image) = (L::splat(rho_i_image), L::splat(pressure_i_image));
         let scale_i =
             mass_gradient * (pressure_i + pressure_j_image + viscosity(rho_i, rho_j_image));
@@ -388,18 +386,24 @@ pub(super) fn lanes<L: Lanes>(
         eta2: L::splat(model.eta2),
         twice_gravity: L::splat(2.0 * GRAVITY.y),
         inverse_sound_speed2: L::splat(1.0 / (model.sound_speed * model.sound_speed)),
-        inverse_c2: 1.0 / (model.sound_speed * model.sound_speed),
     };
     let mut a = [ax, ay, az];
     for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
         for i in cell_tiles[0].firsts() {
             let position = [x[i], y[i], z[i]];
+            let walls = NearWalls::of(position, model.support);
+            let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
+            let floor_image = (walls.axes & 0b010 != 0 && walls.at[1] == BOX_MIN.y).then(|| {
+                let p = DVec3::from_array(position);
+                image_of(model, pressure, rho, p, mirrored(p, 0b010, &walls))
+            });
             let first = First {
                 p: position,
                 v: [vx[i], vy[i], vz[i]],
-                rho: state.rho[i],
-                pressure: state.pressure_terms[i],
-                walls: NearWalls::of(position, model.support),
+                rho,
+                pressure,
+                walls,
+                floor_image,
             };
             let (mut sum, mut rate) = ([L::ZERO_SUM; 3], L::ZERO_SUM);
             let mut visit = |j: usize, lanes: L::V, set: u8| {
