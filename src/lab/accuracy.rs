@@ -688,9 +688,14 @@ mod tests {
             skin: None,
         };
         assert_eq!(fine.label(), "reference dt 25.00 µs");
-        let skins = Candidate::product(Model::Course, &[Kernel::Simd], &[TIME_STEP], &[], &[0.2]);
+        // The native kernel is the default, so that it is not added again.
+        let native = Kernel::NATIVE;
+        let skins = Candidate::product(Model::Course, &[native], &[TIME_STEP], &[], &[0.2]);
         assert_eq!(skins.len(), 2, "{skins:?}");
-        assert_eq!(skins[1].label(), "simd dt 1 ms skin 0.2h");
+        assert_eq!(
+            skins[1].label(),
+            format!("{} dt 1 ms skin 0.2h", native.name())
+        );
         // Without the default in the lists, it is added.
         assert_eq!(
             Candidate::product(Model::Course, &[Kernel::Mixed], &[], &[0.3], &[])[0],
@@ -768,8 +773,9 @@ mod tests {
     fn the_sweep_measures_methods_against_a_finer_reference_at_equal_times() {
         let particles = crate::lab::scene::corner_block(150.0, 300).unwrap();
         let start = Simulation::new(150.0, particles).unwrap();
+        // The native kernel, whose run at the default step `default_run` finds.
         let simd = |time_step| Candidate {
-            kernel: Kernel::Simd,
+            kernel: Kernel::NATIVE,
             time_step,
             skin: None,
         };
