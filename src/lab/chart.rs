@@ -817,6 +817,7 @@ mod tests {
                 inputs: Vec::new(),
                 iterations: Vec::new(),
                 repeats: 3,
+                idle_windows: 3,
                 idle: Duration::from_secs(1),
             },
             energy: energy_method,

@@ -267,6 +267,30 @@ impl Failure {
             Failure::StepCollapsed => "step-collapsed",
         }
     }
+
+    /// The failure a CSV row gives as its [`name`](Failure::name) and its text (the
+    /// energy factor as printed, to its two decimals).
+    pub fn parse(name: &str, detail: &str) -> Option<Failure> {
+        let number = |before: &str, after: &str| -> Option<&str> {
+            detail.strip_prefix(before)?.strip_suffix(after)
+        };
+        Some(match name {
+            "non-finite" => {
+                Failure::NonFinite(number("particle ", " is not finite")?.parse().ok()?)
+            }
+            "left-box" => Failure::LeftBox(
+                number("", " particles left the box")
+                    .or_else(|| number("", " particle left the box"))?
+                    .parse()
+                    .ok()?,
+            ),
+            "energy-grew" => {
+                Failure::EnergyGrew(number("the energy grew ", " times")?.parse().ok()?)
+            }
+            "step-collapsed" => Failure::StepCollapsed,
+            _ => return None,
+        })
+    }
 }
 
 /// The checks of a stable run, against its first state.
@@ -444,5 +468,25 @@ mod tests {
             Failure::EnergyGrew(12345.0).to_string(),
             "the energy grew 1.23e4 times"
         );
+    }
+
+    #[test]
+    fn failures_read_back_from_their_name_and_text() {
+        for failure in [
+            Failure::NonFinite(17),
+            Failure::LeftBox(1),
+            Failure::LeftBox(250),
+            Failure::EnergyGrew(1.56),
+            Failure::EnergyGrew(1.23e4),
+            Failure::StepCollapsed,
+        ] {
+            let read = Failure::parse(failure.name(), &failure.to_string());
+            assert_eq!(read, Some(failure), "{failure}");
+        }
+        assert_eq!(
+            Failure::parse("left-box", "many particles left the box"),
+            None
+        );
+        assert_eq!(Failure::parse("melted", "the box melted"), None);
     }
 }

@@ -1,7 +1,7 @@
 //! The workbench wing (`fluid-lab`): everything `fluid`'s fixed contract leaves out, on
 //! the same library. Its concepts are modules here: generated [`scene`]s, per-state
 //! [`diagnostics`], [`accuracy`] against the reference trajectory, [`stability`] maps,
-//! iteration [`sweep`]s with their [`energy`] and [`machine`], [`chart`]s, [`render`]ed
+//! iteration [`sweep`]s with their [`energy`] and [`machine`], job arrays on [`slurm`], [`chart`]s, [`render`]ed
 //! pictures and [`validation`] against experiments. The command line is [`Lab`], one
 //! module of `commands/` per subcommand.
 
@@ -13,6 +13,7 @@ pub mod energy;
 pub mod machine;
 pub mod render;
 pub mod scene;
+pub mod slurm;
 pub mod stability;
 pub mod sweep;
 pub mod validation;
@@ -61,6 +62,9 @@ enum Command {
     /// Validate the models against an experiment (the dam break of Martin and Moyce,
     /// 1952): fronts, errors at each experimental point, and a chart.
     Validate(commands::validate::ValidateArgs),
+    /// Run a sweep or a stability map as a Slurm job array, one point per task; merge
+    /// its shards into the usual CSV and charts; resubmit the points that failed.
+    Slurm(commands::slurm::SlurmArgs),
 }
 
 impl Lab {
@@ -77,6 +81,7 @@ impl Lab {
             Command::Sweep(args) => commands::sweep::exec(args, stdout),
             Command::Chart(args) => commands::chart::exec(args, stdout),
             Command::Validate(args) => commands::validate::exec(args, stdout),
+            Command::Slurm(args) => commands::slurm::exec(args, stdout),
         }
     }
 }

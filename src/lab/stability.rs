@@ -99,6 +99,69 @@ impl Outcome {
     }
 }
 
+/// The outcomes of a stability CSV (its columns by name, so that further columns, such
+/// as a Slurm array's, are let be), in its order.
+pub fn read_csv(text: &str) -> Result<Vec<Outcome>, String> {
+    use clap::ValueEnum;
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    let headers = reader.headers().map_err(|error| error.to_string())?.clone();
+    let columns: Vec<usize> = CSV_HEADER
+        .split(',')
+        .map(|name| {
+            headers
+                .iter()
+                .position(|header| header == name)
+                .ok_or_else(|| format!("the stability CSV has no column {name}"))
+        })
+        .collect::<Result<_, _>>()?;
+    let mut outcomes = Vec::new();
+    for (line, record) in reader.records().enumerate() {
+        let record = record.map_err(|error| error.to_string())?;
+        let bad = |what: &str| format!("row {}: {what}", line + 2);
+        let cell = |k: usize| &record[columns[k]];
+        let number = |k: usize| -> Result<f64, String> {
+            cell(k)
+                .parse()
+                .map_err(|_| bad(&format!("{:?} is not a number", cell(k))))
+        };
+        let named = |k: usize| bad(&format!("unknown {} {:?}", &headers[columns[k]], cell(k)));
+        let scene = SceneKind::from_str(cell(0), false).map_err(|_| named(0))?;
+        let model = crate::sim::method::Model::from_str(cell(1), false).map_err(|_| named(1))?;
+        let kernel = crate::sim::method::Kernel::from_str(cell(2), false).map_err(|_| named(2))?;
+        let time_step = match cell(4) {
+            "fixed" => TimeStep::Fixed(number(5)?),
+            "adaptive" => TimeStep::Adaptive {
+                courant: number(6)?,
+            },
+            _ => return Err(named(4)),
+        };
+        let count = |k: usize| -> Result<u64, String> {
+            cell(k)
+                .parse()
+                .map_err(|_| bad(&format!("{:?} is not a count", cell(k))))
+        };
+        let failure = match cell(12) {
+            "stable" => None,
+            reason => Some((
+                count(10)?,
+                number(11)?,
+                Failure::parse(reason, cell(13)).ok_or_else(|| named(12))?,
+            )),
+        };
+        outcomes.push(Outcome {
+            scene,
+            method: Method { model, kernel },
+            ppm: number(3)?,
+            time_step,
+            particles: count(7)? as usize,
+            duration: number(8)?,
+            steps: count(9)?,
+            failure,
+        });
+    }
+    Ok(outcomes)
+}
+
 /// Runs `scene` (seed `seed`) at `ppm` with `method` and `time_step` until it has
 /// simulated `duration` seconds (finite and positive), checking every step; an adaptive
 /// step below `shortest_step` seconds fails it (step-collapsed).
@@ -439,5 +502,51 @@ mod tests {
                 "{label}"
             );
         }
+    }
+
+    #[test]
+    fn outcomes_read_back_from_their_csv_rows_with_columns_added() {
+        let outcome = |model, ppm, time_step, failure| Outcome {
+            scene: SceneKind::Drop,
+            method: Method {
+                model,
+                kernel: Kernel::Mixed,
+            },
+            ppm,
+            time_step,
+            particles: 1234,
+            duration: 0.5,
+            steps: 77,
+            failure,
+        };
+        let outcomes = [
+            outcome(Model::Course, 150.0, TimeStep::Fixed(2.5e-4), None),
+            outcome(
+                Model::Wcsph,
+                300.0,
+                TimeStep::Adaptive { courant: 0.3 },
+                Some((76, 0.012345, Failure::LeftBox(3))),
+            ),
+            outcome(
+                Model::Fluidanimate,
+                100.0,
+                TimeStep::Fixed(4e-3),
+                Some((5, 0.02, Failure::EnergyGrew(2.5))),
+            ),
+        ];
+        let mut text = format!("{CSV_HEADER},slurm_node\n");
+        for outcome in &outcomes {
+            text.push_str(&format!("{},node-7\n", outcome.csv_row()));
+        }
+        assert_eq!(read_csv(&text).unwrap(), outcomes);
+        let renamed = text.replacen("reason", "why", 1);
+        assert_eq!(
+            read_csv(&renamed).unwrap_err(),
+            "the stability CSV has no column reason"
+        );
+        let broken = text.replacen("left-box", "melted", 1);
+        assert!(read_csv(&broken)
+            .unwrap_err()
+            .starts_with("row 3: unknown reason"));
     }
 }

@@ -62,8 +62,10 @@ pub struct Plan {
     pub inputs: Vec<PathBuf>,
     /// The iteration counts.
     pub iterations: Vec<u64>,
-    /// Runs per point, and idle windows.
+    /// Runs per point.
     pub repeats: usize,
+    /// Idle-baseline windows, measured before the runs.
+    pub idle_windows: usize,
     /// The length of each idle window.
     pub idle: Duration,
 }
@@ -243,7 +245,7 @@ impl Sweep {
         Ok(keys)
     }
 
-    /// Measures the idle baseline, then every point `repeats` times (all points once per
+    /// Measures the idle baseline (`idle_windows` windows), then every point `repeats` times (all points once per
     /// round, so slow drifts spread over all points), after one unrecorded warm-up run per
     /// input. Records go to `records` as they are measured, and `save` gets them all after
     /// each one (so a failure or a signal keeps them), except those whose key is in
@@ -259,7 +261,7 @@ impl Sweep {
         writeln!(log, "time: {TIME_METHOD}")?;
         writeln!(log, "energy: {}", self.energy.describe())?;
         let inputs = self.inputs()?;
-        for repeat in 1..=plan.repeats {
+        for repeat in 1..=plan.idle_windows {
             if done.contains(&(None, None, repeat)) {
                 continue;
             }
@@ -472,6 +474,7 @@ mod tests {
                 inputs: Vec::new(),
                 iterations: Vec::new(),
                 repeats: 1,
+                idle_windows: 1,
                 idle: Duration::ZERO,
             },
             energy,

@@ -35,9 +35,20 @@ pub fn run_lab<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
     run(env!("CARGO_BIN_EXE_fluid-lab"), args)
 }
 
+/// Runs the `fluid-lab` workbench with `args` and the environment variables `vars`
+/// added, as [`run_fluid`] does.
+pub fn run_lab_with<S: AsRef<std::ffi::OsStr>>(args: &[S], vars: &[(&str, &str)]) -> Output {
+    run_with(env!("CARGO_BIN_EXE_fluid-lab"), args, vars)
+}
+
 fn run<S: AsRef<std::ffi::OsStr>>(program: &str, args: &[S]) -> Output {
+    run_with(program, args, &[])
+}
+
+fn run_with<S: AsRef<std::ffi::OsStr>>(program: &str, args: &[S], vars: &[(&str, &str)]) -> Output {
     let mut child = Command::new(program)
         .args(args)
+        .envs(vars.iter().copied())
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

@@ -6,7 +6,7 @@ use crate::lab::chart::{self, SweepTable};
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The arguments of `fluid-lab chart`.
 #[derive(Debug, Args)]
@@ -21,10 +21,6 @@ pub struct ChartArgs {
 
 /// Reads the sweep CSV and draws its charts.
 pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let text = std::fs::read_to_string(&args.csv)
-        .map_err(|error| format!("cannot read {}: {error}", args.csv.display()))?;
-    let table =
-        SweepTable::parse(&text).map_err(|error| format!("{}: {error}", args.csv.display()))?;
     let folder = match args.output_dir {
         Some(folder) => {
             create_output_dir(&folder)?;
@@ -32,8 +28,16 @@ pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
         }
         None => args.csv.parent().map(PathBuf::from).unwrap_or_default(),
     };
+    draw(&args.csv, &folder, stdout)
+}
+
+/// Draws the charts of the sweep CSV at `csv` into `folder`.
+pub fn draw(csv: &Path, folder: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let text = std::fs::read_to_string(csv)
+        .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;
+    let table = SweepTable::parse(&text).map_err(|error| format!("{}: {error}", csv.display()))?;
     for chart in table.charts() {
-        for path in chart::render(&chart, &folder, chart::SIZE)? {
+        for path in chart::render(&chart, folder, chart::SIZE)? {
             writeln!(stdout, "wrote {}", path.display())?;
         }
     }

@@ -11,6 +11,7 @@ pub mod render;
 pub mod run;
 pub mod scene;
 pub mod simulation_args;
+pub mod slurm;
 pub mod stability;
 pub mod sweep;
 pub mod validate;

@@ -6,14 +6,14 @@ use crate::io::output::OutputFile;
 use crate::lab::chart;
 use crate::lab::machine::Machine;
 use crate::lab::scene::SceneKind;
-use crate::lab::stability;
+use crate::lab::stability::{self, rule_name, Outcome};
 use crate::sim::method::{Kernel, Method, Model};
 use crate::sim::params::TIME_STEP;
 use crate::sim::timestep::TimeStep;
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The arguments of `fluid-lab stability`.
 #[derive(Debug, Args)]
@@ -52,84 +52,146 @@ pub struct StabilityArgs {
     shortest_step: f64,
 }
 
-/// Watches every (model, ppm, time step) run and writes the CSV and the map.
-pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    for &factor in &args.dt_factors {
-        if !is_time_step(factor * TIME_STEP) {
-            return Err(
-                format!("--dt-factors: {factor} does not give a positive time step").into(),
-            );
+/// One run of the map: its method, particles per metre and time-step rule.
+type Cell = (Method, f64, TimeStep);
+
+impl StabilityArgs {
+    /// The runs asked for, checked: every cell, in the map's order.
+    fn cells(&self) -> Result<Vec<Cell>, Box<dyn Error>> {
+        for &factor in &self.dt_factors {
+            if !is_time_step(factor * TIME_STEP) {
+                return Err(
+                    format!("--dt-factors: {factor} does not give a positive time step").into(),
+                );
+            }
         }
-    }
-    if !(args.duration.is_finite() && args.duration > 0.0) {
-        return Err(format!(
-            "--duration: {} is not a positive, finite time",
-            args.duration
-        )
-        .into());
-    }
-    if !(args.shortest_step.is_finite() && args.shortest_step > 0.0) {
-        return Err(format!(
-            "--shortest-step: {} is not a positive step",
-            args.shortest_step
-        )
-        .into());
-    }
-    let rules: Vec<TimeStep> = args
-        .dt_factors
-        .iter()
-        .map(|factor| TimeStep::Fixed(factor * TIME_STEP))
-        .chain(
-            Courants::all(&args.adaptive)
-                .into_iter()
-                .map(|courant| TimeStep::Adaptive { courant }),
-        )
-        .collect();
-    super::create_output_dir(&args.output_dir)?;
-    // The CSV is opened before the runs, so an unwritable folder fails first.
-    let csv_path = args.output_dir.join("stability.csv");
-    let csv_file = OutputFile::create(&csv_path)?;
-    let mut rows = format!("{}\n", stability::CSV_HEADER);
-    let mut outcomes = Vec::new();
-    for &model in &args.models {
-        for &kernel in &args.kernels {
-            let method = Method { model, kernel };
-            for &ppm in &args.ppms {
-                for &rule in &rules {
-                    let outcome = stability::watch(
-                        args.scene,
-                        args.seed,
-                        method,
-                        ppm,
-                        rule,
-                        args.duration,
-                        args.shortest_step,
-                    )?;
-                    writeln!(stdout, "{}", outcome.summary())?;
-                    rows.push_str(&outcome.csv_row());
-                    rows.push('\n');
-                    outcomes.push(outcome);
+        if !(self.duration.is_finite() && self.duration > 0.0) {
+            return Err(format!(
+                "--duration: {} is not a positive, finite time",
+                self.duration
+            )
+            .into());
+        }
+        if !(self.shortest_step.is_finite() && self.shortest_step > 0.0) {
+            return Err(format!(
+                "--shortest-step: {} is not a positive step",
+                self.shortest_step
+            )
+            .into());
+        }
+        let rules: Vec<TimeStep> = self
+            .dt_factors
+            .iter()
+            .map(|factor| TimeStep::Fixed(factor * TIME_STEP))
+            .chain(
+                Courants::all(&self.adaptive)
+                    .into_iter()
+                    .map(|courant| TimeStep::Adaptive { courant }),
+            )
+            .collect();
+        let mut cells = Vec::new();
+        for &model in &self.models {
+            for &kernel in &self.kernels {
+                for &ppm in &self.ppms {
+                    for &rule in &rules {
+                        cells.push((Method { model, kernel }, ppm, rule));
+                    }
                 }
             }
         }
+        Ok(cells)
+    }
+
+    /// Watches one run.
+    fn watch(&self, (method, ppm, rule): Cell) -> Result<Outcome, String> {
+        stability::watch(
+            self.scene,
+            self.seed,
+            method,
+            ppm,
+            rule,
+            self.duration,
+            self.shortest_step,
+        )
+    }
+
+    /// The points a Slurm array runs, one a task: each run of the map.
+    pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
+        Ok(self
+            .cells()?
+            .into_iter()
+            .map(|(method, ppm, rule)| {
+                format!(
+                    "{} {}, ppm {ppm}, {}",
+                    method.model.name(),
+                    method.kernel.name(),
+                    rule_name(rule)
+                )
+            })
+            .collect())
+    }
+
+    /// Watches point `index` of [`StabilityArgs::points`] alone: its CSV.
+    pub fn watch_point(&self, index: usize) -> Result<Vec<u8>, Box<dyn Error>> {
+        let cell = *self
+            .cells()?
+            .get(index)
+            .ok_or_else(|| format!("the map has no point {index}"))?;
+        let outcome = self.watch(cell)?;
+        eprintln!("{}", outcome.summary());
+        Ok(format!("{}\n{}\n", stability::CSV_HEADER, outcome.csv_row()).into_bytes())
+    }
+
+    /// The folder of the CSV and the map.
+    pub fn output_dir(&self) -> &Path {
+        &self.output_dir
+    }
+
+    /// The stability.csv these arguments write.
+    pub fn csv_path(&self) -> PathBuf {
+        self.output_dir.join("stability.csv")
+    }
+
+    /// Draws the map of `outcomes` into the output folder.
+    pub fn draw(
+        &self,
+        outcomes: &[Outcome],
+        stdout: &mut impl Write,
+    ) -> Result<(), Box<dyn Error>> {
+        let machine = Machine::this();
+        let footer = format!(
+            "{} seed {}, {} s each; fails on: non-finite values, particles more than h outside the \
+             box, energy above 1.5 x the first; commit {}",
+            self.scene.name(),
+            self.seed,
+            self.duration,
+            machine.commit
+        );
+        let map = stability::StabilityMap { outcomes, footer };
+        for path in chart::render(&map, &self.output_dir, map.size())? {
+            writeln!(stdout, "wrote {}", path.display())?;
+        }
+        Ok(())
+    }
+}
+
+/// Watches every (model, ppm, time step) run and writes the CSV and the map.
+pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let cells = args.cells()?;
+    super::create_output_dir(&args.output_dir)?;
+    // The CSV is opened before the runs, so an unwritable folder fails first.
+    let csv_path = args.csv_path();
+    let csv_file = OutputFile::create(&csv_path)?;
+    let mut rows = format!("{}\n", stability::CSV_HEADER);
+    let mut outcomes = Vec::new();
+    for cell in cells {
+        let outcome = args.watch(cell)?;
+        writeln!(stdout, "{}", outcome.summary())?;
+        rows.push_str(&outcome.csv_row());
+        rows.push('\n');
+        outcomes.push(outcome);
     }
     csv_file.commit(rows.as_bytes())?;
     writeln!(stdout, "wrote {}", csv_path.display())?;
-    let machine = Machine::this();
-    let footer = format!(
-        "{} seed {}, {} s each; fails on: non-finite values, particles more than h outside the \
-         box, energy above 1.5 x the first; commit {}",
-        args.scene.name(),
-        args.seed,
-        args.duration,
-        machine.commit
-    );
-    let map = stability::StabilityMap {
-        outcomes: &outcomes,
-        footer,
-    };
-    for path in chart::render(&map, &args.output_dir, map.size())? {
-        writeln!(stdout, "wrote {}", path.display())?;
-    }
-    Ok(())
+    args.draw(&outcomes, stdout)
 }

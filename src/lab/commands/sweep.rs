@@ -48,53 +48,117 @@ pub struct SweepArgs {
     perf: PathBuf,
 }
 
+impl SweepArgs {
+    /// The sweep these arguments ask for: the program checked, energy detected here.
+    fn sweep(&self) -> Result<Sweep, Box<dyn Error>> {
+        let idle = Duration::try_from_secs_f64(self.idle_seconds)
+            .map_err(|_| format!("--idle-seconds {} is not a duration", self.idle_seconds))?;
+        let program = match &self.program {
+            Some(program) => program_path(program.clone())?,
+            None => {
+                let beside = std::env::current_exe()?.with_file_name("fluid");
+                if !beside.is_file() {
+                    return Err(format!(
+                        "no fluid binary at {}: build it (cargo build --release --bins) or pass --program",
+                        beside.display()
+                    )
+                    .into());
+                }
+                beside
+            }
+        };
+        if let Some(input) = self
+            .inputs
+            .iter()
+            .find(|input| same_file(input, &self.output))
+        {
+            return Err(format!(
+                "--output {} is the input {}",
+                self.output.display(),
+                input.display()
+            )
+            .into());
+        }
+        let sources = Sources {
+            perf: self.perf.clone(),
+            ..Sources::default()
+        };
+        Ok(Sweep {
+            plan: Plan {
+                program,
+                inputs: self.inputs.clone(),
+                iterations: self.iterations.clone(),
+                repeats: self.repeats,
+                idle_windows: self.repeats,
+                idle,
+            },
+            energy: EnergyMethod::detect(&sources),
+            machine: Machine::this(),
+        })
+    }
+
+    /// The CSV the sweep writes.
+    pub fn csv_path(&self) -> &Path {
+        &self.output
+    }
+
+    /// The points a Slurm array runs, one a task: the idle baseline (all its windows),
+    /// then each input at each iteration count (all its repeats, after a warm-up run).
+    pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
+        let sweep = self.sweep()?;
+        let mut points = vec![format!(
+            "idle baseline, {} windows of {} s",
+            self.repeats, self.idle_seconds
+        )];
+        for (_, name, _) in sweep.inputs()? {
+            for iterations in &self.iterations {
+                points.push(format!(
+                    "{name}, {iterations} iterations, {} repeats",
+                    self.repeats
+                ));
+            }
+        }
+        Ok(points)
+    }
+
+    /// Measures point `index` of [`SweepArgs::points`] alone: its CSV, the sweep's
+    /// columns.
+    pub fn measure_point(&self, index: usize) -> Result<Vec<u8>, Box<dyn Error>> {
+        let mut sweep = self.sweep()?;
+        let plan = &mut sweep.plan;
+        match index.checked_sub(1) {
+            None => {
+                plan.inputs.clear();
+                plan.iterations.clear();
+            }
+            Some(run) => {
+                let per_input = plan.iterations.len();
+                let (input, iterations) = (run / per_input, run % per_input);
+                plan.inputs = vec![plan
+                    .inputs
+                    .get(input)
+                    .ok_or_else(|| format!("the sweep has no point {index}"))?
+                    .clone()];
+                plan.iterations = vec![plan.iterations[iterations]];
+                plan.idle_windows = 0;
+            }
+        }
+        let mut records = Vec::new();
+        sweep.measure(
+            &mut std::io::stderr().lock(),
+            &HashSet::new(),
+            &mut records,
+            &mut |_| Ok(()),
+        )?;
+        sweep.csv(&records)
+    }
+}
+
 /// Measures every point of the sweep and writes the CSV; a failed run still writes the
 /// rows measured before it, which `--resume` goes on from.
 pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let idle = Duration::try_from_secs_f64(args.idle_seconds)
-        .map_err(|_| format!("--idle-seconds {} is not a duration", args.idle_seconds))?;
-    let program = match args.program {
-        Some(program) => program_path(program)?,
-        None => {
-            let beside = std::env::current_exe()?.with_file_name("fluid");
-            if !beside.is_file() {
-                return Err(format!(
-                    "no fluid binary at {}: build it (cargo build --release --bins) or pass --program",
-                    beside.display()
-                )
-                .into());
-            }
-            beside
-        }
-    };
     let output = OutputFile::create(&args.output)?;
-    if let Some(input) = args
-        .inputs
-        .iter()
-        .find(|input| same_file(input, &args.output))
-    {
-        return Err(format!(
-            "--output {} is the input {}",
-            args.output.display(),
-            input.display()
-        )
-        .into());
-    }
-    let sources = Sources {
-        perf: args.perf,
-        ..Sources::default()
-    };
-    let sweep = Sweep {
-        plan: Plan {
-            program,
-            inputs: args.inputs,
-            iterations: args.iterations,
-            repeats: args.repeats,
-            idle,
-        },
-        energy: EnergyMethod::detect(&sources),
-        machine: Machine::this(),
-    };
+    let sweep = args.sweep()?;
     let previous = match args.resume {
         true => match read_regular_text(&args.output) {
             Ok(text) => text,

@@ -1,0 +1,565 @@
+//! `fluid-lab slurm`: a sweep, a stability map or an accuracy sweep as a Slurm job
+//! array, one point per task (`submit`, `task`), its shards merged into the subcommand's
+//! own CSV and charts (`merge`), and the points that failed run again (`resubmit`).
+
+use super::stability::StabilityArgs;
+use super::sweep::SweepArgs;
+use crate::io::output::OutputFile;
+use crate::lab::slurm::{self, Job, JobDir, Placement, SlurmEnergy, Submission, TaskPlace};
+use crate::lab::stability;
+use crate::lab::{Command as LabCommand, Lab};
+use clap::{Args, Parser, Subcommand};
+use std::error::Error;
+use std::ffi::OsString;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// The arguments of `fluid-lab slurm`.
+#[derive(Debug, Args)]
+pub struct SlurmArgs {
+    #[command(subcommand)]
+    action: Action,
+}
+
+// The actions (a plain comment: clap would take a doc comment as the about).
+#[derive(Debug, Subcommand)]
+enum Action {
+    /// Write the job folder and submit the subcommand after `--` (sweep or stability) as
+    /// an array, one point per task.
+    Submit(SubmitArgs),
+    /// Run one point of a job folder and write its shard (what job.sh runs in each task).
+    Task(TaskArgs),
+    /// Merge the shards into the subcommand's own CSV (plus the Slurm job id, array index
+    /// and node of every row) and draw its charts; list the points missing and why.
+    Merge(MergeArgs),
+    /// Submit again the points that failed or never ran (not those still queued).
+    Resubmit(ResubmitArgs),
+}
+
+/// Where and how long tasks run.
+#[derive(Debug, Args)]
+struct PlacementArgs {
+    /// The partition (sbatch --partition).
+    #[arg(long)]
+    partition: Option<String>,
+    /// Each task's time limit (sbatch --time, as 30, 1:00:00 or 1-0).
+    #[arg(long)]
+    time: Option<String>,
+    /// The account charged (sbatch --account).
+    #[arg(long)]
+    account: Option<String>,
+}
+
+/// The Slurm programs used.
+#[derive(Debug, Args)]
+struct Programs {
+    /// The sbatch program.
+    #[arg(long, default_value = "sbatch")]
+    sbatch: PathBuf,
+    /// The squeue program.
+    #[arg(long, default_value = "squeue")]
+    squeue: PathBuf,
+}
+
+/// The arguments of `fluid-lab slurm submit`.
+#[derive(Debug, Args)]
+struct SubmitArgs {
+    /// The job folder to create (its command, points, script, shards and logs).
+    #[arg(long)]
+    job_dir: PathBuf,
+    #[command(flatten)]
+    placement: PlacementArgs,
+    /// Give each task a whole node (the default for sweeps, which time runs).
+    #[arg(long, conflicts_with = "shared")]
+    exclusive: bool,
+    /// Let tasks share nodes (the default for stability maps, which count steps).
+    #[arg(long)]
+    shared: bool,
+    /// Return only when every task has ended (asking squeue every few seconds).
+    #[arg(long)]
+    wait: bool,
+    #[command(flatten)]
+    programs: Programs,
+    /// The subcommand and its arguments, after `--`: `sweep ...` or `stability ...`.
+    #[arg(last = true, required = true)]
+    command: Vec<OsString>,
+}
+
+/// The arguments of `fluid-lab slurm task`.
+#[derive(Debug, Args)]
+struct TaskArgs {
+    /// The job folder.
+    job_dir: PathBuf,
+    /// The point's array index.
+    index: usize,
+}
+
+/// The arguments of `fluid-lab slurm merge`.
+#[derive(Debug, Args)]
+struct MergeArgs {
+    /// The job folder.
+    job_dir: PathBuf,
+    /// Write the CSV and charts of the points there are even when some are missing.
+    #[arg(long)]
+    partial: bool,
+    /// The sacct program, asked for Slurm's energy accounting of each task.
+    #[arg(long, default_value = "sacct")]
+    sacct: PathBuf,
+    /// The squeue program, asked which missing points are still queued.
+    #[arg(long, default_value = "squeue")]
+    squeue: PathBuf,
+}
+
+/// The arguments of `fluid-lab slurm resubmit`.
+#[derive(Debug, Args)]
+struct ResubmitArgs {
+    /// The job folder.
+    job_dir: PathBuf,
+    /// Options that override the job script's for these tasks (a longer --time, say).
+    #[command(flatten)]
+    placement: PlacementArgs,
+    /// Return only when every task has ended.
+    #[arg(long)]
+    wait: bool,
+    #[command(flatten)]
+    programs: Programs,
+}
+
+/// Runs the action.
+pub fn exec(args: SlurmArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    match args.action {
+        Action::Submit(args) => submit(args, stdout),
+        Action::Task(args) => task(args),
+        Action::Merge(args) => merge(args, stdout),
+        Action::Resubmit(args) => resubmit(args, stdout),
+    }
+}
+
+/// A subcommand whose points a job array runs.
+enum Tool {
+    Sweep(SweepArgs),
+    Stability(StabilityArgs),
+}
+
+impl Tool {
+    /// The subcommand of `command` (its name first).
+    fn parse(command: &[OsString]) -> Result<Tool, Box<dyn Error>> {
+        let words = std::iter::once(OsString::from("fluid-lab")).chain(command.iter().cloned());
+        let lab = Lab::try_parse_from(words).map_err(|error| error.to_string())?;
+        match lab.command {
+            LabCommand::Sweep(args) => Ok(Tool::Sweep(args)),
+            LabCommand::Stability(args) => Ok(Tool::Stability(args)),
+            _ => Err(format!(
+                "fluid-lab slurm runs sweep and stability, not {}",
+                command[0].to_string_lossy()
+            )
+            .into()),
+        }
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Tool::Sweep(_) => "sweep",
+            Tool::Stability(_) => "stability",
+        }
+    }
+
+    /// Whether its points are timings, which need a node each.
+    fn times(&self) -> bool {
+        matches!(self, Tool::Sweep(_))
+    }
+
+    fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
+        match self {
+            Tool::Sweep(args) => args.points(),
+            Tool::Stability(args) => args.points(),
+        }
+    }
+
+    /// Runs point `index`: its CSV.
+    fn run_point(&self, index: usize) -> Result<Vec<u8>, Box<dyn Error>> {
+        match self {
+            Tool::Sweep(args) => args.measure_point(index),
+            Tool::Stability(args) => args.watch_point(index),
+        }
+    }
+
+    /// The CSV the subcommand writes, which the merge writes.
+    fn csv_path(&self) -> PathBuf {
+        match self {
+            Tool::Sweep(args) => args.csv_path().to_path_buf(),
+            Tool::Stability(args) => args.csv_path(),
+        }
+    }
+
+    /// Makes the folder of its CSV, as the subcommand does.
+    fn create_folder(&self) -> Result<(), String> {
+        match self {
+            Tool::Sweep(_) => Ok(()),
+            Tool::Stability(args) => super::create_output_dir(args.output_dir()),
+        }
+    }
+
+    /// Draws its charts from the merged CSV at `csv`.
+    fn chart(&self, csv: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+        match self {
+            Tool::Sweep(_) => {
+                let folder = csv.parent().map(PathBuf::from).unwrap_or_default();
+                super::chart::draw(csv, &folder, stdout)
+            }
+            Tool::Stability(args) => {
+                let text = std::fs::read_to_string(csv)?;
+                let outcomes = stability::read_csv(&text)
+                    .map_err(|error| format!("{}: {error}", csv.display()))?;
+                args.draw(&outcomes, stdout)
+            }
+        }
+    }
+}
+
+impl PlacementArgs {
+    fn placement(&self, exclusive: bool) -> Placement {
+        Placement {
+            partition: self.partition.clone(),
+            time: self.time.clone(),
+            account: self.account.clone(),
+            exclusive,
+        }
+    }
+}
+
+/// Submits the array of every point.
+fn submit(args: SubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let tool = Tool::parse(&args.command)?;
+    let points = tool.points()?;
+    if points.is_empty() {
+        return Err(format!("the {} has no points to run", tool.name()).into());
+    }
+    let exclusive = match (args.exclusive, args.shared) {
+        (true, _) => true,
+        (_, true) => false,
+        _ => tool.times(),
+    };
+    let dir = JobDir::at(&args.job_dir)?;
+    let cwd = std::env::current_dir()?;
+    let placement = args.placement.placement(exclusive);
+    // The script is checked before the folder is made.
+    slurm::job_script(
+        &std::env::current_exe()?,
+        &cwd,
+        &dir.path,
+        tool.name(),
+        &placement,
+    )?;
+    // The merged CSV's place must take it, as the subcommand's own run checks first; it
+    // may be in the job folder, made here (and removed again if the check fails).
+    let made = !dir.path.exists();
+    let checked = super::create_output_dir(&dir.path)
+        .and_then(|()| tool.create_folder())
+        .and_then(|()| OutputFile::create(&tool.csv_path()).map_err(|e| e.to_string()));
+    match checked {
+        Ok(unwritten) => drop(unwritten),
+        Err(error) => {
+            if made {
+                let _ = std::fs::remove_dir(&dir.path);
+            }
+            return Err(error.into());
+        }
+    }
+    let count = points.len();
+    dir.create(&Job {
+        command: args.command,
+        cwd: cwd.clone(),
+        points,
+    })?;
+    dir.write_script(&std::env::current_exe()?, &cwd, tool.name(), &placement)?;
+    let indices: Vec<usize> = (0..count).collect();
+    let job_id = submit_and_record(&dir, &args.programs, &indices, &Placement::default())?;
+    writeln!(
+        stdout,
+        "submitted job {job_id}: {} {count} points as array tasks 0-{} ({}); folder {}",
+        tool.name(),
+        count - 1,
+        if exclusive {
+            "a node each"
+        } else {
+            "nodes shared"
+        },
+        dir.path.display()
+    )?;
+    finish(&dir, &args.programs, &job_id, args.wait, stdout)
+}
+
+/// Submits `indices` of the job folder's script and records the submission.
+fn submit_and_record(
+    dir: &JobDir,
+    programs: &Programs,
+    indices: &[usize],
+    overrides: &Placement,
+) -> Result<String, String> {
+    let job_id = slurm::submit(&programs.sbatch, &dir.file("job.sh"), indices, overrides)?;
+    dir.record(&Submission {
+        job_id: job_id.clone(),
+        indices: indices.to_vec(),
+    })?;
+    Ok(job_id)
+}
+
+/// With `wait`, waits for job `job_id` and says how many of its points have a shard;
+/// without, says how to merge.
+fn finish(
+    dir: &JobDir,
+    programs: &Programs,
+    job_id: &str,
+    wait: bool,
+    stdout: &mut impl Write,
+) -> Result<(), Box<dyn Error>> {
+    let merge = format!("fluid-lab slurm merge {}", dir.path.display());
+    if !wait {
+        writeln!(stdout, "when it has ended: {merge}")?;
+        return Ok(());
+    }
+    let mut every = Duration::from_secs(1);
+    while !slurm::queued(&programs.squeue, &[job_id.to_string()])?.is_empty() {
+        std::thread::sleep(every);
+        every = (every * 2).min(Duration::from_secs(10));
+    }
+    let job = dir.job()?;
+    let done = (0..job.points.len())
+        .filter(|&i| dir.shard(i).is_file())
+        .count();
+    writeln!(
+        stdout,
+        "job {job_id} has ended: {done} of {} points done; {merge}",
+        job.points.len()
+    )?;
+    if done < job.points.len() {
+        return Err(format!(
+            "{} of {} points have no shard; {merge} lists why",
+            job.points.len() - done,
+            job.points.len()
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// Runs one point inside its array task and writes its shard.
+fn task(args: TaskArgs) -> Result<(), Box<dyn Error>> {
+    let dir = JobDir::at(&args.job_dir)?;
+    let job = dir.job()?;
+    let place = TaskPlace::from_environment()?;
+    if place.index != args.index {
+        return Err(format!(
+            "index {} is not this array task's ({})",
+            args.index, place.index
+        )
+        .into());
+    }
+    let point = job.points.get(args.index).ok_or_else(|| {
+        format!(
+            "the job has no point {} ({} points)",
+            args.index,
+            job.points.len()
+        )
+    })?;
+    eprintln!(
+        "fluid-lab slurm: job {} task {} on {}: {point}",
+        place.job_id, place.index, place.node
+    );
+    std::env::set_current_dir(&job.cwd)
+        .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
+    let shard = OutputFile::create(&dir.shard(args.index))?;
+    let rows = Tool::parse(&job.command)?.run_point(args.index)?;
+    shard.commit(&slurm::with_place(&rows, &place)?)?;
+    Ok(())
+}
+
+/// What became of a point.
+enum Status {
+    Done { rows: usize, place: TaskPlace },
+    Queued { job_id: String },
+    Failed { job_id: String },
+    NotRun,
+}
+
+/// Merges the shards, writes tasks.csv, and the CSV and charts if every point is there
+/// (or `--partial`).
+fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let dir = JobDir::at(&args.job_dir)?;
+    let job = dir.job()?;
+    // The subcommand's paths are the submitter's, as they are its tasks'.
+    std::env::set_current_dir(&job.cwd)
+        .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
+    let tool = Tool::parse(&job.command)?;
+    let merged = slurm::merge(&dir, job.points.len())?;
+    let submissions = dir.submissions()?;
+    let job_ids: Vec<String> = submissions.iter().map(|s| s.job_id.clone()).collect();
+    let queued = match merged.missing.is_empty() {
+        true => Default::default(),
+        false => slurm::queued(&args.squeue, &job_ids).unwrap_or_else(|error| {
+            eprintln!("warning: {error}; queued points are counted as not run");
+            Default::default()
+        }),
+    };
+    let energy = SlurmEnergy::of(&args.sacct, &job_ids);
+    let statuses: Vec<Status> = (0..job.points.len())
+        .map(|index| {
+            if let Some((rows, place)) = merged.done.get(&index) {
+                return Status::Done {
+                    rows: *rows,
+                    place: place.clone(),
+                };
+            }
+            let latest = submissions
+                .iter()
+                .rev()
+                .find(|s| s.indices.contains(&index));
+            match latest {
+                Some(s) if queued.contains(&(s.job_id.clone(), index)) => Status::Queued {
+                    job_id: s.job_id.clone(),
+                },
+                Some(s) if dir.stderr(&s.job_id, index).exists() => Status::Failed {
+                    job_id: s.job_id.clone(),
+                },
+                _ => Status::NotRun,
+            }
+        })
+        .collect();
+    write_tasks(&dir, &job, &statuses, &energy)?;
+    writeln!(
+        stdout,
+        "wrote {} (energy: {})",
+        dir.file("tasks.csv").display(),
+        energy.describe()
+    )?;
+    let missing = merged.missing.len();
+    if missing > 0 {
+        writeln!(stdout, "{missing} of {} points missing:", job.points.len())?;
+        for index in &merged.missing {
+            let point = &job.points[*index];
+            match &statuses[*index] {
+                Status::Queued { job_id } => {
+                    writeln!(stdout, "  {index} ({point}): still queued in job {job_id}")?
+                }
+                Status::NotRun => writeln!(stdout, "  {index} ({point}): never ran (no log)")?,
+                Status::Failed { job_id } => {
+                    let log = dir.stderr(job_id, *index);
+                    writeln!(
+                        stdout,
+                        "  {index} ({point}): failed in job {job_id}; {}:",
+                        log.display()
+                    )?;
+                    let text = std::fs::read_to_string(&log).unwrap_or_default();
+                    let lines: Vec<&str> = text.lines().collect();
+                    for line in &lines[lines.len().saturating_sub(5)..] {
+                        writeln!(stdout, "      {line}")?;
+                    }
+                }
+                Status::Done { .. } => {}
+            }
+        }
+        let resubmit = format!("fluid-lab slurm resubmit {}", dir.path.display());
+        if !args.partial {
+            return Err(format!(
+                "{missing} of {} points missing, so {} was not written; {resubmit} runs the \
+                 failed ones again, and merge --partial writes what there is",
+                job.points.len(),
+                tool.csv_path().display()
+            )
+            .into());
+        }
+        writeln!(
+            stdout,
+            "partial: {missing} of {} points left out; {resubmit} runs the failed ones again",
+            job.points.len()
+        )?;
+    }
+    let csv_path = tool.csv_path();
+    tool.create_folder()?;
+    OutputFile::create(&csv_path)?.commit(&merged.csv)?;
+    writeln!(
+        stdout,
+        "wrote {} ({} rows of {} points)",
+        csv_path.display(),
+        merged.done.values().map(|(rows, _)| rows).sum::<usize>(),
+        merged.done.len()
+    )?;
+    tool.chart(&csv_path, stdout)
+}
+
+/// Writes tasks.csv: every point's status, where it ran, its rows and its energy.
+fn write_tasks(
+    dir: &JobDir,
+    job: &Job,
+    statuses: &[Status],
+    energy: &SlurmEnergy,
+) -> Result<(), Box<dyn Error>> {
+    let mut writer = csv::Writer::from_writer(Vec::new());
+    writer.write_record(slurm::TASK_COLUMNS)?;
+    let method = energy.describe();
+    for (index, (point, status)) in job.points.iter().zip(statuses).enumerate() {
+        let (name, job_id, node, rows) = match status {
+            Status::Done { rows, place } => (
+                "done",
+                place.job_id.clone(),
+                place.node.clone(),
+                rows.to_string(),
+            ),
+            Status::Queued { job_id } => ("queued", job_id.clone(), String::new(), String::new()),
+            Status::Failed { job_id } => ("failed", job_id.clone(), String::new(), String::new()),
+            Status::NotRun => ("not-run", String::new(), String::new(), String::new()),
+        };
+        let joules = energy
+            .joules(&job_id, index)
+            .map_or(String::new(), |j| j.to_string());
+        let stderr = match job_id.is_empty() {
+            true => String::new(),
+            false => dir.stderr(&job_id, index).display().to_string(),
+        };
+        writer.write_record([
+            index.to_string(),
+            point.clone(),
+            name.to_string(),
+            job_id,
+            node,
+            rows,
+            joules,
+            method.clone(),
+            stderr,
+        ])?;
+    }
+    dir.write("tasks.csv", &writer.into_inner()?)?;
+    Ok(())
+}
+
+/// Resubmits the points without a shard that are not queued.
+fn resubmit(args: ResubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let dir = JobDir::at(&args.job_dir)?;
+    let job = dir.job()?;
+    let job_ids: Vec<String> = dir.submissions()?.into_iter().map(|s| s.job_id).collect();
+    let queued: Vec<usize> = slurm::queued(&args.programs.squeue, &job_ids)?
+        .into_iter()
+        .map(|(_, index)| index)
+        .collect();
+    let indices: Vec<usize> = (0..job.points.len())
+        .filter(|&i| !dir.shard(i).is_file() && !queued.contains(&i))
+        .collect();
+    if indices.is_empty() {
+        writeln!(stdout, "nothing to resubmit: every point is done or queued")?;
+        return Ok(());
+    }
+    let job_id = submit_and_record(
+        &dir,
+        &args.programs,
+        &indices,
+        &args.placement.placement(false),
+    )?;
+    writeln!(
+        stdout,
+        "submitted job {job_id}: points {} again",
+        slurm::array_spec(&indices)
+    )?;
+    finish(&dir, &args.programs, &job_id, args.wait, stdout)
+}
