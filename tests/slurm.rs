@@ -1,9 +1,10 @@
 //! `fluid-lab slurm` on the real binaries: a job folder submitted, its tasks run, their
 //! shards merged into the subcommand's own CSV and charts (equal to a run without Slurm),
-//! missing and failed points named, and failed points resubmitted. The first test stands
-//! in for Slurm's programs (`sbatch`, `squeue`, `sacct`) and runs everywhere; the second
-//! needs a Slurm that answers (scripts/slurm-local.sh start), and skips with a message
-//! where there is none, unless FLUID_REQUIRE_SLURM=1 (as in CI) makes that a failure.
+//! missing and failed points named, failed points resubmitted, and the accuracy sweep's
+//! reference run after its methods. The first two tests stand in for Slurm's programs
+//! (`sbatch`, `squeue`, `sacct`) and run everywhere; the last two need a Slurm that
+//! answers (scripts/slurm-local.sh start), and skip with a message where there is none,
+//! unless FLUID_REQUIRE_SLURM=1 (as in CI) makes that a failure.
 
 mod common;
 
@@ -16,6 +17,66 @@ use std::process::Command;
 fn script(path: &Path, body: &str) {
     std::fs::write(path, format!("#!/bin/sh\n{body}\n")).unwrap();
     std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+/// Slurm's programs, stood in for: `sbatch` appends its arguments to a file and answers
+/// job 77, `squeue` holds nothing, `sacct` runs `sacct_body`.
+struct FakeSlurm {
+    bin: PathBuf,
+    calls: PathBuf,
+}
+
+impl FakeSlurm {
+    fn in_folder(folder: &Path, sacct_body: &str) -> FakeSlurm {
+        let bin = folder.join("bin");
+        std::fs::create_dir(&bin).unwrap();
+        let calls = folder.join("sbatch.args");
+        script(
+            &bin.join("sbatch"),
+            &format!("echo \"$@\" >> {}\necho 77", calls.display()),
+        );
+        script(&bin.join("squeue"), "exit 0");
+        script(&bin.join("sacct"), sacct_body);
+        FakeSlurm { bin, calls }
+    }
+
+    /// `--NAME PATH` for each of `programs`.
+    fn options(&self, programs: &[&str]) -> Vec<std::ffi::OsString> {
+        programs
+            .iter()
+            .flat_map(|name| [format!("--{name}").into(), self.bin.join(name).into()])
+            .collect()
+    }
+
+    /// Each call of sbatch, its arguments on one line.
+    fn sbatch_calls(&self) -> Vec<String> {
+        read(&self.calls).lines().map(String::from).collect()
+    }
+
+    /// `fluid-lab slurm merge DIR` with these sacct and squeue.
+    fn merge(&self, job_dir: &Path, more: &[&str]) -> std::process::Output {
+        let mut args: Vec<std::ffi::OsString> =
+            vec!["slurm".into(), "merge".into(), job_dir.into()];
+        args.extend(more.iter().map(Into::into));
+        args.extend(self.options(&["sacct", "squeue"]));
+        run_lab(&args)
+    }
+}
+
+/// Runs `fluid-lab slurm task DIR INDEX` as array task INDEX of job 77 on `node`.
+fn task_of_job_77(job_dir: &Path, index: &str, node: &str) -> std::process::Output {
+    let vars = [
+        ("SLURM_ARRAY_JOB_ID", "77"),
+        ("SLURM_ARRAY_TASK_ID", index),
+        ("SLURMD_NODENAME", node),
+    ];
+    let args = [
+        "slurm".as_ref(),
+        "task".as_ref(),
+        job_dir.as_os_str(),
+        index.as_ref(),
+    ];
+    run_lab_with(&args, &vars)
 }
 
 /// The rows of a CSV (header first) with the Slurm columns dropped.
@@ -68,34 +129,20 @@ const STABILITY: [&str; 11] = [
 #[test]
 fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
     let temp = tempfile::tempdir().unwrap();
-    let bin = temp.path().join("bin");
-    std::fs::create_dir(&bin).unwrap();
-    let sbatch_args = temp.path().join("sbatch.args");
-    script(
-        &bin.join("sbatch"),
-        &format!("echo \"$@\" > {}\necho 77", sbatch_args.display()),
-    );
-    script(&bin.join("squeue"), "exit 0");
     // Slurm's energy accounting as sacct prints it where acct_gather_energy is set.
-    script(
-        &bin.join("sacct"),
+    let slurm = FakeSlurm::in_folder(
+        temp.path(),
         "printf '77_0|120\\n77_0.batch|119\\n77_1|0\\n'",
     );
     let job_dir = temp.path().join("job");
     let out = temp.path().join("map");
-    let programs = |args: &mut Vec<std::ffi::OsString>| {
-        for (option, program) in [("--sbatch", "sbatch"), ("--squeue", "squeue")] {
-            args.push(option.into());
-            args.push(bin.join(program).into());
-        }
-    };
     let mut submit: Vec<std::ffi::OsString> =
         ["slurm", "submit", "--job-dir"].map(Into::into).to_vec();
     submit.push(job_dir.clone().into());
     for arg in ["--partition", "debug", "--time", "10", "--account", "acct"] {
         submit.push(arg.into());
     }
-    programs(&mut submit);
+    submit.extend(slurm.options(&["sbatch", "squeue"]));
     submit.push("--".into());
     submit.extend(STABILITY.map(Into::into));
     submit.push("--output-dir".into());
@@ -103,12 +150,13 @@ fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
     let output = run_lab(&submit);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     assert!(
-        stdout(&output)
-            .starts_with("submitted job 77: stability 2 points as array tasks 0-1 (nodes shared)"),
+        stdout(&output).starts_with(
+            "submitted job 77: stability points 0-1 of 2 as array tasks (nodes shared)"
+        ),
         "{}",
         stdout(&output)
     );
-    assert!(read(&sbatch_args).starts_with("--parsable --array=0-1 "));
+    assert!(slurm.sbatch_calls()[0].starts_with("--parsable --array=0-1 "));
     let job_script = read(&job_dir.join("job.sh"));
     for line in [
         "#SBATCH --partition=debug",
@@ -135,17 +183,9 @@ fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
         stderr(&again)
     );
 
-    let merge = |partial: bool| {
-        let mut args: Vec<std::ffi::OsString> = ["slurm", "merge"].map(Into::into).to_vec();
-        args.push(job_dir.clone().into());
-        if partial {
-            args.push("--partial".into());
-        }
-        for (option, program) in [("--sacct", "sacct"), ("--squeue", "squeue")] {
-            args.push(option.into());
-            args.push(bin.join(program).into());
-        }
-        run_lab(&args)
+    let merge = |partial: bool| match partial {
+        true => slurm.merge(&job_dir, &["--partial"]),
+        false => slurm.merge(&job_dir, &[]),
     };
     let none = merge(false);
     assert_eq!(exit_code(&none), 1);
@@ -155,7 +195,7 @@ fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
         stdout(&none)
     );
     assert!(
-        stdout(&none).contains("never ran (no log)"),
+        stdout(&none).contains("never started (no log"),
         "{}",
         stdout(&none)
     );
@@ -184,20 +224,18 @@ fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
         "{}",
         stderr(&outside)
     );
-    let slurm_env = |index: &'static str, node: &'static str| {
-        [
-            ("SLURM_ARRAY_JOB_ID", "77"),
-            ("SLURM_ARRAY_TASK_ID", index),
-            ("SLURMD_NODENAME", node),
-        ]
-    };
-    let wrong = task("0", &slurm_env("1", "node-b"));
+    let as_task_1 = [
+        ("SLURM_ARRAY_JOB_ID", "77"),
+        ("SLURM_ARRAY_TASK_ID", "1"),
+        ("SLURMD_NODENAME", "node-b"),
+    ];
+    let wrong = task("0", &as_task_1);
     assert!(
         stderr(&wrong).contains("index 0 is not this array task's (1)"),
         "{}",
         stderr(&wrong)
     );
-    let second = task("1", &slurm_env("1", "node-b"));
+    let second = task_of_job_77(&job_dir, "1", "node-b");
     assert_eq!(exit_code(&second), 0, "{}", stderr(&second));
     assert!(stderr(&second).starts_with("fluid-lab slurm: job 77 task 1 on node-b: course"));
     // Point 0 failed: its log is there, its shard is not.
@@ -229,7 +267,7 @@ fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
     assert_eq!(exit_code(&partial), 0, "{}", stderr(&partial));
     assert_eq!(read(&out.join("stability.csv")).lines().count(), 2);
 
-    let first = task("0", &slurm_env("0", "node-a"));
+    let first = task_of_job_77(&job_dir, "0", "node-a");
     assert_eq!(exit_code(&first), 0, "{}", stderr(&first));
     let all = merge(false);
     assert_eq!(exit_code(&all), 0, "{}", stderr(&all));
@@ -266,10 +304,145 @@ fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
     let unsupported = run_lab(&["slurm", "submit", "--job-dir", "x", "--", "run", "in.fld"]);
     assert_eq!(exit_code(&unsupported), 1);
     assert!(
-        stderr(&unsupported).contains("runs sweep and stability, not run"),
+        stderr(&unsupported).contains("runs sweep, stability and accuracy, not run"),
         "{}",
         stderr(&unsupported)
     );
+}
+
+#[test]
+fn an_accuracy_array_runs_its_reference_after_the_methods_and_merges_as_the_sweep_does() {
+    let temp = tempfile::tempdir().unwrap();
+    let slurm = FakeSlurm::in_folder(
+        temp.path(),
+        "echo 'Slurm accounting storage is disabled' >&2; exit 1",
+    );
+    let job_dir = temp.path().join("job");
+    let out = temp.path().join("accuracy");
+    let small = common::input("small");
+    let kernels = format!("{},mixed", fluid::Kernel::NATIVE.name());
+    let accuracy = |output_dir: &Path| -> Vec<std::ffi::OsString> {
+        let mut args: Vec<std::ffi::OsString> = vec!["accuracy".into(), small.clone().into()];
+        for arg in [
+            "--kernels",
+            &kernels,
+            "--dt-factors",
+            "1,2",
+            "--adaptive",
+            "",
+            "--times",
+            "0.002,0.004",
+            "--budget",
+            "0.5h",
+            "--output-dir",
+        ] {
+            args.push(arg.into());
+        }
+        args.push(output_dir.into());
+        args
+    };
+    let mut submit: Vec<std::ffi::OsString> = vec![
+        "slurm".into(),
+        "submit".into(),
+        "--job-dir".into(),
+        job_dir.clone().into(),
+    ];
+    submit.extend(slurm.options(&["sbatch", "squeue"]));
+    submit.push("--".into());
+    submit.extend(accuracy(&out));
+    let output = run_lab(&submit);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let said = stdout(&output);
+    assert!(
+        said.contains(
+            "submitted job 77: accuracy points 0-3 of 5 as array tasks (a node each); folder"
+        ),
+        "{said}"
+    );
+    assert!(said.contains("submitted job 77: accuracy points 4 of 5 as array tasks (a node each), after job 77 has succeeded"), "{said}");
+    let calls = slurm.sbatch_calls();
+    assert!(calls[0].starts_with("--parsable --array=0-3 "), "{calls:?}");
+    assert!(
+        calls[1]
+            .starts_with("--parsable --array=4 --dependency=afterok:77 --kill-on-invalid-dep=yes "),
+        "{calls:?}"
+    );
+    assert!(read(&job_dir.join("points.txt"))
+        .lines()
+        .last()
+        .unwrap()
+        .starts_with("the reference"));
+
+    let task = |index: &str| task_of_job_77(&job_dir, index, "node-a");
+    for index in ["0", "1", "2"] {
+        let output = task(index);
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    }
+    let early = task("4");
+    assert_eq!(exit_code(&early), 1);
+    assert!(
+        stderr(&early)
+            .contains("the reference needs every method's times, and points 3 have no shard"),
+        "{}",
+        stderr(&early)
+    );
+    for index in ["3", "4"] {
+        let output = task(index);
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    }
+    let merged = slurm.merge(&job_dir, &[]);
+    assert_eq!(exit_code(&merged), 0, "{}", stderr(&merged));
+    let report = stdout(&merged);
+    assert!(
+        report.contains(
+            "(energy: slurm-sacct not available: sacct: Slurm accounting storage is disabled)"
+        ),
+        "{report}"
+    );
+    assert!(
+        report.contains("budget 0.5h = 4.154e-3 m (median error): "),
+        "{report}"
+    );
+    for name in [
+        "accuracy-speed.png",
+        "accuracy-speed.svg",
+        "error-time.png",
+        "error-time.svg",
+    ] {
+        assert!(
+            report.contains(&format!("{}\n", out.join(name).display())),
+            "{report}"
+        );
+    }
+
+    // The same sweep without Slurm: the same rows, errors to the last bit, but for the
+    // CPU times each measured.
+    let local = temp.path().join("local");
+    let output = run_lab(&accuracy(&local));
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let ours = read(&out.join("accuracy.csv"));
+    assert_eq!(
+        column(&ours, "slurm_array_index")[0],
+        "4",
+        "the reference first"
+    );
+    let theirs = read(&local.join("accuracy.csv"));
+    let measured = |rows: Vec<Vec<String>>| -> Vec<Vec<String>> {
+        let header = rows[0].clone();
+        rows.into_iter()
+            .map(|row| {
+                row.into_iter()
+                    .zip(&header)
+                    .filter(|(_, name)| !name.starts_with("cpu_s"))
+                    .map(|(cell, _)| cell)
+                    .collect()
+            })
+            .collect()
+    };
+    let ours = measured(without_slurm_columns(&ours));
+    let theirs = measured(without_slurm_columns(&theirs));
+    assert_eq!(ours.len(), 1 + 5 * 2);
+    assert_eq!(ours, theirs);
 }
 
 /// Whether a Slurm answers here (`sinfo` sees a node that takes jobs); where none does,
@@ -307,6 +480,25 @@ fn slurm_answers() -> bool {
         );
     }
     up
+}
+
+/// Runs `fluid-lab slurm resubmit --wait DIR`, which must succeed: what it says.
+fn resubmit_and_wait(job_dir: &Path) -> String {
+    let args = [
+        "slurm".as_ref(),
+        "resubmit".as_ref(),
+        "--wait".as_ref(),
+        job_dir.as_os_str(),
+    ];
+    let output = run_lab(&args);
+    assert_eq!(
+        exit_code(&output),
+        0,
+        "{}\n{}",
+        stdout(&output),
+        stderr(&output)
+    );
+    stdout(&output)
 }
 
 #[test]
@@ -381,24 +573,8 @@ fn a_real_slurm_runs_the_sweep_array_and_a_failed_point_is_resubmitted() {
     assert!(listing.contains("slurm-sacct"), "{listing}");
 
     std::fs::write(&fixed, "").unwrap();
-    let resubmit = run_lab(&[
-        "slurm".as_ref(),
-        "resubmit".as_ref(),
-        "--wait".as_ref(),
-        job_dir.as_os_str(),
-    ]);
-    assert_eq!(
-        exit_code(&resubmit),
-        0,
-        "{}\n{}",
-        stdout(&resubmit),
-        stderr(&resubmit)
-    );
-    assert!(
-        stdout(&resubmit).contains(": points 2 again"),
-        "{}",
-        stdout(&resubmit)
-    );
+    let said = resubmit_and_wait(&job_dir);
+    assert!(said.contains(": points 2 again"), "{said}");
     let merged = merge();
     assert_eq!(exit_code(&merged), 0, "{}", stderr(&merged));
     let text = read(&csv_path);
@@ -432,4 +608,105 @@ fn a_real_slurm_runs_the_sweep_array_and_a_failed_point_is_resubmitted() {
     }
     let tasks = read(&job_dir.join("tasks.csv"));
     assert_eq!(column(&tasks, "status"), ["done", "done", "done"]);
+}
+
+#[test]
+fn a_real_slurm_cancels_the_reference_when_a_method_fails_and_resubmits_both() {
+    if !slurm_answers() {
+        return;
+    }
+    let temp = tempfile::tempdir().unwrap();
+    let job_dir = temp.path().join("job");
+    let out = temp.path().join("accuracy");
+    let small = common::input("small");
+    let submit = run_lab(&[
+        "slurm".as_ref(),
+        "submit".as_ref(),
+        "--time".as_ref(),
+        "5".as_ref(),
+        "--job-dir".as_ref(),
+        job_dir.as_os_str(),
+        "--".as_ref(),
+        "accuracy".as_ref(),
+        small.as_os_str(),
+        "--kernels".as_ref(),
+        fluid::Kernel::NATIVE.name().as_ref(),
+        "--dt-factors".as_ref(),
+        "1,2".as_ref(),
+        "--adaptive".as_ref(),
+        "".as_ref(),
+        "--times".as_ref(),
+        "0.002".as_ref(),
+        "--output-dir".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&submit), 0, "{}", stderr(&submit));
+    // The methods are points 0 and 1, the reference 2; point 1 is cancelled at once.
+    let methods = read(&job_dir.join("submissions.csv"));
+    let job = methods
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .to_string();
+    let cancel = Command::new("scancel")
+        .arg(format!("{job}_1"))
+        .output()
+        .unwrap();
+    assert!(
+        cancel.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cancel.stderr)
+    );
+    // Slurm cancels the reference, whose dependency can no longer be met.
+    let waited = std::time::Instant::now();
+    loop {
+        let queue = Command::new("squeue")
+            .args(["--noheader", "--jobs", &job])
+            .output()
+            .unwrap();
+        let later = read(&job_dir.join("submissions.csv"));
+        let reference = later
+            .lines()
+            .nth(2)
+            .unwrap()
+            .split(',')
+            .next()
+            .unwrap()
+            .to_string();
+        let pending = Command::new("squeue")
+            .args(["--noheader", "--jobs", &reference])
+            .output()
+            .unwrap();
+        if queue.stdout.is_empty() && pending.stdout.is_empty() {
+            break;
+        }
+        assert!(waited.elapsed().as_secs() < 120, "the jobs did not end");
+        std::thread::sleep(std::time::Duration::from_secs(1));
+    }
+    let merge = || run_lab(&["slurm".as_ref(), "merge".as_ref(), job_dir.as_os_str()]);
+    let missing = merge();
+    assert_eq!(exit_code(&missing), 1);
+    let listing = stdout(&missing);
+    assert!(
+        listing.contains("2 of 3 points missing:\n  2 (the reference"),
+        "{listing}"
+    );
+    assert!(listing.contains("\n  1 ("), "{listing}");
+    let said = resubmit_and_wait(&job_dir);
+    assert!(said.contains(": points 1 again\n"), "{said}");
+    assert!(said.contains(": points 2 again, after job "), "{said}");
+    let merged = merge();
+    assert_eq!(exit_code(&merged), 0, "{}", stderr(&merged));
+    let text = read(&out.join("accuracy.csv"));
+    assert_eq!(column(&text, "slurm_array_index"), ["2", "0", "1"]);
+    assert!(
+        column(&text, "median_error_m")[1..]
+            .iter()
+            .all(|e| e.parse::<f64>().unwrap() > 0.0),
+        "{text}"
+    );
+    assert!(out.join("accuracy-speed.png").is_file());
 }

@@ -226,6 +226,24 @@ pub struct Errors {
 }
 
 impl Errors {
+    /// The CSV cells of `errors`, in [`CSV_HEADER`]'s order from `median_error_m` to
+    /// `front_error_m`; all empty for none.
+    pub fn cells(errors: Option<&Errors>) -> [String; 7] {
+        let optional = |value: Option<f64>| value.map_or(String::new(), |v| format!("{v:e}"));
+        match errors {
+            None => Default::default(),
+            Some(e) => [
+                format!("{:e}", e.median_position),
+                format!("{:e}", e.max_position),
+                format!("{:e}", e.centre),
+                optional(e.kinetic),
+                format!("{:e}", e.mean_density),
+                format!("{:e}", e.max_density),
+                optional(e.front),
+            ],
+        }
+    }
+
     /// The errors of `state` against `reference` (non-finite distances count as infinite).
     pub fn between(state: &Observed, reference: &Observed) -> Errors {
         let finite = |x: f64| if x.is_finite() { x } else { f64::INFINITY };
@@ -425,11 +443,93 @@ fn run(
     })
 }
 
-/// Runs every candidate on `model` from `start` through `times` (ascending, s), each
-/// undisturbed and sampled at the end of its first step at or after each time; then the
-/// compensated reference kernel at `reference_step` (or, if none, an eighth of the
-/// shortest step any candidate took), landing on every time a candidate was sampled at;
-/// and measures each sample against the reference's state at its time.
+/// Runs `candidate` on `model` from `start` through `times` (ascending, s) as the sweep
+/// runs every method: undisturbed, sampled at the end of its first step at or after each
+/// time, calling `observe` with each sampled state (densities fresh).
+pub fn run_method(
+    start: &Simulation,
+    model: Model,
+    candidate: Candidate,
+    times: &[f64],
+    observe: impl FnMut(&Simulation),
+) -> Result<Run, String> {
+    run(
+        start,
+        model,
+        candidate,
+        times,
+        Sampling::Unperturbed,
+        observe,
+    )
+}
+
+/// The shortest step of the runs that reached every time (one that blew up is not worth
+/// a reference finer than its last steps), at most the course's step.
+pub fn shortest_step(runs: &[Run]) -> f64 {
+    runs.iter()
+        .filter(|run| run.failure.is_none())
+        .flat_map(|run| run.samples.last())
+        .map(|sample| sample.shortest_step)
+        .fold(TIME_STEP, f64::min)
+}
+
+/// Every time one of `runs` was sampled at, ascending, times within rounding of each
+/// other once: the times the reference lands on.
+pub fn sampled_times(runs: &[Run]) -> Vec<f64> {
+    let mut sampled: Vec<f64> = runs
+        .iter()
+        .flat_map(|run| run.samples.iter().map(|sample| sample.time))
+        .collect();
+    sampled.sort_by(f64::total_cmp);
+    sampled.dedup_by(|later, earlier| same_time(*later, *earlier));
+    sampled
+}
+
+/// Runs the reference (the compensated kernel at the fixed `step`) on `model` from
+/// `start`, landing on every one of `sampled` (ascending), calling `observe` with each
+/// state; a reference that fails is an error.
+pub fn run_reference(
+    start: &Simulation,
+    model: Model,
+    step: f64,
+    sampled: &[f64],
+    observe: impl FnMut(&Simulation),
+) -> Result<Run, String> {
+    let candidate = Candidate {
+        kernel: Kernel::Reference,
+        time_step: TimeStep::Fixed(step),
+        skin: None,
+    };
+    let reference = run(start, model, candidate, sampled, Sampling::Landing, observe)?;
+    match reference.failure {
+        Some((time, why)) => Err(format!(
+            "the reference ({}) failed at {time} s: {why}",
+            reference.candidate.label()
+        )),
+        None => Ok(reference),
+    }
+}
+
+/// Measures each sample of `runs` (observed as `states`, run by run) against the
+/// reference's state at its time (`truths`, one per time of `sampled`).
+pub fn measure(runs: &mut [Run], states: &[Vec<Observed>], sampled: &[f64], truths: &[Observed]) {
+    for (run, observed) in runs.iter_mut().zip(states) {
+        for (sample, state) in run.samples.iter_mut().zip(observed) {
+            let after = sampled.partition_point(|&t| t < sample.time);
+            let at = [after.wrapping_sub(1), after]
+                .into_iter()
+                .find(|&k| sampled.get(k).is_some_and(|&t| same_time(t, sample.time)));
+            if let Some(truth) = at.and_then(|k| truths.get(k)) {
+                sample.errors = Some(Errors::between(state, truth));
+            }
+        }
+    }
+}
+
+/// Runs every candidate on `model` from `start` through `times` (ascending, s)
+/// ([`run_method`]); then the reference ([`run_reference`]) at `reference_step` (or, if
+/// none, an eighth of the [`shortest_step`] any candidate took), landing on every time a
+/// candidate was sampled at; and [`measure`]s each sample against it.
 pub fn sweep(
     start: &Simulation,
     model: Model,
@@ -441,58 +541,19 @@ pub fn sweep(
     let mut runs: Vec<Run> = Vec::new();
     for &candidate in candidates {
         let mut observed = Vec::new();
-        let sampling = Sampling::Unperturbed;
-        runs.push(run(start, model, candidate, times, sampling, |fresh| {
+        runs.push(run_method(start, model, candidate, times, |fresh| {
             observed.push(Observed::of(fresh));
         })?);
         states.push(observed);
     }
-    // The shortest step of the methods that reached every time: one that blew up is not
-    // worth a reference finer than its last steps.
-    let shortest = runs
-        .iter()
-        .filter(|run| run.failure.is_none())
-        .flat_map(|run| run.samples.last())
-        .map(|sample| sample.shortest_step)
-        .fold(TIME_STEP, f64::min);
-    let step = reference_step.unwrap_or(shortest / 8.0);
-    let reference_candidate = Candidate {
-        kernel: Kernel::Reference,
-        time_step: TimeStep::Fixed(step),
-        skin: None,
-    };
-    let mut sampled: Vec<f64> = runs
-        .iter()
-        .flat_map(|run| run.samples.iter().map(|sample| sample.time))
-        .collect();
-    sampled.sort_by(f64::total_cmp);
-    sampled.dedup_by(|later, earlier| same_time(*later, *earlier));
+    let shortest = shortest_step(&runs);
+    let sampled = sampled_times(&runs);
     let mut truths = Vec::new();
-    let reference = self::run(
-        start,
-        model,
-        reference_candidate,
-        &sampled,
-        Sampling::Landing,
-        |fresh| truths.push(Observed::of(fresh)),
-    )?;
-    if let Some((time, why)) = reference.failure {
-        return Err(format!(
-            "the reference ({}) failed at {time} s: {why}",
-            reference.candidate.label()
-        ));
-    }
-    for (run, observed) in runs.iter_mut().zip(&states) {
-        for (sample, state) in run.samples.iter_mut().zip(observed) {
-            let after = sampled.partition_point(|&t| t < sample.time);
-            let at = [after.wrapping_sub(1), after]
-                .into_iter()
-                .find(|&k| sampled.get(k).is_some_and(|&t| same_time(t, sample.time)));
-            if let Some(truth) = at.and_then(|k| truths.get(k)) {
-                sample.errors = Some(Errors::between(state, truth));
-            }
-        }
-    }
+    let step = reference_step.unwrap_or(shortest / 8.0);
+    let reference = run_reference(start, model, step, &sampled, |fresh| {
+        truths.push(Observed::of(fresh))
+    })?;
+    measure(&mut runs, &states, &sampled, &truths);
     Ok(Sweep {
         reference,
         runs,
@@ -515,62 +576,13 @@ pub const CSV_HEADER: &str = "scene,particles,model,method,kernel,time_step,dt_s
      max_density_error,front_error_m,failure,host,cpu_model,commit";
 
 impl Sweep {
-    /// The sweep as CSV rows (with [`CSV_HEADER`]): one per run and time reached, then
-    /// one per failed run saying when and why; the reference's errors are empty.
+    /// The sweep as CSV rows (with [`CSV_HEADER`]): the reference's, then each run's
+    /// ([`Run::csv`]).
     pub fn csv(&self, scene: &str, particles: usize, model: Model, machine: &Machine) -> String {
-        let mut text = String::new();
-        let machine_cells = format!(
-            "{},{},{}",
-            machine.host,
-            machine.cpu_model.replace(',', " "),
-            machine.commit
-        );
-        for run in std::iter::once(&self.reference).chain(&self.runs) {
-            let method = format!(
-                "{scene},{particles},{},{},{},{}",
-                model.name(),
-                run.candidate.label(),
-                run.candidate.kernel.name(),
-                run.candidate.time_step_cells()
-            );
-            for sample in &run.samples {
-                let optional =
-                    |value: Option<f64>| value.map_or(String::new(), |v| format!("{v:e}"));
-                let errors = sample.errors.map_or(",,,,,,".to_string(), |e| {
-                    format!(
-                        "{:e},{:e},{:e},{},{:e},{:e},{}",
-                        e.median_position,
-                        e.max_position,
-                        e.centre,
-                        optional(e.kinetic),
-                        e.mean_density,
-                        e.max_density,
-                        optional(e.front)
-                    )
-                });
-                let _ = writeln!(
-                    text,
-                    "{method},{},{},{},{:e},{:e},{:e},{},{},{},{errors},,{machine_cells}",
-                    sample.requested,
-                    sample.time,
-                    sample.steps,
-                    sample.cpu_seconds,
-                    sample.cost(),
-                    sample.shortest_step,
-                    sample.pairs.tested,
-                    sample.pairs.within_h,
-                    run.heap_bytes,
-                );
-            }
-            if let Some((time, why)) = &run.failure {
-                let _ = writeln!(
-                    text,
-                    "{method},,{time},,,,,,,{},,,,,,,,{why},{machine_cells}",
-                    run.heap_bytes
-                );
-            }
-        }
-        text
+        std::iter::once(&self.reference)
+            .chain(&self.runs)
+            .map(|run| run.csv(scene, particles, model, machine))
+            .collect()
     }
 
     /// The fastest run (least CPU time per simulated second at the last time) whose
@@ -595,6 +607,49 @@ impl Sweep {
 }
 
 impl Run {
+    /// The run's CSV rows (of [`CSV_HEADER`]): one per time reached, then one saying when
+    /// and why it failed, if it did; the reference's errors are empty.
+    pub fn csv(&self, scene: &str, particles: usize, model: Model, machine: &Machine) -> String {
+        let mut text = String::new();
+        let machine_cells = format!(
+            "{},{},{}",
+            machine.host,
+            machine.cpu_model.replace(',', " "),
+            machine.commit
+        );
+        let method = format!(
+            "{scene},{particles},{},{},{},{}",
+            model.name(),
+            self.candidate.label(),
+            self.candidate.kernel.name(),
+            self.candidate.time_step_cells()
+        );
+        for sample in &self.samples {
+            let _ = writeln!(
+                text,
+                "{method},{},{},{},{:e},{:e},{:e},{},{},{},{},,{machine_cells}",
+                sample.requested,
+                sample.time,
+                sample.steps,
+                sample.cpu_seconds,
+                sample.cost(),
+                sample.shortest_step,
+                sample.pairs.tested,
+                sample.pairs.within_h,
+                self.heap_bytes,
+                Errors::cells(sample.errors.as_ref()).join(","),
+            );
+        }
+        if let Some((time, why)) = &self.failure {
+            let _ = writeln!(
+                text,
+                "{method},,{time},,,,,,,{},,,,,,,,{why},{machine_cells}",
+                self.heap_bytes
+            );
+        }
+        text
+    }
+
     /// CPU seconds per simulated second over the whole run (infinite if it failed).
     pub fn final_cost(&self) -> f64 {
         match (&self.failure, self.samples.last()) {
@@ -635,6 +690,180 @@ fn cpu_time() -> f64 {
         "CLOCK_THREAD_CPUTIME_ID is always available on Linux"
     );
     spec.tv_sec as f64 + spec.tv_nsec as f64 * 1e-9
+}
+
+/// The first bytes of an [`Observed::encode`]d state.
+const OBSERVED_MAGIC: &[u8; 8] = b"FLUIDOB1";
+
+impl Observed {
+    /// The state as bytes (little-endian): `FLUIDOB1`, the particle count (u64), centre,
+    /// kinetic energy, the front (a flag byte and its value), positions, densities (f64),
+    /// so that a job array's tasks hand their states to the merge.
+    pub fn encode(&self) -> Vec<u8> {
+        let n = self.positions.len();
+        let mut bytes = Vec::with_capacity(8 + 8 + 5 * 8 + 1 + n * 32);
+        bytes.extend_from_slice(OBSERVED_MAGIC);
+        bytes.extend_from_slice(&(n as u64).to_le_bytes());
+        let front = self.front.unwrap_or(0.0);
+        for value in self
+            .centre
+            .to_array()
+            .into_iter()
+            .chain([self.kinetic, front])
+        {
+            bytes.extend_from_slice(&value.to_le_bytes());
+        }
+        bytes.push(self.front.is_some() as u8);
+        for position in &self.positions {
+            for value in position.to_array() {
+                bytes.extend_from_slice(&value.to_le_bytes());
+            }
+        }
+        for density in &self.densities {
+            bytes.extend_from_slice(&density.to_le_bytes());
+        }
+        bytes
+    }
+
+    /// The state [`Observed::encode`] wrote, or why `bytes` are not one.
+    pub fn decode(bytes: &[u8]) -> Result<Observed, String> {
+        let body = bytes
+            .strip_prefix(OBSERVED_MAGIC)
+            .ok_or("not an observed state (FLUIDOB1)")?;
+        let count = body.get(..8).ok_or("truncated")?;
+        let n = u64::from_le_bytes(count.try_into().expect("8 bytes")) as usize;
+        let body = &body[8..];
+        if Some(body.len()) != n.checked_mul(32).and_then(|b| b.checked_add(41)) {
+            return Err(format!("{} bytes do not hold {n} particles", bytes.len()));
+        }
+        let value = |k: usize| f64::from_le_bytes(body[8 * k..8 * k + 8].try_into().expect("8"));
+        let (head, tail) = body.split_at(41);
+        let at = |k: usize| f64::from_le_bytes(tail[8 * k..8 * k + 8].try_into().expect("8"));
+        Ok(Observed {
+            centre: DVec3::new(value(0), value(1), value(2)),
+            kinetic: value(3),
+            front: (head[40] == 1).then(|| value(4)),
+            positions: (0..n)
+                .map(|i| DVec3::new(at(3 * i), at(3 * i + 1), at(3 * i + 2)))
+                .collect(),
+            densities: (0..n).map(|i| at(3 * n + i)).collect(),
+        })
+    }
+}
+
+/// The runs of an accuracy CSV (its columns by name, so that further columns, such as a
+/// Slurm array's, are let be): a run per method, in the order they first appear, each
+/// with its samples and its failure.
+pub fn read_runs(text: &str) -> Result<Vec<Run>, String> {
+    use clap::ValueEnum;
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    let headers = reader.headers().map_err(|error| error.to_string())?.clone();
+    let column = |name: &str| {
+        headers
+            .iter()
+            .position(|header| header == name)
+            .ok_or_else(|| format!("the accuracy CSV has no column {name}"))
+    };
+    let names: Vec<&str> = CSV_HEADER.split(',').collect();
+    let columns: Vec<usize> = names.iter().map(|n| column(n)).collect::<Result<_, _>>()?;
+    let mut runs: Vec<Run> = Vec::new();
+    for (line, record) in reader.records().enumerate() {
+        let record = record.map_err(|error| error.to_string())?;
+        let bad = |what: String| format!("row {}: {what}", line + 2);
+        let cell = |name: &str| {
+            let k = names.iter().position(|n| *n == name).expect("a column");
+            &record[columns[k]]
+        };
+        let number = |name: &str| -> Result<f64, String> {
+            cell(name)
+                .parse()
+                .map_err(|_| bad(format!("{name} {:?} is not a number", cell(name))))
+        };
+        let optional = |name: &str| match cell(name) {
+            "" => Ok(None),
+            _ => number(name).map(Some),
+        };
+        let count = |name: &str| -> Result<u64, String> {
+            cell(name)
+                .parse()
+                .map_err(|_| bad(format!("{name} {:?} is not a count", cell(name))))
+        };
+        let kernel = Kernel::from_str(cell("kernel"), false)
+            .map_err(|_| bad(format!("unknown kernel {:?}", cell("kernel"))))?;
+        let time_step = match cell("time_step") {
+            "fixed" => TimeStep::Fixed(number("dt_s")?),
+            "adaptive" => TimeStep::Adaptive {
+                courant: number("courant")?,
+            },
+            other => return Err(bad(format!("unknown time_step {other:?}"))),
+        };
+        let candidate = Candidate {
+            kernel,
+            time_step,
+            skin: optional("skin_h")?,
+        };
+        let heap_bytes = count("heap_bytes")? as usize;
+        let k = match runs.iter().position(|run| run.candidate == candidate) {
+            Some(k) => k,
+            None => {
+                runs.push(Run {
+                    candidate,
+                    samples: Vec::new(),
+                    failure: None,
+                    heap_bytes,
+                });
+                runs.len() - 1
+            }
+        };
+        let run = &mut runs[k];
+        if cell("requested_time_s").is_empty() {
+            let failure = Failure::from_text(cell("failure"))
+                .ok_or_else(|| bad(format!("unknown failure {:?}", cell("failure"))))?;
+            run.failure = Some((number("time_s")?, failure));
+            continue;
+        }
+        let errors = match optional("median_error_m")? {
+            None => None,
+            Some(median_position) => Some(Errors {
+                median_position,
+                max_position: number("max_error_m")?,
+                centre: number("centre_error_m")?,
+                kinetic: optional("kinetic_error")?,
+                mean_density: number("mean_density_error")?,
+                max_density: number("max_density_error")?,
+                front: optional("front_error_m")?,
+            }),
+        };
+        run.samples.push(Sample {
+            requested: number("requested_time_s")?,
+            time: number("time_s")?,
+            steps: count("steps")?,
+            cpu_seconds: number("cpu_s")?,
+            shortest_step: number("shortest_step_s")?,
+            pairs: PairCounts {
+                tested: count("pairs_tested")?,
+                within_h: count("pairs_within_h")?,
+            },
+            errors,
+        });
+    }
+    Ok(runs)
+}
+
+impl Sweep {
+    /// The sweep of an accuracy CSV of `model` ([`read_runs`]): its first method is the
+    /// reference, as [`Sweep::csv`] writes it.
+    pub fn read(text: &str, model: Model) -> Result<Sweep, String> {
+        let mut runs = read_runs(text)?.into_iter();
+        let reference = runs.next().ok_or("the accuracy CSV has no rows")?;
+        let runs: Vec<Run> = runs.collect();
+        Ok(Sweep {
+            shortest_step: shortest_step(&runs),
+            reference,
+            runs,
+            default: Candidate::default_for(model),
+        })
+    }
 }
 
 #[cfg(test)]
@@ -857,6 +1086,46 @@ mod tests {
             );
         }
         assert!(text.starts_with("corner.fld,300,fluidanimate,reference dt "));
+        // The CSV reads back as the same sweep, with a column added after the others.
+        let with_column: String = text
+            .lines()
+            .map(|line| format!("{line},node-1\n"))
+            .collect();
+        let read = Sweep::read(
+            &format!("{CSV_HEADER},slurm_node\n{with_column}"),
+            Model::Fluidanimate,
+        );
+        assert_eq!(read.unwrap(), sweep);
+        // A failed run reads back with its failure.
+        let mut failed = sweep.runs[3].clone();
+        failed.samples.truncate(1);
+        failed.failure = Some((0.0031, Failure::NonFinite(42)));
+        let rows = failed.csv("corner.fld", 300, Model::Fluidanimate, &machine);
+        assert_eq!(
+            read_runs(&format!("{CSV_HEADER}\n{rows}")).unwrap(),
+            [failed]
+        );
+        assert_eq!(
+            read_runs("scene,particles\n").unwrap_err(),
+            "the accuracy CSV has no column model"
+        );
+    }
+
+    #[test]
+    fn observed_states_survive_their_encoding() {
+        let particles = crate::lab::scene::corner_block(150.0, 64).unwrap();
+        let simulation = Simulation::new(150.0, particles).unwrap();
+        let mut observed = Observed::of(&simulation.with_fresh_densities());
+        assert_eq!(Observed::decode(&observed.encode()).unwrap(), observed);
+        observed.front = Some(0.0123);
+        observed.positions[5] = DVec3::new(f64::NAN, -0.0, 1e300);
+        let decoded = Observed::decode(&observed.encode()).unwrap();
+        assert_eq!(decoded.front, Some(0.0123));
+        assert!(decoded.positions[5].x.is_nan() && decoded.positions[5].y.is_sign_negative());
+        assert_eq!(decoded.densities, observed.densities);
+        let bytes = observed.encode();
+        assert!(Observed::decode(&bytes[..bytes.len() - 1]).is_err());
+        assert!(Observed::decode(b"FLUIDCK3").is_err());
     }
 
     #[test]

@@ -268,6 +268,13 @@ impl Failure {
         }
     }
 
+    /// The failure whose text (its `Display`) is `text`, whatever its kind.
+    pub fn from_text(text: &str) -> Option<Failure> {
+        ["non-finite", "left-box", "energy-grew", "step-collapsed"]
+            .into_iter()
+            .find_map(|name| Failure::parse(name, text))
+    }
+
     /// The failure a CSV row gives as its [`name`](Failure::name) and its text (the
     /// energy factor as printed, to its two decimals).
     pub fn parse(name: &str, detail: &str) -> Option<Failure> {
@@ -482,6 +489,7 @@ mod tests {
         ] {
             let read = Failure::parse(failure.name(), &failure.to_string());
             assert_eq!(read, Some(failure), "{failure}");
+            assert_eq!(Failure::from_text(&failure.to_string()), Some(failure));
         }
         assert_eq!(
             Failure::parse("left-box", "many particles left the box"),

@@ -182,6 +182,11 @@ impl JobDir {
         self.file("shards").join(format!("{index}.csv"))
     }
 
+    /// The folder where point `index` leaves states for later points and the merge.
+    pub fn states(&self, index: usize) -> PathBuf {
+        self.file("states").join(index.to_string())
+    }
+
     /// Task `index`'s standard error in job `job_id`.
     pub fn stderr(&self, job_id: &str, index: usize) -> PathBuf {
         self.file("logs").join(format!("{job_id}_{index}.err"))
@@ -408,12 +413,13 @@ pub struct Merged {
     pub missing: Vec<usize>,
 }
 
-/// Merges the shards of points `0..count` in `dir`; shards must share their header.
-pub fn merge(dir: &JobDir, count: usize) -> Result<Merged, Box<dyn Error>> {
+/// Merges the shards of the points `order` names, in that order; shards must share their
+/// header.
+pub fn merge(dir: &JobDir, order: &[usize]) -> Result<Merged, Box<dyn Error>> {
     let mut writer = csv::Writer::from_writer(Vec::new());
     let mut header: Option<csv::StringRecord> = None;
     let (mut done, mut missing) = (BTreeMap::new(), Vec::new());
-    for index in 0..count {
+    for &index in order {
         let path = dir.shard(index);
         let bytes = match crate::io::input::read_regular(&path) {
             Ok(bytes) => bytes,
@@ -471,18 +477,25 @@ pub fn merge(dir: &JobDir, count: usize) -> Result<Merged, Box<dyn Error>> {
     })
 }
 
-/// Submits `script` as an array of `indices` with `sbatch --parsable` (`placement`'s
-/// options, if any, override the script's); returns the job id.
+/// Submits `script` as an array of `indices` with `sbatch --parsable` (`overrides`'
+/// options, if any, override the script's), after every job of `after` has succeeded
+/// (and cancelled if one fails); returns the job id.
 pub fn submit(
     sbatch: &Path,
     script: &Path,
     indices: &[usize],
     overrides: &Placement,
+    after: &[String],
 ) -> Result<String, String> {
     let mut command = Command::new(sbatch);
     command
         .arg("--parsable")
         .arg(format!("--array={}", array_spec(indices)));
+    if !after.is_empty() {
+        command
+            .arg(format!("--dependency=afterok:{}", after.join(":")))
+            .arg("--kill-on-invalid-dep=yes");
+    }
     for (what, value) in [
         ("partition", &overrides.partition),
         ("time", &overrides.time),
@@ -503,10 +516,27 @@ pub fn submit(
         return Err(format!(
             "sbatch failed ({}): {}",
             output.status,
-            String::from_utf8_lossy(&output.stderr).trim()
+            last_line(&output.stderr)
         ));
     }
     Ok(job_id)
+}
+
+/// The last line a Slurm client wrote to stderr (the fatal one, after its errors on the
+/// way), without the client's `name: ` prefix repeated by the caller's message.
+fn last_line(stderr: &[u8]) -> String {
+    let text = String::from_utf8_lossy(stderr);
+    let line = text
+        .lines()
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .unwrap_or("");
+    let line = line.trim();
+    ["sbatch: ", "squeue: ", "sacct: "]
+        .iter()
+        .find_map(|prefix| line.strip_prefix(prefix))
+        .unwrap_or(line)
+        .to_string()
 }
 
 /// The array indices of `job_ids` that Slurm still holds pending or running (`squeue`),
@@ -523,7 +553,7 @@ pub fn queued(squeue: &Path, job_ids: &[String]) -> Result<HashSet<(String, usiz
     let stderr = String::from_utf8_lossy(&output.stderr);
     // A job Slurm has already forgotten is no longer queued.
     if !output.status.success() && !stderr.contains("Invalid job id") {
-        return Err(format!("squeue failed: {}", stderr.trim()));
+        return Err(format!("squeue failed: {}", last_line(&output.stderr)));
     }
     Ok(parse_queued(&String::from_utf8_lossy(&output.stdout)))
 }
@@ -571,10 +601,9 @@ impl SlurmEnergy {
             Err(error) => {
                 SlurmEnergy::NotAvailable(format!("cannot run {}: {error}", sacct.display()))
             }
-            Ok(output) if !output.status.success() => SlurmEnergy::NotAvailable(format!(
-                "sacct: {}",
-                String::from_utf8_lossy(&output.stderr).trim()
-            )),
+            Ok(output) if !output.status.success() => {
+                SlurmEnergy::NotAvailable(format!("sacct: {}", last_line(&output.stderr)))
+            }
             Ok(output) => SlurmEnergy::parse(&String::from_utf8_lossy(&output.stdout)),
         }
     }
@@ -780,7 +809,7 @@ mod tests {
             let shard = with_place(rows.as_bytes(), &place(index)).unwrap();
             std::fs::write(dir.shard(index), shard).unwrap();
         }
-        let merged = merge(&dir, 4).unwrap();
+        let merged = merge(&dir, &[0, 1, 2, 3]).unwrap();
         assert_eq!(
             String::from_utf8(merged.csv).unwrap(),
             "a,b,slurm_job_id,slurm_array_index,slurm_node\n\
@@ -794,14 +823,14 @@ mod tests {
             "a,c,slurm_job_id,slurm_array_index,slurm_node\n1,2,3,1,n\n",
         )
         .unwrap();
-        let differ = merge(&dir, 4).unwrap_err().to_string();
+        let differ = merge(&dir, &[0, 1, 2, 3]).unwrap_err().to_string();
         assert!(differ.contains("1.csv: its columns differ"), "{differ}");
         std::fs::write(
             dir.shard(1),
             "a,b,slurm_job_id,slurm_array_index,slurm_node\n1,2,3,0,n\n",
         )
         .unwrap();
-        let misplaced = merge(&dir, 4).unwrap_err().to_string();
+        let misplaced = merge(&dir, &[0, 1, 2, 3]).unwrap_err().to_string();
         assert!(misplaced.contains("a row of array index 0"), "{misplaced}");
         assert!(with_place(b"slurm_node\nx\n", &place(0)).is_err());
     }

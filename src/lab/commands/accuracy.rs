@@ -5,17 +5,18 @@
 use super::simulation_args::{parse_courants, Courants};
 use crate::io::fld;
 use crate::io::output::OutputFile;
-use crate::lab::accuracy::{self, Candidate, Metric, Run, Sweep};
+use crate::lab::accuracy::{self, Candidate, Errors, Metric, Observed, Run, Sweep};
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
 use crate::sim::method::{Kernel, Method, Model};
 use crate::sim::params::TIME_STEP;
+use crate::sim::simulation::Simulation;
 use crate::sim::timestep::TimeStep;
 use clap::Args;
 use plotters::chart::SeriesLabelPosition;
 use std::error::Error;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The arguments of `fluid-lab accuracy`.
 #[derive(Debug, Args)]
@@ -106,30 +107,319 @@ impl AccuracyArgs {
     }
 }
 
+/// The scene an accuracy sweep starts from.
+struct Start {
+    /// The start state, on the model asked for.
+    simulation: Simulation,
+    /// The input's file name, as rows and charts name the scene.
+    file_name: String,
+    /// Its particle count.
+    particles: usize,
+}
+
+impl AccuracyArgs {
+    /// The times and methods, checked, with the reference's step if one is given.
+    fn plan(&self) -> Result<(Vec<f64>, Vec<Candidate>), Box<dyn Error>> {
+        let times = self.times()?;
+        let candidates = self.candidates()?;
+        if let Some(step) = self.reference_dt {
+            if !(step.is_finite() && step > 0.0) {
+                return Err("--reference-dt needs a positive, finite step".into());
+            }
+        }
+        Ok((times, candidates))
+    }
+
+    /// Reads the input as the model's start.
+    fn start(&self) -> Result<Start, Box<dyn Error>> {
+        let scene = fld::read(&self.input)?;
+        let particles = scene.particles.len();
+        let method = Method {
+            model: self.model,
+            kernel: Kernel::NATIVE,
+        };
+        let simulation = scene.into_simulation(method, &self.input.display().to_string())?;
+        let file_name = self.input.file_name().unwrap_or_default();
+        Ok(Start {
+            simulation,
+            file_name: file_name.to_string_lossy().into_owned(),
+            particles,
+        })
+    }
+
+    /// The accuracy.csv these arguments write.
+    pub fn csv_path(&self) -> PathBuf {
+        self.output_dir.join("accuracy.csv")
+    }
+
+    /// The folder of the CSV and the charts.
+    pub fn output_dir(&self) -> &Path {
+        &self.output_dir
+    }
+
+    /// The points a Slurm array runs, one a task: each method, then the reference, which
+    /// needs every method's sample times and so runs after them.
+    pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
+        let (_, candidates) = self.plan()?;
+        let mut points: Vec<String> = candidates.iter().map(Candidate::label).collect();
+        points.push("the reference (compensated kernel, fixed step), after every method".into());
+        Ok(points)
+    }
+
+    /// Runs method `index` of [`AccuracyArgs::points`] alone, writing each sampled state
+    /// to `states` (`K.obs`, the K-th sample): its CSV rows, without errors.
+    pub fn run_method_point(&self, index: usize, states: &Path) -> Result<Vec<u8>, Box<dyn Error>> {
+        let (times, candidates) = self.plan()?;
+        let candidate = *candidates
+            .get(index)
+            .ok_or_else(|| format!("the sweep has no method {index}"))?;
+        let start = self.start()?;
+        let mut saved = States::in_folder(states)?;
+        let run =
+            accuracy::run_method(&start.simulation, self.model, candidate, &times, |fresh| {
+                saved.save(fresh)
+            })?;
+        saved.finish()?;
+        Ok(self.rows(&run, &start).into_bytes())
+    }
+
+    /// Runs the reference on every time the methods of `methods` (their merged rows) were
+    /// sampled at, writing its states to `states`: its CSV rows.
+    pub fn run_reference_point(
+        &self,
+        methods: &str,
+        states: &Path,
+    ) -> Result<Vec<u8>, Box<dyn Error>> {
+        self.plan()?;
+        let runs = accuracy::read_runs(methods)?;
+        let step = self
+            .reference_dt
+            .unwrap_or(accuracy::shortest_step(&runs) / 8.0);
+        let start = self.start()?;
+        let sampled = accuracy::sampled_times(&runs);
+        let mut saved = States::in_folder(states)?;
+        let reference =
+            accuracy::run_reference(&start.simulation, self.model, step, &sampled, |fresh| {
+                saved.save(fresh)
+            })?;
+        saved.finish()?;
+        Ok(self.rows(&reference, &start).into_bytes())
+    }
+
+    /// `run`'s rows under the CSV's header.
+    fn rows(&self, run: &Run, start: &Start) -> String {
+        let machine = Machine::this();
+        let rows = run.csv(&start.file_name, start.particles, self.model, &machine);
+        format!("{}\n{rows}", accuracy::CSV_HEADER)
+    }
+
+    /// The merged rows of an array (`merged`: the reference's, point `reference`, then
+    /// each method's, every row with its `slurm_array_index`) with each method's errors
+    /// filled in: its states (`states/INDEX/K.obs`) against the reference's.
+    pub fn fill_errors(
+        &self,
+        merged: &[u8],
+        states: &Path,
+        reference: usize,
+    ) -> Result<Vec<u8>, Box<dyn Error>> {
+        let mut reader = csv::Reader::from_reader(merged);
+        let headers = reader.headers()?.clone();
+        let column = |name: &str| {
+            headers
+                .iter()
+                .position(|h| h == name)
+                .ok_or_else(|| format!("the merged CSV has no column {name}"))
+        };
+        let (index_column, requested) = (column("slurm_array_index")?, column("requested_time_s")?);
+        let first_error = column("median_error_m")?;
+        let records: Vec<csv::StringRecord> = reader.records().collect::<Result<_, _>>()?;
+        // Each point's rows are contiguous (a shard each), in the order of its run.
+        let mut order: Vec<usize> = Vec::new();
+        for record in &records {
+            let index: usize = record[index_column].parse()?;
+            if order.last() != Some(&index) {
+                order.push(index);
+            }
+        }
+        if order.first() != Some(&reference) {
+            return Err("the reference's rows are missing, so no method can be measured".into());
+        }
+        let mut runs = accuracy::read_runs(std::str::from_utf8(merged)?)?;
+        let mut methods = runs.split_off(1);
+        let load = |index: usize, count: usize| -> Result<Vec<Observed>, Box<dyn Error>> {
+            (0..count)
+                .map(|k| {
+                    let path = states.join(index.to_string()).join(format!("{k}.obs"));
+                    let bytes = crate::io::input::read_regular(&path)
+                        .map_err(|error| format!("{}: {error}", path.display()))?;
+                    Ok(Observed::decode(&bytes)
+                        .map_err(|error| format!("{}: {error}", path.display()))?)
+                })
+                .collect()
+        };
+        let sampled = accuracy::sampled_times(&methods);
+        let truths = load(reference, sampled.len())?;
+        let observed: Vec<Vec<Observed>> = methods
+            .iter()
+            .zip(&order[1..])
+            .map(|(run, &index)| load(index, run.samples.len()))
+            .collect::<Result<_, _>>()?;
+        accuracy::measure(&mut methods, &observed, &sampled, &truths);
+        // The merged records, their error cells filled, every other cell as it was.
+        let mut writer = csv::Writer::from_writer(Vec::new());
+        writer.write_record(&headers)?;
+        let mut next_sample = vec![0; methods.len()];
+        for record in &records {
+            let index: usize = record[index_column].parse()?;
+            let mut cells: Vec<String> = record.iter().map(String::from).collect();
+            let run = order[1..].iter().position(|&i| i == index);
+            if let (Some(run), false) = (run, record[requested].is_empty()) {
+                let sample = methods[run]
+                    .samples
+                    .get(next_sample[run])
+                    .ok_or("more rows than samples")?;
+                next_sample[run] += 1;
+                for (k, cell) in Errors::cells(sample.errors.as_ref())
+                    .into_iter()
+                    .enumerate()
+                {
+                    cells[first_error + k] = cell;
+                }
+            }
+            writer.write_record(&cells)?;
+        }
+        Ok(writer.into_inner()?)
+    }
+
+    /// Writes the charts of `sweep` into the output folder and reports its failures and
+    /// choices; `cpu_model` and `commit` name where its methods ran.
+    fn report(
+        &self,
+        sweep: &Sweep,
+        start: &Start,
+        cpu_model: &str,
+        commit: &str,
+        stdout: &mut impl Write,
+    ) -> Result<(), Box<dyn Error>> {
+        let (times, _) = self.plan()?;
+        let metric = self.metric;
+        let scene = &start.file_name;
+        let footer = footer(sweep, scene, start.particles, self.model, cpu_model, commit);
+        for chart in [
+            speed_chart(sweep, &times, metric, scene, &footer),
+            time_chart(sweep, metric, scene, &footer),
+        ] {
+            for path in chart::render(&chart, &self.output_dir, chart::SIZE)? {
+                writeln!(stdout, "wrote {}", path.display())?;
+            }
+        }
+        for (run, why) in sweep
+            .runs
+            .iter()
+            .filter_map(|run| Some((run, run.failure.as_ref()?)))
+        {
+            writeln!(
+                stdout,
+                "{} failed at {:.6} s: {}",
+                run.candidate.label(),
+                why.0,
+                why.1
+            )?;
+        }
+        // The smoothing length (the weakly compressible model's own, half its cut-off).
+        let h = start
+            .simulation
+            .weakly_compressible()
+            .map_or(start.simulation.params().h, |model| model.h);
+        for budget in &self.budget {
+            writeln!(stdout, "{}", choice(sweep, budget, h, metric))?;
+        }
+        Ok(())
+    }
+
+    /// Draws the charts of the accuracy CSV at `csv` (a merged array's) and reports its
+    /// failures and choices, as the sweep itself does.
+    pub fn chart(&self, csv: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+        let text = std::fs::read_to_string(csv)
+            .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;
+        let sweep = Sweep::read(&text, self.model)
+            .map_err(|error| format!("{}: {error}", csv.display()))?;
+        let mut reader = csv::Reader::from_reader(text.as_bytes());
+        let headers = reader.headers()?.clone();
+        let first = reader.records().next().transpose()?.unwrap_or_default();
+        let cell = |name: &str| {
+            headers
+                .iter()
+                .position(|h| h == name)
+                .and_then(|k| first.get(k))
+                .unwrap_or("unknown")
+                .to_string()
+        };
+        self.report(
+            &sweep,
+            &self.start()?,
+            &cell("cpu_model"),
+            &cell("commit"),
+            stdout,
+        )
+    }
+}
+
+/// Writes a run's sampled states to a folder as `K.obs`, K counting from 0; the first
+/// write that fails is kept for [`States::finish`].
+struct States {
+    folder: PathBuf,
+    written: usize,
+    error: Option<String>,
+}
+
+impl States {
+    /// Creates `folder` for the states.
+    fn in_folder(folder: &Path) -> Result<States, String> {
+        std::fs::create_dir_all(folder)
+            .map_err(|error| format!("cannot create {}: {error}", folder.display()))?;
+        Ok(States {
+            folder: folder.to_path_buf(),
+            written: 0,
+            error: None,
+        })
+    }
+
+    /// Writes the next state, whole or not at all.
+    fn save(&mut self, fresh: &Simulation) {
+        if self.error.is_some() {
+            return;
+        }
+        let path = self.folder.join(format!("{}.obs", self.written));
+        let bytes = Observed::of(fresh).encode();
+        match OutputFile::create(&path).and_then(|file| file.commit(&bytes)) {
+            Ok(()) => self.written += 1,
+            Err(error) => self.error = Some(error.to_string()),
+        }
+    }
+
+    /// The first write that failed, if one did.
+    fn finish(self) -> Result<(), String> {
+        self.error.map_or(Ok(()), Err)
+    }
+}
+
 /// Runs every method against the reference and writes the CSV, the charts and the
 /// choices within the budgets.
 pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let times = args.times()?;
-    let candidates = args.candidates()?;
-    if let Some(step) = args.reference_dt {
-        if !(step.is_finite() && step > 0.0) {
-            return Err("--reference-dt needs a positive, finite step".into());
-        }
-    }
+    let (times, candidates) = args.plan()?;
     super::create_output_dir(&args.output_dir)?;
     // The CSV is opened before the runs, so an unwritable folder fails first.
-    let csv_path = args.output_dir.join("accuracy.csv");
+    let csv_path = args.csv_path();
     let csv_file = OutputFile::create(&csv_path)?;
-    let scene = fld::read(&args.input)?;
-    let particles = scene.particles.len();
-    let name = args.input.display().to_string();
-    let method = Method {
-        model: args.model,
-        kernel: Kernel::NATIVE,
-    };
-    let start = scene.into_simulation(method, &name)?;
-    let file_name = args.input.file_name().unwrap_or_default().to_string_lossy();
-    let sweep = accuracy::sweep(&start, args.model, &candidates, &times, args.reference_dt)?;
+    let start = args.start()?;
+    let sweep = accuracy::sweep(
+        &start.simulation,
+        args.model,
+        &candidates,
+        &times,
+        args.reference_dt,
+    )?;
     let reference_step = match sweep.reference.candidate.time_step {
         TimeStep::Fixed(dt) => dt,
         TimeStep::Adaptive { .. } => 0.0,
@@ -146,41 +436,11 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     let rows = format!(
         "{}\n{}",
         accuracy::CSV_HEADER,
-        sweep.csv(&file_name, particles, args.model, &machine)
+        sweep.csv(&start.file_name, start.particles, args.model, &machine)
     );
     csv_file.commit(rows.as_bytes())?;
     writeln!(stdout, "wrote {}", csv_path.display())?;
-    let metric = args.metric;
-    let footer = footer(&sweep, &file_name, particles, args.model, &machine);
-    for chart in [
-        speed_chart(&sweep, &times, metric, &file_name, &footer),
-        time_chart(&sweep, metric, &file_name, &footer),
-    ] {
-        for path in chart::render(&chart, &args.output_dir, chart::SIZE)? {
-            writeln!(stdout, "wrote {}", path.display())?;
-        }
-    }
-    for (run, why) in sweep
-        .runs
-        .iter()
-        .filter_map(|run| Some((run, run.failure.as_ref()?)))
-    {
-        writeln!(
-            stdout,
-            "{} failed at {:.6} s: {}",
-            run.candidate.label(),
-            why.0,
-            why.1
-        )?;
-    }
-    // The smoothing length (the weakly compressible model's own, half its cut-off).
-    let h = start
-        .weakly_compressible()
-        .map_or(start.params().h, |model| model.h);
-    for budget in &args.budget {
-        writeln!(stdout, "{}", choice(&sweep, budget, h, metric))?;
-    }
-    Ok(())
+    args.report(&sweep, &start, &machine.cpu_model, &machine.commit, stdout)
 }
 
 /// An error budget as given: metres, or a multiple of the smoothing length.
@@ -258,7 +518,14 @@ fn choice(sweep: &Sweep, budget: &Budget, h: f64, metric: Metric) -> String {
 }
 
 /// Where the charts' data come from.
-fn footer(sweep: &Sweep, scene: &str, particles: usize, model: Model, machine: &Machine) -> String {
+fn footer(
+    sweep: &Sweep,
+    scene: &str,
+    particles: usize,
+    model: Model,
+    cpu_model: &str,
+    commit: &str,
+) -> String {
     let failed = sweep
         .runs
         .iter()
@@ -268,8 +535,8 @@ fn footer(sweep: &Sweep, scene: &str, particles: usize, model: Model, machine: &
         "{scene}, {particles} particles, {}; {}, commit {}; against {} ({:.0} CPU s per \
          simulated s){}",
         model.name(),
-        machine.cpu_model,
-        machine.commit,
+        cpu_model,
+        commit,
         sweep.reference.candidate.label(),
         sweep.reference.final_cost(),
         match failed {

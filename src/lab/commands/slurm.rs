@@ -2,6 +2,7 @@
 //! array, one point per task (`submit`, `task`), its shards merged into the subcommand's
 //! own CSV and charts (`merge`), and the points that failed run again (`resubmit`).
 
+use super::accuracy::AccuracyArgs;
 use super::stability::StabilityArgs;
 use super::sweep::SweepArgs;
 use crate::io::output::OutputFile;
@@ -140,6 +141,7 @@ pub fn exec(args: SlurmArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
 enum Tool {
     Sweep(SweepArgs),
     Stability(StabilityArgs),
+    Accuracy(AccuracyArgs),
 }
 
 impl Tool {
@@ -150,8 +152,9 @@ impl Tool {
         match lab.command {
             LabCommand::Sweep(args) => Ok(Tool::Sweep(args)),
             LabCommand::Stability(args) => Ok(Tool::Stability(args)),
+            LabCommand::Accuracy(args) => Ok(Tool::Accuracy(args)),
             _ => Err(format!(
-                "fluid-lab slurm runs sweep and stability, not {}",
+                "fluid-lab slurm runs sweep, stability and accuracy, not {}",
                 command[0].to_string_lossy()
             )
             .into()),
@@ -162,26 +165,81 @@ impl Tool {
         match self {
             Tool::Sweep(_) => "sweep",
             Tool::Stability(_) => "stability",
+            Tool::Accuracy(_) => "accuracy",
         }
     }
 
-    /// Whether its points are timings, which need a node each.
+    /// Whether its points are timings (a sweep's wall times, the accuracy sweep's CPU
+    /// seconds), which need a node each.
     fn times(&self) -> bool {
-        matches!(self, Tool::Sweep(_))
+        matches!(self, Tool::Sweep(_) | Tool::Accuracy(_))
     }
 
     fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
         match self {
             Tool::Sweep(args) => args.points(),
             Tool::Stability(args) => args.points(),
+            Tool::Accuracy(args) => args.points(),
         }
     }
 
-    /// Runs point `index`: its CSV.
-    fn run_point(&self, index: usize) -> Result<Vec<u8>, Box<dyn Error>> {
+    /// The points of `count` in the stages they run in, each stage after the one before
+    /// has succeeded: the accuracy sweep's methods, then its reference.
+    fn stages(&self, count: usize) -> Vec<Vec<usize>> {
+        match self {
+            Tool::Accuracy(_) => vec![(0..count - 1).collect(), vec![count - 1]],
+            _ => vec![(0..count).collect()],
+        }
+    }
+
+    /// The order in which the merge takes the points' shards: the accuracy sweep's
+    /// reference first, as its own CSV has it.
+    fn merge_order(&self, count: usize) -> Vec<usize> {
+        match self {
+            Tool::Accuracy(_) => std::iter::once(count - 1).chain(0..count - 1).collect(),
+            _ => (0..count).collect(),
+        }
+    }
+
+    /// Runs point `index` of the job in `dir`: its CSV.
+    fn run_point(
+        &self,
+        index: usize,
+        dir: &JobDir,
+        count: usize,
+    ) -> Result<Vec<u8>, Box<dyn Error>> {
         match self {
             Tool::Sweep(args) => args.measure_point(index),
             Tool::Stability(args) => args.watch_point(index),
+            Tool::Accuracy(args) if index + 1 < count => {
+                args.run_method_point(index, &dir.states(index))
+            }
+            Tool::Accuracy(args) => {
+                let methods: Vec<usize> = (0..index).collect();
+                let merged = slurm::merge(dir, &methods)?;
+                if !merged.missing.is_empty() {
+                    return Err(format!(
+                        "the reference needs every method's times, and points {} have no shard",
+                        slurm::array_spec(&merged.missing)
+                    )
+                    .into());
+                }
+                args.run_reference_point(std::str::from_utf8(&merged.csv)?, &dir.states(index))
+            }
+        }
+    }
+
+    /// The merged CSV of `count` points completed: the accuracy sweep's errors, from the
+    /// points' states.
+    fn complete(
+        &self,
+        merged: Vec<u8>,
+        dir: &JobDir,
+        count: usize,
+    ) -> Result<Vec<u8>, Box<dyn Error>> {
+        match self {
+            Tool::Accuracy(args) => args.fill_errors(&merged, &dir.file("states"), count - 1),
+            _ => Ok(merged),
         }
     }
 
@@ -190,6 +248,7 @@ impl Tool {
         match self {
             Tool::Sweep(args) => args.csv_path().to_path_buf(),
             Tool::Stability(args) => args.csv_path(),
+            Tool::Accuracy(args) => args.csv_path(),
         }
     }
 
@@ -198,6 +257,7 @@ impl Tool {
         match self {
             Tool::Sweep(_) => Ok(()),
             Tool::Stability(args) => super::create_output_dir(args.output_dir()),
+            Tool::Accuracy(args) => super::create_output_dir(args.output_dir()),
         }
     }
 
@@ -214,6 +274,7 @@ impl Tool {
                     .map_err(|error| format!("{}: {error}", csv.display()))?;
                 args.draw(&outcomes, stdout)
             }
+            Tool::Accuracy(args) => args.chart(csv, stdout),
         }
     }
 }
@@ -274,21 +335,36 @@ fn submit(args: SubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error
         points,
     })?;
     dir.write_script(&std::env::current_exe()?, &cwd, tool.name(), &placement)?;
-    let indices: Vec<usize> = (0..count).collect();
-    let job_id = submit_and_record(&dir, &args.programs, &indices, &Placement::default())?;
-    writeln!(
-        stdout,
-        "submitted job {job_id}: {} {count} points as array tasks 0-{} ({}); folder {}",
-        tool.name(),
-        count - 1,
-        if exclusive {
-            "a node each"
-        } else {
-            "nodes shared"
-        },
-        dir.path.display()
-    )?;
-    finish(&dir, &args.programs, &job_id, args.wait, stdout)
+    let mut job_ids: Vec<String> = Vec::new();
+    for stage in tool.stages(count) {
+        let after = job_ids.last().cloned().into_iter().collect::<Vec<_>>();
+        let job_id = submit_and_record(&dir, &args.programs, &stage, &Placement::default(), &after)
+            .map_err(|error| {
+                format!(
+                    "{error}; the job folder is kept, and fluid-lab slurm resubmit {} submits \
+                     its points once sbatch works",
+                    dir.path.display()
+                )
+            })?;
+        writeln!(
+            stdout,
+            "submitted job {job_id}: {} points {} of {count} as array tasks ({}){}; folder {}",
+            tool.name(),
+            slurm::array_spec(&stage),
+            if exclusive {
+                "a node each"
+            } else {
+                "nodes shared"
+            },
+            match after.first() {
+                Some(before) => format!(", after job {before} has succeeded"),
+                None => String::new(),
+            },
+            dir.path.display()
+        )?;
+        job_ids.push(job_id);
+    }
+    finish(&dir, &args.programs, &job_ids, args.wait, stdout)
 }
 
 /// Submits `indices` of the job folder's script and records the submission.
@@ -297,8 +373,15 @@ fn submit_and_record(
     programs: &Programs,
     indices: &[usize],
     overrides: &Placement,
+    after: &[String],
 ) -> Result<String, String> {
-    let job_id = slurm::submit(&programs.sbatch, &dir.file("job.sh"), indices, overrides)?;
+    let job_id = slurm::submit(
+        &programs.sbatch,
+        &dir.file("job.sh"),
+        indices,
+        overrides,
+        after,
+    )?;
     dir.record(&Submission {
         job_id: job_id.clone(),
         indices: indices.to_vec(),
@@ -306,12 +389,12 @@ fn submit_and_record(
     Ok(job_id)
 }
 
-/// With `wait`, waits for job `job_id` and says how many of its points have a shard;
+/// With `wait`, waits for the jobs `job_ids` and says how many points have a shard;
 /// without, says how to merge.
 fn finish(
     dir: &JobDir,
     programs: &Programs,
-    job_id: &str,
+    job_ids: &[String],
     wait: bool,
     stdout: &mut impl Write,
 ) -> Result<(), Box<dyn Error>> {
@@ -321,7 +404,7 @@ fn finish(
         return Ok(());
     }
     let mut every = Duration::from_secs(1);
-    while !slurm::queued(&programs.squeue, &[job_id.to_string()])?.is_empty() {
+    while !slurm::queued(&programs.squeue, job_ids)?.is_empty() {
         std::thread::sleep(every);
         every = (every * 2).min(Duration::from_secs(10));
     }
@@ -331,7 +414,8 @@ fn finish(
         .count();
     writeln!(
         stdout,
-        "job {job_id} has ended: {done} of {} points done; {merge}",
+        "job {} has ended: {done} of {} points done; {merge}",
+        job_ids.join(", "),
         job.points.len()
     )?;
     if done < job.points.len() {
@@ -371,7 +455,7 @@ fn task(args: TaskArgs) -> Result<(), Box<dyn Error>> {
     std::env::set_current_dir(&job.cwd)
         .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
     let shard = OutputFile::create(&dir.shard(args.index))?;
-    let rows = Tool::parse(&job.command)?.run_point(args.index)?;
+    let rows = Tool::parse(&job.command)?.run_point(args.index, &dir, job.points.len())?;
     shard.commit(&slurm::with_place(&rows, &place)?)?;
     Ok(())
 }
@@ -393,7 +477,7 @@ fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
     std::env::set_current_dir(&job.cwd)
         .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
     let tool = Tool::parse(&job.command)?;
-    let merged = slurm::merge(&dir, job.points.len())?;
+    let merged = slurm::merge(&dir, &tool.merge_order(job.points.len()))?;
     let submissions = dir.submissions()?;
     let job_ids: Vec<String> = submissions.iter().map(|s| s.job_id.clone()).collect();
     let queued = match merged.missing.is_empty() {
@@ -443,7 +527,10 @@ fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
                 Status::Queued { job_id } => {
                     writeln!(stdout, "  {index} ({point}): still queued in job {job_id}")?
                 }
-                Status::NotRun => writeln!(stdout, "  {index} ({point}): never ran (no log)")?,
+                Status::NotRun => writeln!(
+                    stdout,
+                    "  {index} ({point}): never started (no log: cancelled, or an earlier stage failed)"
+                )?,
                 Status::Failed { job_id } => {
                     let log = dir.stderr(job_id, *index);
                     writeln!(
@@ -478,7 +565,8 @@ fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
     }
     let csv_path = tool.csv_path();
     tool.create_folder()?;
-    OutputFile::create(&csv_path)?.commit(&merged.csv)?;
+    let rows = tool.complete(merged.csv, &dir, job.points.len())?;
+    OutputFile::create(&csv_path)?.commit(&rows)?;
     writeln!(
         stdout,
         "wrote {} ({} rows of {} points)",
@@ -538,28 +626,43 @@ fn write_tasks(
 fn resubmit(args: ResubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let dir = JobDir::at(&args.job_dir)?;
     let job = dir.job()?;
+    let tool = Tool::parse(&job.command)?;
     let job_ids: Vec<String> = dir.submissions()?.into_iter().map(|s| s.job_id).collect();
-    let queued: Vec<usize> = slurm::queued(&args.programs.squeue, &job_ids)?
-        .into_iter()
-        .map(|(_, index)| index)
-        .collect();
-    let indices: Vec<usize> = (0..job.points.len())
-        .filter(|&i| !dir.shard(i).is_file() && !queued.contains(&i))
-        .collect();
-    if indices.is_empty() {
+    let queued = slurm::queued(&args.programs.squeue, &job_ids)?;
+    let is_queued = |index: usize| queued.iter().any(|(_, i)| *i == index);
+    let overrides = args.placement.placement(false);
+    // A stage runs after the earlier stages' tasks, those submitted now and those queued.
+    let mut submitted: Vec<String> = Vec::new();
+    let mut before: Vec<String> = Vec::new();
+    for stage in tool.stages(job.points.len()) {
+        let indices: Vec<usize> = stage
+            .iter()
+            .copied()
+            .filter(|&i| !dir.shard(i).is_file() && !is_queued(i))
+            .collect();
+        if !indices.is_empty() {
+            let job_id = submit_and_record(&dir, &args.programs, &indices, &overrides, &before)?;
+            writeln!(
+                stdout,
+                "submitted job {job_id}: points {} again{}",
+                slurm::array_spec(&indices),
+                match before.is_empty() {
+                    true => String::new(),
+                    false => format!(", after job {} has succeeded", before.join(", ")),
+                }
+            )?;
+            submitted.push(job_id.clone());
+            before.push(job_id);
+        }
+        for (job_id, index) in &queued {
+            if stage.contains(index) && !before.contains(job_id) {
+                before.push(job_id.clone());
+            }
+        }
+    }
+    if submitted.is_empty() {
         writeln!(stdout, "nothing to resubmit: every point is done or queued")?;
         return Ok(());
     }
-    let job_id = submit_and_record(
-        &dir,
-        &args.programs,
-        &indices,
-        &args.placement.placement(false),
-    )?;
-    writeln!(
-        stdout,
-        "submitted job {job_id}: points {} again",
-        slurm::array_spec(&indices)
-    )?;
-    finish(&dir, &args.programs, &job_id, args.wait, stdout)
+    finish(&dir, &args.programs, &submitted, args.wait, stdout)
 }
