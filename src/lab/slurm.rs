@@ -192,15 +192,8 @@ impl JobDir {
         self.file("logs").join(format!("{job_id}_{index}.err"))
     }
 
-    /// Writes the batch script that runs `lab slurm task` for each array index.
-    pub fn write_script(
-        &self,
-        lab: &Path,
-        cwd: &Path,
-        name: &str,
-        placement: &Placement,
-    ) -> Result<(), String> {
-        let script = job_script(lab, cwd, &self.path, name, placement)?;
+    /// Writes `script` ([`job_script`]) as the folder's executable `job.sh`.
+    pub fn write_script(&self, script: &str) -> Result<(), String> {
         self.write("job.sh", script.as_bytes())?;
         use std::os::unix::fs::PermissionsExt;
         std::fs::set_permissions(self.file("job.sh"), std::fs::Permissions::from_mode(0o755))
@@ -568,10 +561,13 @@ fn parse_queued(text: &str) -> HashSet<(String, usize)> {
         .collect()
 }
 
-/// Waits until none of `job_id`'s tasks is queued, asking `squeue` every `every`.
-pub fn wait(squeue: &Path, job_id: &str, every: Duration) -> Result<(), String> {
-    while !queued(squeue, &[job_id.to_string()])?.is_empty() {
+/// Waits until no task of `job_ids` is queued, asking `squeue` after 1 s, then at
+/// doubling intervals up to 10 s (a light load on the controller).
+pub fn wait(squeue: &Path, job_ids: &[String]) -> Result<(), String> {
+    let mut every = Duration::from_secs(1);
+    while !queued(squeue, job_ids)?.is_empty() {
         std::thread::sleep(every);
+        every = (every * 2).min(Duration::from_secs(10));
     }
     Ok(())
 }

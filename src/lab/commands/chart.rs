@@ -21,6 +21,7 @@ pub struct ChartArgs {
 
 /// Reads the sweep CSV and draws its charts.
 pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let table = read(&args.csv)?;
     let folder = match args.output_dir {
         Some(folder) => {
             create_output_dir(&folder)?;
@@ -28,14 +29,22 @@ pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
         }
         None => args.csv.parent().map(PathBuf::from).unwrap_or_default(),
     };
-    draw(&args.csv, &folder, stdout)
+    draw(&table, &folder, stdout)
 }
 
-/// Draws the charts of the sweep CSV at `csv` into `folder`.
-pub fn draw(csv: &Path, folder: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+/// Reads and checks the sweep CSV at `csv`.
+pub fn read(csv: &Path) -> Result<SweepTable, String> {
     let text = std::fs::read_to_string(csv)
         .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;
-    let table = SweepTable::parse(&text).map_err(|error| format!("{}: {error}", csv.display()))?;
+    SweepTable::parse(&text).map_err(|error| format!("{}: {error}", csv.display()))
+}
+
+/// Draws the charts of a sweep table into `folder`.
+pub fn draw(
+    table: &SweepTable,
+    folder: &Path,
+    stdout: &mut impl Write,
+) -> Result<(), Box<dyn Error>> {
     for chart in table.charts() {
         for path in chart::render(&chart, folder, chart::SIZE)? {
             writeln!(stdout, "wrote {}", path.display())?;

@@ -14,7 +14,6 @@ use std::error::Error;
 use std::ffi::OsString;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 /// The arguments of `fluid-lab slurm`.
 #[derive(Debug, Args)]
@@ -266,7 +265,7 @@ impl Tool {
         match self {
             Tool::Sweep(_) => {
                 let folder = csv.parent().map(PathBuf::from).unwrap_or_default();
-                super::chart::draw(csv, &folder, stdout)
+                super::chart::draw(&super::chart::read(csv)?, &folder, stdout)
             }
             Tool::Stability(args) => {
                 let text = std::fs::read_to_string(csv)?;
@@ -305,8 +304,8 @@ fn submit(args: SubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error
     let dir = JobDir::at(&args.job_dir)?;
     let cwd = std::env::current_dir()?;
     let placement = args.placement.placement(exclusive);
-    // The script is checked before the folder is made.
-    slurm::job_script(
+    // The script is made (and so checked) before the folder is.
+    let script = slurm::job_script(
         &std::env::current_exe()?,
         &cwd,
         &dir.path,
@@ -334,7 +333,7 @@ fn submit(args: SubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error
         cwd: cwd.clone(),
         points,
     })?;
-    dir.write_script(&std::env::current_exe()?, &cwd, tool.name(), &placement)?;
+    dir.write_script(&script)?;
     let mut job_ids: Vec<String> = Vec::new();
     for stage in tool.stages(count) {
         let after = job_ids.last().cloned().into_iter().collect::<Vec<_>>();
@@ -403,11 +402,7 @@ fn finish(
         writeln!(stdout, "when it has ended: {merge}")?;
         return Ok(());
     }
-    let mut every = Duration::from_secs(1);
-    while !slurm::queued(&programs.squeue, job_ids)?.is_empty() {
-        std::thread::sleep(every);
-        every = (every * 2).min(Duration::from_secs(10));
-    }
+    slurm::wait(&programs.squeue, job_ids)?;
     let job = dir.job()?;
     let done = (0..job.points.len())
         .filter(|&i| dir.shard(i).is_file())
