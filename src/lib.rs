@@ -19,6 +19,8 @@ pub mod cli;
 pub mod error;
 pub mod progargs;
 
-pub use sim::method::{Kernel, Method, Model};
+pub use sim::kernel::Kernel;
+pub use sim::method::Method;
+pub use sim::model::Model;
 pub use sim::particles::Particles;
 pub use sim::simulation::Simulation;

@@ -2,7 +2,9 @@
 //! from `io/`, `lab/` or the door; `io/` nothing from `lab/` or the door; the door
 //! (`cli`, `progargs`, `error`, and the `fluid` binary) nothing from `lab/`, so the
 //! `fluid` binary's path reaches no workbench code; `lab/` nothing from the door. Every
-//! module lives in a wing or at the door.
+//! module lives in a wing or at the door. Inside `sim/`, the modules sit in layers
+//! ([`SIM_LAYERS`]: constants and derived parameters below the models, the models below
+//! the driver), and a module uses only lower ones, so no import circle can form.
 //!
 //! Each file under `src/` is parsed with `syn`. A use of another module is any path that
 //! starts with `crate`, `self` or `super` (or `fluid` in a binary), in `use` items, in
@@ -53,6 +55,33 @@ impl Wing {
             Lab => matches!(other, Sim | Io | Lab),
             Door => matches!(other, Sim | Io | Door),
         }
+    }
+}
+
+/// The layers of `sim/`'s modules, lowest first. Outside its tests (which may set up a
+/// whole simulation), a module of `sim/` uses only modules of lower layers, those of its
+/// own folder and the wing's root (`sim/mod.rs`); a module of `sim/` in no layer is refused.
+const SIM_LAYERS: [&[&str]; 8] = [
+    &["params"],
+    &["particles", "grid"],
+    &["timestep", "cells"],
+    &["neighbours", "skin", "stages"],
+    &["kernel"],
+    &["model"],
+    &["method"],
+    &["simulation"],
+];
+
+/// The layer of a module of `sim/` (by its folder or file below `sim/`): `None` for the
+/// wing's root, `Some(None)` for a module in no layer, `Some(Some(k))` for layer k.
+fn sim_layer(module: &[String]) -> Option<Option<usize>> {
+    match module {
+        [wing, top, ..] if wing == "sim" => Some(
+            SIM_LAYERS
+                .iter()
+                .position(|layer| layer.contains(&top.as_str())),
+        ),
+        _ => None,
     }
 }
 
@@ -421,6 +450,26 @@ impl Graph {
                 ));
             }
         }
+        for module in &self.modules {
+            if sim_layer(module) == Some(None) && module.len() == 2 {
+                found.push(format!("{} is in none of sim/'s layers", name(module)));
+            }
+        }
+        for edge in self.edges.iter().filter(|edge| !edge.test_only) {
+            let (Some(Some(from)), Some(Some(to))) = (sim_layer(&edge.from), sim_layer(&edge.to))
+            else {
+                continue;
+            };
+            if edge.from[1] != edge.to[1] && from <= to {
+                found.push(format!(
+                    "{}: {} (sim layer {from}) uses {} (sim layer {to}) through {}",
+                    edge.file.display(),
+                    name(&edge.from),
+                    name(&edge.to),
+                    edge.text
+                ));
+            }
+        }
         for module in self.reachable(&["bin:fluid".to_string()]) {
             if self.wing(&module) == Some(Wing::Lab) {
                 found.push(format!("the fluid binary reaches {}", name(&module)));
@@ -495,7 +544,8 @@ fn the_source_keeps_the_layout_rules() {
     let graph = Graph::of(&sources(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src")));
     // The map is not empty: uses across files are resolved to the modules they name.
     assert!(graph.modules.len() > 40, "{} modules", graph.modules.len());
-    assert!(has_edge(&graph, "sim::simulation", "sim::kernel"));
+    assert!(has_edge(&graph, "sim::simulation", "sim::model"));
+    assert!(has_edge(&graph, "sim::model::course", "sim::kernel"));
     assert!(has_edge(&graph, "cli", "io::fld"));
     assert!(has_edge(&graph, "bin:fluid", "cli"));
     assert!(has_edge(&graph, "lab::commands::run", "lab::diagnostics"));
@@ -567,6 +617,74 @@ fn every_way_of_naming_another_wing_is_seen() {
         let found = crate_with(&[(file, text)]);
         assert!(found.contains(&expected), "{file}: {text}: {found:?}");
     }
+}
+
+#[test]
+fn sim_modules_use_only_lower_layers() {
+    const SIM_FULL: &str = "pub mod grid; pub mod params; pub mod model; pub mod simulation;";
+    let layered = [
+        ("sim/mod.rs", SIM_FULL),
+        ("sim/params.rs", "pub const G: f64 = 9.8;"),
+        ("sim/grid.rs", "use crate::sim::params::G;"),
+        ("sim/model/mod.rs", "pub mod course; use super::grid::Grid;"),
+        (
+            "sim/model/course.rs",
+            "use super::super::params::G; use crate::sim::model::X;",
+        ),
+        (
+            "sim/simulation.rs",
+            "use crate::sim::{grid::Grid, model::course::Course};",
+        ),
+    ];
+    assert_eq!(crate_with(&layered), Vec::<String>::new());
+    // A circle: the constants use the driver (one use goes down a layer, the other up).
+    let mut circle = layered.to_vec();
+    circle.push(("sim/params.rs", "use crate::sim::simulation::Simulation;"));
+    assert_eq!(
+        crate_with(&circle),
+        [
+            "sim/params.rs: sim::params (sim layer 0) uses sim::simulation (sim layer 7) \
+          through crate::sim::simulation::Simulation"
+        ]
+    );
+    // Across one layer, from a model's own file; a test module may use any layer.
+    let mut sideways = layered.to_vec();
+    sideways.push((
+        "sim/model/course.rs",
+        "use crate::sim::simulation::Simulation; #[cfg(test)] mod tests { use crate::sim::simulation; }",
+    ));
+    assert_eq!(
+        crate_with(&sideways),
+        [
+            "sim/model/course.rs: sim::model::course (sim layer 5) uses sim::simulation \
+          (sim layer 7) through crate::sim::simulation::Simulation"
+        ]
+    );
+    // Two modules of one layer use each other no more than a lower one uses a higher.
+    let mut same = layered.to_vec();
+    same.extend([
+        (
+            "sim/mod.rs",
+            "pub mod grid; pub mod params; pub mod particles;",
+        ),
+        ("sim/particles.rs", "use crate::sim::grid::Grid;"),
+    ]);
+    assert_eq!(
+        crate_with(&same),
+        [
+            "sim/particles.rs: sim::particles (sim layer 1) uses sim::grid (sim layer 1) through \
+          crate::sim::grid::Grid"
+        ]
+    );
+    let mut stray = layered.to_vec();
+    stray.extend([
+        ("sim/mod.rs", "pub mod grid; pub mod params; pub mod wcsph;"),
+        ("sim/wcsph.rs", ""),
+    ]);
+    assert_eq!(
+        crate_with(&stray),
+        ["sim::wcsph is in none of sim/'s layers"]
+    );
 }
 
 #[test]

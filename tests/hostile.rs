@@ -652,6 +652,19 @@ fn checkpoints_continue_bit_for_bit() {
     let output = resume(&["--model", "wcsph", "--dt", "1e-4"]);
     assert_eq!(exit_code(&output), 1);
     assert!(stderr(&output).contains("a checkpoint of a run with another time step"));
+    // A checkpoint of the format before the models kept their own state (version 3, which
+    // held the sound speed where version 4 holds the model's values) is refused, not
+    // misread.
+    let mut older = std::fs::read(path("part.ck")).unwrap();
+    older[..8].copy_from_slice(b"FLUIDCK3");
+    std::fs::write(path("part.ck"), older).unwrap();
+    let output = resume(&["--model", "wcsph"]);
+    assert_eq!(exit_code(&output), 1);
+    let message = stderr(&output);
+    assert!(
+        message.contains("an older fluid (format version 3)") && message.lines().count() == 1,
+        "{message}"
+    );
 }
 
 #[test]

@@ -1225,7 +1225,7 @@ proptest! {
         magic in any::<bool>(),
         tail in prop::collection::vec(any::<u8>(), 0..300),
     ) {
-        let mut bytes = if magic { b"FLUIDCK3".to_vec() } else { Vec::new() };
+        let mut bytes = if magic { b"FLUIDCK4".to_vec() } else { Vec::new() };
         bytes.extend(tail);
         check_checkpoint(&bytes)?;
     }

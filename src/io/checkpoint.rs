@@ -1,24 +1,32 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCK3`; the step count (u64); the CRC-32 of the
+//! Layout (little-endian): the magic `FLUIDCK4`; the step count (u64); the CRC-32 of the
 //! input file the run started from (u32, so a resume from another input is refused);
 //! particles per
 //! metre and the time (f64); the model, kernel, time-step rule and last step's limit as
 //! length-prefixed names (u8 length), the time step's value (f64: dt or the Courant
-//! constant), the last step's length (f64, NaN before the first step) and the weakly
-//! compressible model's sound speed (f64, NaN for the other models); the sparse flag
-//! (u8); the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a
-//! (x, y, z) and rho, n f64 each; last, the CRC-32 of every byte before it (u32), so a
-//! corrupted checkpoint is refused.
+//! constant), the last step's length (f64, NaN before the first step); what the model
+//! keeps of itself ([`crate::sim::model::Dynamics::saved`]: a count, u8, then that many
+//! f64; the weakly compressible model's sound speed, none for the others); the sparse
+//! flag (u8); the particle count n (u64); then n ids (u32) and, per particle field p, hv,
+//! v, a (x, y, z) and rho, n f64 each; last, the CRC-32 of every byte before it (u32), so
+//! a corrupted checkpoint is refused. Version 3 (before the models kept their own state)
+//! held the sound speed as one f64 in that place, NaN for the other models; it is
+//! refused, with a message that says so.
 
-use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::kernel::Kernel;
+use crate::sim::method::Method;
+use crate::sim::model::Model;
 use crate::sim::particles::Particles;
 use crate::sim::simulation::Resumable;
 use crate::sim::timestep::{Limit, TimeStep};
 
-/// The first bytes of every checkpoint (format version 3).
-const MAGIC: &[u8; 8] = b"FLUIDCK3";
+/// The first bytes of every checkpoint (format version 4).
+const MAGIC: &[u8; 8] = b"FLUIDCK4";
+
+/// The first bytes of a checkpoint of an earlier format, which is refused.
+const OLDER: [&[u8; 8]; 3] = [b"FLUIDCK1", b"FLUIDCK2", b"FLUIDCK3"];
 
 /// A checkpoint's content: the steps run and the state after them.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,7 +74,10 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     }
     bytes.extend_from_slice(&value.to_le_bytes());
     bytes.extend_from_slice(&last_dt.to_le_bytes());
-    bytes.extend_from_slice(&state.sound_speed.unwrap_or(f64::NAN).to_le_bytes());
+    bytes.push(state.model_state.len() as u8);
+    for value in &state.model_state {
+        bytes.extend_from_slice(&value.to_le_bytes());
+    }
     bytes.push(u8::from(state.sparse));
     bytes.extend_from_slice(&(n as u64).to_le_bytes());
     for id in &particles.id {
@@ -92,8 +103,16 @@ fn fields(particles: &Particles) -> impl Iterator<Item = &Vec<f64>> {
 
 /// Decodes a checkpoint, or says what is wrong with it (never panics).
 pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
-    if bytes.get(..MAGIC.len()) != Some(&MAGIC[..]) {
-        return Err("it is not a fluid checkpoint (version 3)".into());
+    let magic = bytes.get(..MAGIC.len());
+    if let Some(older) = OLDER.iter().find(|older| magic == Some(&older[..])) {
+        return Err(format!(
+            "it is a checkpoint of an older fluid (format version {}), which this one \
+             does not read: run again from the input",
+            older[7] as char
+        ));
+    }
+    if magic != Some(&MAGIC[..]) {
+        return Err("it is not a fluid checkpoint (version 4)".into());
     }
     let (body, checksum) = bytes.split_at(bytes.len().saturating_sub(4).max(MAGIC.len()));
     if checksum.len() != 4 || crc32fast::hash(body).to_le_bytes() != checksum {
@@ -125,12 +144,13 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         _ => return Err("unknown time-step rule".into()),
     };
     let last_dt = reader.f64()?;
-    let sound_speed = reader.f64()?;
-    let sound_speed = match model {
-        Model::Wcsph if sound_speed.is_finite() && sound_speed > 0.0 => Some(sound_speed),
-        Model::Wcsph => return Err("its sound speed is not a positive number".into()),
-        Model::Course | Model::Fluidanimate => None,
-    };
+    let kept = reader.take(1)?[0];
+    let model_state = (0..kept)
+        .map(|_| reader.f64())
+        .collect::<Result<Vec<f64>, String>>()?;
+    if ppm.is_finite() && ppm > 0.0 {
+        model.dynamics().restore(&model.params(ppm), &model_state)?;
+    }
     let last_step = match limit?.as_str() {
         "none" => None,
         name => Some((
@@ -199,7 +219,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
             time,
             last_step,
             sparse,
-            sound_speed,
+            model_state,
             particles,
         },
     })
@@ -288,10 +308,17 @@ mod tests {
         longer.push(0);
         assert!(decode(&longer).is_err());
         let mut wrong_magic = bytes.clone();
-        wrong_magic[7] = b'1';
+        wrong_magic[6] = b'X';
         assert_eq!(
             decode(&wrong_magic).unwrap_err(),
-            "it is not a fluid checkpoint (version 3)"
+            "it is not a fluid checkpoint (version 4)"
+        );
+        let mut older = bytes.clone();
+        older[7] = b'3';
+        assert_eq!(
+            decode(&older).unwrap_err(),
+            "it is a checkpoint of an older fluid (format version 3), which this one does \
+             not read: run again from the input"
         );
         for at in (8..bytes.len()).step_by(7) {
             let mut flipped = bytes.clone();

@@ -6,7 +6,9 @@
 
 use crate::lab::diagnostics::{self, Failure, PairCounts, Vitals};
 use crate::lab::machine::Machine;
-use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::kernel::Kernel;
+use crate::sim::method::Method;
+use crate::sim::model::Model;
 use crate::sim::params::{FLUID_DENSITY, TIME_STEP};
 use crate::sim::particles::{vector_at, AxisArrays, Particles};
 use crate::sim::simulation::Simulation;
@@ -1125,7 +1127,7 @@ mod tests {
         assert_eq!(decoded.densities, observed.densities);
         let bytes = observed.encode();
         assert!(Observed::decode(&bytes[..bytes.len() - 1]).is_err());
-        assert!(Observed::decode(b"FLUIDCK3").is_err());
+        assert!(Observed::decode(b"FLUIDCK4").is_err());
     }
 
     #[test]

@@ -126,8 +126,8 @@ pub fn read_csv(text: &str) -> Result<Vec<Outcome>, String> {
         };
         let named = |k: usize| bad(&format!("unknown {} {:?}", &headers[columns[k]], cell(k)));
         let scene = SceneKind::from_str(cell(0), false).map_err(|_| named(0))?;
-        let model = crate::sim::method::Model::from_str(cell(1), false).map_err(|_| named(1))?;
-        let kernel = crate::sim::method::Kernel::from_str(cell(2), false).map_err(|_| named(2))?;
+        let model = crate::sim::model::Model::from_str(cell(1), false).map_err(|_| named(1))?;
+        let kernel = crate::sim::kernel::Kernel::from_str(cell(2), false).map_err(|_| named(2))?;
         let time_step = match cell(4) {
             "fixed" => TimeStep::Fixed(number(5)?),
             "adaptive" => TimeStep::Adaptive {
@@ -386,7 +386,8 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::method::{Kernel, Model};
+    use crate::sim::kernel::Kernel;
+    use crate::sim::model::Model;
 
     const SIMD: Method = Method {
         model: Model::Course,

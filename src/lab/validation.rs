@@ -293,8 +293,8 @@ mod tests {
             seed: 1,
         };
         let method = crate::sim::method::Method {
-            model: crate::sim::method::Model::Fluidanimate,
-            kernel: crate::sim::method::Kernel::NATIVE,
+            model: crate::sim::model::Model::Fluidanimate,
+            kernel: crate::sim::kernel::Kernel::NATIVE,
         };
         let mut simulation =
             Simulation::with_method(150.0, dam.particles().unwrap(), method).unwrap();

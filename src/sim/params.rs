@@ -1,7 +1,6 @@
 //! The course model's constants (SPEC.md section 3, with the errata of section 7) and the
 //! values derived from an input's particles per metre.
 
-use crate::sim::method::Model;
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -36,8 +35,8 @@ pub struct Params {
     /// Particles per metre, as read (widened from f32).
     pub ppm: f64,
     /// Smoothing length h of the course models: the pair cut-off (for the weakly
-    /// compressible model, whose own constants are in [`crate::sim::wcsph`], its kernel's
-    /// support radius).
+    /// compressible model, whose own constants are in [`crate::sim::model::wcsph`], its
+    /// kernel's support radius).
     pub h: f64,
     /// h^2, the squared cut-off distance.
     pub h2: f64,
@@ -61,16 +60,9 @@ impl Params {
         Self::with_cutoff(ppm, RADIUS_MULTIPLIER / ppm)
     }
 
-    /// The parameters of `model` at `ppm`: [`Self::new`]'s, with the weakly compressible
-    /// model's cut-off (its kernel's support) as h.
-    pub fn for_model(ppm: f64, model: Model) -> Self {
-        match model {
-            Model::Course | Model::Fluidanimate => Self::new(ppm),
-            Model::Wcsph => Self::with_cutoff(ppm, crate::sim::wcsph::SUPPORT / ppm),
-        }
-    }
-
-    fn with_cutoff(ppm: f64, h: f64) -> Self {
+    /// As [`Self::new`], with the cut-off `h` (m) of another model
+    /// ([`crate::sim::model::Model::params`]).
+    pub fn with_cutoff(ppm: f64, h: f64) -> Self {
         let h2 = h * h;
         let h6 = h2 * h2 * h2;
         let mass = FLUID_DENSITY / ppm.powi(3);

@@ -8,7 +8,9 @@ use crate::io::output::OutputFile;
 use crate::lab::accuracy::{self, Candidate, Errors, Metric, Observed, Run, Sweep};
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
-use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::kernel::Kernel;
+use crate::sim::method::Method;
+use crate::sim::model::Model;
 use crate::sim::params::TIME_STEP;
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::TimeStep;
@@ -327,10 +329,7 @@ impl AccuracyArgs {
             )?;
         }
         // The smoothing length (the weakly compressible model's own, half its cut-off).
-        let h = start
-            .simulation
-            .weakly_compressible()
-            .map_or(start.simulation.params().h, |model| model.h);
+        let h = start.simulation.smoothing_length();
         for budget in &self.budget {
             writeln!(stdout, "{}", choice(sweep, budget, h, metric))?;
         }

@@ -3,7 +3,9 @@
 
 use crate::io::fld;
 use crate::lab::diagnostics::Vitals;
-use crate::sim::method::{Kernel, Method, Model};
+use crate::sim::kernel::Kernel;
+use crate::sim::method::Method;
+use crate::sim::model::Model;
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::TimeStep;
 use clap::Args;

@@ -1,7 +1,9 @@
-//! The density and acceleration stages 3-5, whose pair loops are the hot part of a time
-//! step, over the tiles of the neighbour search. Four f64 implementations compute the
-//! same pair terms. [`Kernel::Scalar`] (one pair at a time, the plain path), [`Kernel::Simd`]
-//! and [`Kernel::Simd8`] (four or eight partners at a time in `f64x4` or `f64x8` lanes,
+//! The pair loops, the hot part of a time step, over the tiles of the neighbour search:
+//! each model's pair terms are passes ([`PairPass`]: the course models' density and
+//! acceleration stages 3-5, [`Densities`] and [`Accelerations`], and the weakly
+//! compressible model's [`WeaklyCompressible`]), and [`Kernel::run`] maps a kernel to its
+//! loop. Four f64 implementations compute the same pair terms. [`Kernel::Scalar`] (one
+//! pair at a time, the plain path), [`Kernel::Simd`] and [`Kernel::Simd8`] (four or eight partners at a time in `f64x4` or `f64x8` lanes,
 //! one generic loop) differ only in the order in which terms are summed, which the
 //! reference outputs do not depend on (SPEC.md section 5). [`Kernel::Reference`] sums each
 //! particle's terms in id order with compensated summation, for accuracy measurements.
@@ -19,22 +21,105 @@ mod scalar;
 mod simd;
 mod wcsph;
 
-use simd::{F64x4, F64x8, Lanes, MixedF32x8};
-pub use wcsph::{Rates, State};
+pub(crate) use simd::Lanes;
+use simd::{F64x4, F64x8, MixedF32x8};
+pub use wcsph::{NearWalls, Rates, State, WcsphConstants, WeaklyCompressible};
 
-use crate::sim::method::Kernel;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::Params;
 use crate::sim::particles::AxisArrays;
-use crate::sim::wcsph::Wcsph;
 
-/// The viscosity of the two models that share the course's pair loops.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Viscosity {
-    /// SPEC.md's: `(v_j - v_i) * 45/(pi h^6) * mu * m`.
-    Course,
-    /// fluidanimate's: the course's times `(h - dist)`.
-    Fluidanimate,
+/// The implementation of the pair loops (density increment, acceleration transfer).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
+pub enum Kernel {
+    /// One pair at a time in plain f64: the reference path.
+    Scalar,
+    /// Four partners at a time in `wide::f64x4` lanes, with masks for the cut-off and the
+    /// tail lanes.
+    Simd,
+    /// As [`Kernel::Simd`], eight partners at a time in `wide::f64x8` lanes (one AVX-512
+    /// register; two AVX2 registers elsewhere).
+    Simd8,
+    /// Mixed precision, eight partners at a time: each pair's differences computed in f64
+    /// and narrowed to f32, the pair terms in `wide::f32x8` lanes, the sums in f64. Not
+    /// held to the reference outputs (within 5e-7 relative on a dense step); a workbench method.
+    Mixed,
+    /// Each particle's sums on their own, over its partners in id order, with compensated
+    /// (Neumaier) summation: the reference trajectory for accuracy measurements (slow).
+    Reference,
+}
+
+impl Kernel {
+    /// Every kernel, in a fixed order.
+    pub const ALL: [Kernel; 5] = [
+        Kernel::Scalar,
+        Kernel::Simd,
+        Kernel::Simd8,
+        Kernel::Mixed,
+        Kernel::Reference,
+    ];
+
+    /// The kernels that compute in f64 throughout, held to the reference outputs.
+    pub const F64: [Kernel; 4] = [
+        Kernel::Scalar,
+        Kernel::Simd,
+        Kernel::Simd8,
+        Kernel::Reference,
+    ];
+
+    /// The kernels meant for speed (the reference is meant for accuracy).
+    pub const FAST: [Kernel; 4] = [Kernel::Scalar, Kernel::Simd, Kernel::Simd8, Kernel::Mixed];
+
+    /// The fastest f64 kernel for the CPU the crate is built for: [`Kernel::Simd8`] where
+    /// AVX-512 is enabled, [`Kernel::Simd`] otherwise. `fluid` runs it.
+    pub const NATIVE: Kernel = if cfg!(target_feature = "avx512f") {
+        Kernel::Simd8
+    } else {
+        Kernel::Simd
+    };
+
+    /// The kernel's name in benchmark labels, command lines and CSV files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Scalar => "scalar",
+            Kernel::Simd => "simd",
+            Kernel::Simd8 => "simd8",
+            Kernel::Mixed => "mixed",
+            Kernel::Reference => "reference",
+        }
+    }
+
+    /// Runs `pass` with this kernel's loop: the one place a kernel is mapped to its loops
+    /// (the lanes of each SIMD kernel included).
+    pub(crate) fn run(self, pass: impl PairPass) {
+        match self {
+            Kernel::Scalar => pass.scalar(),
+            Kernel::Simd => pass.lanes::<F64x4>(),
+            Kernel::Simd8 => pass.lanes::<F64x8>(),
+            Kernel::Mixed => pass.lanes::<MixedF32x8>(),
+            Kernel::Reference => pass.reference(),
+        }
+    }
+}
+
+impl Default for Kernel {
+    /// [`Kernel::NATIVE`].
+    fn default() -> Self {
+        Kernel::NATIVE
+    }
+}
+
+/// A pass over the pairs of the tiles, as each family of kernels runs it: its inputs and
+/// outputs are the implementing type's fields, so a loop takes the pass whole. A model's
+/// pair terms are a pass ([`Densities`] and [`Accelerations`] for the course models,
+/// [`WeaklyCompressible`]); [`Kernel::run`] picks the loop.
+pub(crate) trait PairPass {
+    /// One pair at a time, in plain f64.
+    fn scalar(self);
+    /// A lane-width of partners at a time, on lanes `L`.
+    fn lanes<L: Lanes>(self);
+    /// Each particle's terms on their own, in id order, with compensated sums.
+    fn reference(self);
 }
 
 /// The last group bit of [`ClosePairs::groups`], which stands for every group from it on.
@@ -84,26 +169,35 @@ impl Candidates<'_> {
 }
 
 /// Stage 3: adds (h^2 - r^2)^3 to both raw density sums of every pair of `tiles` closer
-/// than h, and records in `close` where such pairs are. `id` (each slot's particle)
-/// orders the reference kernel's sums.
-pub fn increment_densities(
-    kernel: Kernel,
-    params: &Params,
-    tiles: &[Tile],
-    p: &AxisArrays,
-    rho: &mut [f64],
-    id: &[u32],
-    close: &mut ClosePairs,
-) {
-    close.clear();
-    match kernel {
-        Kernel::Scalar => scalar::increment_densities(params, tiles, p, rho, &mut close.tiles),
-        Kernel::Simd => simd::increment_densities::<F64x4>(params, tiles, p, rho, close),
-        Kernel::Simd8 => simd::increment_densities::<F64x8>(params, tiles, p, rho, close),
-        Kernel::Mixed => simd::increment_densities::<MixedF32x8>(params, tiles, p, rho, close),
-        Kernel::Reference => {
-            reference::increment_densities(params, tiles, p, rho, id, &mut close.tiles)
-        }
+/// than h, and records in `close` (cleared first) where such pairs are.
+#[derive(Debug)]
+pub struct Densities<'a> {
+    /// The derived parameters (h^2).
+    pub params: &'a Params,
+    /// The candidate pairs.
+    pub tiles: &'a [Tile],
+    /// Positions.
+    pub p: &'a AxisArrays,
+    /// Each slot's particle: the order of the reference kernel's sums.
+    pub id: &'a [u32],
+    /// The raw density sums, added to.
+    pub rho: &'a mut [f64],
+    /// Where pairs closer than h are, for [`Candidates::Close`].
+    pub close: &'a mut ClosePairs,
+}
+
+impl PairPass for Densities<'_> {
+    fn scalar(self) {
+        self.close.clear();
+        scalar::increment_densities(self);
+    }
+    fn lanes<L: Lanes>(self) {
+        self.close.clear();
+        simd::increment_densities::<L>(self);
+    }
+    fn reference(self) {
+        self.close.clear();
+        reference::increment_densities(self);
     }
 }
 
@@ -116,85 +210,43 @@ pub fn transform_densities(params: &Params, rho: &mut [f64]) {
 
 /// Stage 5: the pressure and viscosity acceleration of every candidate pair closer than
 /// h, added to the first particle and subtracted from the second (SPEC.md erratum 4).
-#[allow(clippy::too_many_arguments)]
-pub fn transfer_accelerations(
-    kernel: Kernel,
-    viscosity: Viscosity,
-    params: &Params,
-    candidates: Candidates,
-    p: &AxisArrays,
-    v: &AxisArrays,
-    rho: &[f64],
-    id: &[u32],
-    a: &mut AxisArrays,
-) {
-    match (kernel, viscosity) {
-        (Kernel::Scalar, Viscosity::Course) => {
-            scalar::transfer_accelerations::<false>(params, candidates.tiles(), p, v, rho, a)
-        }
-        (Kernel::Scalar, Viscosity::Fluidanimate) => {
-            scalar::transfer_accelerations::<true>(params, candidates.tiles(), p, v, rho, a)
-        }
-        (Kernel::Simd, _) => lanes_transfer::<F64x4>(viscosity, params, candidates, p, v, rho, a),
-        (Kernel::Simd8, _) => lanes_transfer::<F64x8>(viscosity, params, candidates, p, v, rho, a),
-        (Kernel::Mixed, _) => {
-            lanes_transfer::<MixedF32x8>(viscosity, params, candidates, p, v, rho, a)
-        }
-        (Kernel::Reference, Viscosity::Course) => {
-            let tiles = candidates.tiles();
-            reference::transfer_accelerations::<false>(params, tiles, p, v, rho, id, a)
-        }
-        (Kernel::Reference, Viscosity::Fluidanimate) => {
-            let tiles = candidates.tiles();
-            reference::transfer_accelerations::<true>(params, tiles, p, v, rho, id, a)
-        }
-    }
+/// `FLUIDANIMATE` multiplies the viscosity term by (h - dist), as PARSEC's fluidanimate
+/// does; without it the viscosity is SPEC.md's.
+#[derive(Debug)]
+pub struct Accelerations<'a, const FLUIDANIMATE: bool> {
+    /// The derived parameters (h, the pressure and viscosity factors).
+    pub params: &'a Params,
+    /// The candidate pairs.
+    pub candidates: Candidates<'a>,
+    /// Positions.
+    pub p: &'a AxisArrays,
+    /// Velocities.
+    pub v: &'a AxisArrays,
+    /// Densities.
+    pub rho: &'a [f64],
+    /// Each slot's particle: the order of the reference kernel's sums.
+    pub id: &'a [u32],
+    /// Accelerations, added to.
+    pub a: &'a mut AxisArrays,
 }
 
-/// Stage 5 of a SIMD kernel on lanes `L`, with `viscosity`.
-fn lanes_transfer<L: Lanes>(
-    viscosity: Viscosity,
-    params: &Params,
-    candidates: Candidates,
-    p: &AxisArrays,
-    v: &AxisArrays,
-    rho: &[f64],
-    a: &mut AxisArrays,
-) {
-    match viscosity {
-        Viscosity::Course => {
-            simd::transfer_accelerations::<L, false>(params, candidates, p, v, rho, a)
-        }
-        Viscosity::Fluidanimate => {
-            simd::transfer_accelerations::<L, true>(params, candidates, p, v, rho, a)
-        }
+impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
+    fn scalar(self) {
+        scalar::transfer_accelerations(self);
     }
-}
-
-/// The weakly compressible model's pair loop: adds every pair's (and wall image's)
-/// acceleration and density rates to `rates`, over the tiles. `id` (each slot's
-/// particle) orders the reference kernel's sums.
-pub fn interact_weakly_compressible(
-    kernel: Kernel,
-    model: &Wcsph,
-    tiles: &[Tile],
-    state: State,
-    id: &[u32],
-    rates: &mut Rates,
-) {
-    let n = id.len();
-    match kernel {
-        Kernel::Scalar => wcsph::scalar(model, tiles, state, n, rates),
-        Kernel::Simd => wcsph::lanes::<F64x4>(model, tiles, state, n, rates),
-        Kernel::Simd8 => wcsph::lanes::<F64x8>(model, tiles, state, n, rates),
-        Kernel::Mixed => wcsph::lanes::<MixedF32x8>(model, tiles, state, n, rates),
-        Kernel::Reference => wcsph::reference(model, tiles, state, id, n, rates),
+    fn lanes<L: Lanes>(self) {
+        simd::transfer_accelerations::<L, FLUIDANIMATE>(self);
+    }
+    fn reference(self) {
+        reference::transfer_accelerations(self);
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use crate::sim::method::{Kernel, Method, Model};
+    use crate::sim::kernel::Kernel;
+    use crate::sim::method::Method;
+    use crate::sim::model::Model;
     use crate::sim::params::BOX_MIN;
     use crate::sim::particles::Particles;
     use crate::sim::simulation::Simulation;

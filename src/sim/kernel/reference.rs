@@ -5,8 +5,8 @@
 //! About ten times slower than the scalar kernel; for accuracy measurements only.
 
 use super::scalar::pair_acceleration;
+use super::{Accelerations, Densities};
 use crate::sim::neighbours::Tile;
-use crate::sim::params::Params;
 use crate::sim::particles::{vector_at, AxisArrays};
 
 /// A compensated sum (Neumaier's variant of Kahan's): the running sum and the rounding
@@ -71,16 +71,18 @@ fn close_partners(
     partners
 }
 
-pub(super) fn increment_densities(
-    params: &Params,
-    tiles: &[Tile],
-    p: &AxisArrays,
-    rho: &mut [f64],
-    id: &[u32],
-    hits: &mut Vec<Tile>,
-) {
+/// Stage 3, each particle's sum on its own.
+pub(super) fn increment_densities(pass: Densities) {
+    let Densities {
+        params,
+        tiles,
+        p,
+        id,
+        rho,
+        close,
+    } = pass;
     let h2 = params.h2;
-    let partners = close_partners(tiles, p, h2, id, hits);
+    let partners = close_partners(tiles, p, h2, id, &mut close.tiles);
     for (i, list) in partners.iter().enumerate() {
         let mut sum = Neumaier::new(rho[i]);
         for &j in list {
@@ -92,17 +94,18 @@ pub(super) fn increment_densities(
     }
 }
 
-/// `FLUIDANIMATE` multiplies the viscosity term by (h - dist).
-pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
-    params: &Params,
-    tiles: &[Tile],
-    p: &AxisArrays,
-    v: &AxisArrays,
-    rho: &[f64],
-    id: &[u32],
-    a: &mut AxisArrays,
-) {
-    let partners = close_partners(tiles, p, params.h2, id, &mut Vec::new());
+/// Stage 5, each particle's sums on their own.
+pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(pass: Accelerations<FLUIDANIMATE>) {
+    let Accelerations {
+        params,
+        candidates,
+        p,
+        v,
+        rho,
+        id,
+        a,
+    } = pass;
+    let partners = close_partners(candidates.tiles(), p, params.h2, id, &mut Vec::new());
     for (i, list) in partners.iter().enumerate() {
         let mut sums = [0, 1, 2].map(|axis| Neumaier::new(a[axis][i]));
         for &j in list {

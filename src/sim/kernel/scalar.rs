@@ -1,18 +1,22 @@
 //! The reference pair loops: one pair at a time, in plain f64, each pair's terms added to
 //! both particles at once.
 
-use crate::sim::neighbours::Tile;
+use super::{Accelerations, Densities};
 use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
-use crate::sim::particles::{vector_at, AxisArrays};
+use crate::sim::particles::vector_at;
 use glam::DVec3;
 
-pub(super) fn increment_densities(
-    params: &Params,
-    tiles: &[Tile],
-    p: &AxisArrays,
-    rho: &mut [f64],
-    hits: &mut Vec<Tile>,
-) {
+/// Stage 3, one pair at a time.
+pub(super) fn increment_densities(pass: Densities) {
+    let Densities {
+        params,
+        tiles,
+        p,
+        rho,
+        close,
+        ..
+    } = pass;
+    let hits = &mut close.tiles;
     let h2 = params.h2;
     for tile in tiles {
         let mut hit = false;
@@ -55,16 +59,18 @@ pub(super) fn pair_acceleration<const FLUIDANIMATE: bool>(
     (offset * pressure + viscosity) / (rho_i * rho_j)
 }
 
-/// `FLUIDANIMATE` multiplies the viscosity term by (h - dist).
-pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
-    params: &Params,
-    tiles: &[Tile],
-    p: &AxisArrays,
-    v: &AxisArrays,
-    rho: &[f64],
-    a: &mut AxisArrays,
-) {
-    for tile in tiles {
+/// Stage 5, one pair at a time.
+pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(pass: Accelerations<FLUIDANIMATE>) {
+    let Accelerations {
+        params,
+        candidates,
+        p,
+        v,
+        rho,
+        a,
+        ..
+    } = pass;
+    for tile in candidates.tiles() {
         for i in tile.firsts() {
             for j in tile.partners(i) {
                 let offset = vector_at(p, i) - vector_at(p, j);

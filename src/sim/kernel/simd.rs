@@ -11,12 +11,12 @@
 //! then skip the per-access bounds checks, which otherwise cost more instructions than
 //! the arithmetic.
 
-use super::{Candidates, ClosePairs, OVERFLOW_GROUP};
+use super::{Accelerations, Candidates, Densities, OVERFLOW_GROUP};
 
 /// The group bit that stands for every group from [`OVERFLOW_GROUP`] on.
 const OVERFLOW_BIT: u64 = 1 << OVERFLOW_GROUP;
 use crate::sim::neighbours::Tile;
-use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
+use crate::sim::params::{FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::{AxisArrays, PADDING};
 use std::ops::{Add, BitAnd, Div, Mul, Sub};
 use wide::{f32x8, f64x4, f64x8};
@@ -26,7 +26,7 @@ use wide::{f32x8, f64x4, f64x8};
 /// [`F64x8`] compute in f64 throughout. [`MixedF32x8`] computes each pair's differences
 /// in f64, narrows them to f32 and computes the pair terms in `f32x8` lanes; its sums
 /// stay in f64.
-pub(super) trait Lanes {
+pub(crate) trait Lanes {
     /// Partners per group.
     const LANES: usize;
     /// The vector the pair terms are computed in.
@@ -370,13 +370,15 @@ pub(super) fn slots_used(tiles: &[Tile]) -> usize {
 }
 
 /// Stage 3 on `L` lanes.
-pub(super) fn increment_densities<L: Lanes>(
-    params: &Params,
-    tiles: &[Tile],
-    p: &AxisArrays,
-    rho: &mut [f64],
-    close: &mut ClosePairs,
-) {
+pub(super) fn increment_densities<L: Lanes>(pass: Densities) {
+    let Densities {
+        params,
+        tiles,
+        p,
+        rho,
+        close,
+        ..
+    } = pass;
     let [x, y, z] = p;
     assert_padded(slots_used(tiles), L::LANES, &[x, y, z, rho]);
     let h2 = L::splat(params.h2);
@@ -546,13 +548,17 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
 /// With `close`, only the tiles and groups of partners where the density loop found a
 /// pair closer than h are visited.
 pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
-    params: &Params,
-    candidates: Candidates,
-    p: &AxisArrays,
-    v: &AxisArrays,
-    rho: &[f64],
-    a: &mut AxisArrays,
+    pass: Accelerations<FLUIDANIMATE>,
 ) {
+    let Accelerations {
+        params,
+        candidates,
+        p,
+        v,
+        rho,
+        a,
+        ..
+    } = pass;
     let tiles = candidates.tiles();
     let ([x, y, z], [vx, vy, vz]) = (p, v);
     let [ax, ay, az] = a;

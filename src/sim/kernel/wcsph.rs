@@ -1,4 +1,4 @@
-//! The weakly compressible model's pair loop ([`crate::sim::wcsph`]): in one pass over the
+//! The weakly compressible model's pair loop ([`crate::sim::model::wcsph`]): in one pass over the
 //! tiles, each pair's pressure and viscosity acceleration and its density rates (the
 //! continuity equation and the delta-SPH diffusion), added to both particles. A particle
 //! within one support radius of a wall also meets the mirror images of its partners
@@ -18,11 +18,114 @@
 
 use super::reference::Neumaier;
 use super::simd::{assert_padded, slots_used, Lanes};
+use super::PairPass;
 use crate::sim::neighbours::Tile;
-use crate::sim::params::{BOX_MIN, GRAVITY};
+use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY};
 use crate::sim::particles::{vector_at, AxisArrays};
-use crate::sim::wcsph::{NearWalls, Wcsph, ARTIFICIAL_VISCOSITY, DENSITY_DIFFUSION};
 use glam::DVec3;
+
+/// The constants of the weakly compressible pair terms at one resolution and sound speed
+/// (chosen by [`crate::sim::model::Wcsph`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct WcsphConstants {
+    /// Smoothing length h (m).
+    pub h: f64,
+    /// Support radius 2h (m), the pair cut-off.
+    pub support: f64,
+    /// Particle mass (kg).
+    pub mass: f64,
+    /// Sound speed c_0 (m/s).
+    pub sound_speed: f64,
+    /// 0.01 h^2, which keeps the viscosity and diffusion terms finite at r = 0.
+    pub eta2: f64,
+    /// G(0) of [`Self::gradient`]: 5 alpha_D / h^2, alpha_D = 21 / (16 pi h^3).
+    pub gradient_factor: f64,
+    /// Monaghan's artificial viscosity alpha.
+    pub artificial_viscosity: f64,
+    /// The delta-SPH density diffusion coefficient delta.
+    pub density_diffusion: f64,
+}
+
+impl WcsphConstants {
+    /// The kernel gradient's factor G(r) >= 0, with grad_i W(r_ij) = -G r_ij: for the
+    /// Wendland C2 kernel W = alpha_D (1 - q/2)^4 (2q + 1), q = r / h, it is
+    /// 5 alpha_D / h^2 (1 - q/2)^3 within the support and 0 beyond.
+    pub fn gradient(&self, r: f64) -> f64 {
+        let w = (1.0 - 0.5 * r / self.h).max(0.0);
+        self.gradient_factor * w * w * w
+    }
+}
+
+/// The walls a particle's mirror images are taken across: per axis, the nearer box wall
+/// if the particle is within one support radius of it. (Below 41 particles per metre a
+/// particle can be within reach of both walls of x or z; only the nearer's images are
+/// taken, and the kernels may differ in which they take: a column so coarse is no fluid.)
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NearWalls {
+    /// Bit k set if the particle is near a wall of axis k.
+    pub axes: u8,
+    /// The coordinate of that wall, per axis (unused where the bit is clear).
+    pub at: [f64; 3],
+}
+
+impl NearWalls {
+    /// The walls within `support` of `position`.
+    pub fn of(position: [f64; 3], support: f64) -> Self {
+        let mut near = NearWalls {
+            axes: 0,
+            at: [0.0; 3],
+        };
+        for axis in 0..3 {
+            let (low, high) = (
+                position[axis] - BOX_MIN[axis],
+                BOX_MAX[axis] - position[axis],
+            );
+            if low.min(high) < support {
+                near.axes |= 1 << axis;
+                near.at[axis] = if low <= high {
+                    BOX_MIN[axis]
+                } else {
+                    BOX_MAX[axis]
+                };
+            }
+        }
+        near
+    }
+
+    /// Every non-empty set of the near walls' axes (as bits): the images across one wall,
+    /// two (an edge) and three (a corner).
+    pub fn images(self) -> impl Iterator<Item = u8> {
+        (1..8u8).filter(move |&set| set & !self.axes == 0)
+    }
+}
+
+/// The weakly compressible model's one pair pass: adds every pair's (and wall image's)
+/// acceleration and density rates to `rates`, over the tiles.
+#[derive(Debug)]
+pub struct WeaklyCompressible<'a> {
+    /// The pair terms' constants.
+    pub constants: &'a WcsphConstants,
+    /// The candidate pairs.
+    pub tiles: &'a [Tile],
+    /// What the pass reads.
+    pub state: State<'a>,
+    /// Each slot's particle (one per particle): the order of the reference kernel's sums.
+    pub id: &'a [u32],
+    /// What the pass adds to.
+    pub rates: Rates<'a>,
+}
+
+impl PairPass for WeaklyCompressible<'_> {
+    fn scalar(self) {
+        scalar(self);
+    }
+    fn lanes<L: Lanes>(self) {
+        lanes::<L>(self);
+    }
+    fn reference(self) {
+        reference(self);
+    }
+}
 
 /// What the pair loop reads: positions, velocities, densities and each particle's
 /// p / rho^2.
@@ -30,7 +133,7 @@ use glam::DVec3;
 pub struct State<'a> {
     /// Positions.
     pub p: &'a AxisArrays,
-    /// Velocities: [`crate::sim::wcsph::predicted_velocity`].
+    /// Velocities: [`crate::sim::model::wcsph::predicted_velocity`].
     pub v: &'a AxisArrays,
     /// Densities.
     pub rho: &'a [f64],
@@ -52,29 +155,38 @@ pub struct Rates<'a> {
 /// density rates of i and j; `None` beyond the support.
 #[inline(always)]
 pub(super) fn pair(
-    model: &Wcsph,
+    constants: &WcsphConstants,
     d: DVec3,
     dv: DVec3,
     [rho_i, rho_j]: [f64; 2],
     [pressure_i, pressure_j]: [f64; 2],
 ) -> Option<(DVec3, [f64; 2])> {
     let r2 = d.length_squared();
-    let within = r2 < model.support * model.support;
+    let within = r2 < constants.support * constants.support;
     if !within {
         // Beyond the support, or not a number: as the lanes' mask takes it.
         return None;
     }
-    let mass_gradient = model.mass * model.gradient(r2.sqrt());
+    let mass_gradient = constants.mass * constants.gradient(r2.sqrt());
     let approach = dv.dot(d);
-    let inverse = 1.0 / (r2 + model.eta2);
-    let viscosity =
-        (-2.0 * ARTIFICIAL_VISCOSITY * model.sound_speed * model.h * approach * inverse
-            / (rho_i + rho_j))
-            .max(0.0);
+    let inverse = 1.0 / (r2 + constants.eta2);
+    let viscosity = (-2.0
+        * constants.artificial_viscosity
+        * constants.sound_speed
+        * constants.h
+        * approach
+        * inverse
+        / (rho_i + rho_j))
+        .max(0.0);
     let acceleration = d * (mass_gradient * (pressure_i + pressure_j + viscosity));
     let continuity = -mass_gradient * approach;
-    let diffusion =
-        2.0 * DENSITY_DIFFUSION * model.h * model.sound_speed * mass_gradient * r2 * inverse;
+    let diffusion = 2.0
+        * constants.density_diffusion
+        * constants.h
+        * constants.sound_speed
+        * mass_gradient
+        * r2
+        * inverse;
     let rates = [
         continuity + diffusion * (rho_j - rho_i) / rho_j,
         continuity + diffusion * (rho_i - rho_j) / rho_i,
@@ -104,27 +216,33 @@ fn mirrored(p: DVec3, set: u8, walls: &NearWalls) -> DVec3 {
 /// its pressure is the particle's plus rho g . (image - p), and its density the
 /// particle's plus that over c0^2 (Tait's law near rest). Above the ceiling (water
 /// splashed against it, not resting under it) and beside the side walls, the particle's.
-fn image_of(model: &Wcsph, pressure: f64, rho: f64, p: DVec3, image: DVec3) -> (f64, f64) {
+fn image_of(
+    constants: &WcsphConstants,
+    pressure: f64,
+    rho: f64,
+    p: DVec3,
+    image: DVec3,
+) -> (f64, f64) {
     let lift = GRAVITY.dot(image - p).max(0.0);
-    let inverse_c2 = 1.0 / (model.sound_speed * model.sound_speed);
+    let inverse_c2 = 1.0 / (constants.sound_speed * constants.sound_speed);
     let rho_image = rho * (1.0 + lift * inverse_c2);
     let pressure_image = (pressure * rho * rho + rho * lift) / (rho_image * rho_image);
     (pressure_image, rho_image)
 }
 
 /// Every particle's terms with its own images (only it receives them).
-fn self_images(model: &Wcsph, state: State, n: usize, rates: &mut Rates) {
+fn self_images(constants: &WcsphConstants, state: State, n: usize, rates: &mut Rates) {
     for i in 0..n {
         let p = vector_at(state.p, i);
-        let walls = NearWalls::of(p.to_array(), model.support);
+        let walls = NearWalls::of(p.to_array(), constants.support);
         let v = vector_at(state.v, i);
         let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
         for set in walls.images() {
             let image = mirrored(p, set, &walls);
             let dv = v - reflected(v, set);
-            let (pressure_image, rho_image) = image_of(model, pressure, rho, p, image);
+            let (pressure_image, rho_image) = image_of(constants, pressure, rho, p, image);
             let (pressures, densities) = ([pressure, pressure_image], [rho, rho_image]);
-            if let Some((da, [rate, _])) = pair(model, p - image, dv, densities, pressures) {
+            if let Some((da, [rate, _])) = pair(constants, p - image, dv, densities, pressures) {
                 for axis in 0..3 {
                     rates.a[axis][i] += da[axis];
                 }
@@ -135,11 +253,19 @@ fn self_images(model: &Wcsph, state: State, n: usize, rates: &mut Rates) {
 }
 
 /// The pair loop one pair at a time.
-pub(super) fn scalar(model: &Wcsph, tiles: &[Tile], state: State, n: usize, rates: &mut Rates) {
+pub(super) fn scalar(pass: WeaklyCompressible) {
+    let WeaklyCompressible {
+        constants,
+        tiles,
+        state,
+        id,
+        mut rates,
+    } = pass;
+    let (rates, n) = (&mut rates, id.len());
     for tile in tiles {
         for i in tile.firsts() {
             let (p_i, v_i) = (vector_at(state.p, i), vector_at(state.v, i));
-            let walls = NearWalls::of(p_i.to_array(), model.support);
+            let walls = NearWalls::of(p_i.to_array(), constants.support);
             for j in tile.partners(i) {
                 let (p_j, v_j) = (vector_at(state.p, j), vector_at(state.v, j));
                 let (rho_i, rho_j) = (state.rho[i], state.rho[j]);
@@ -149,10 +275,10 @@ pub(super) fn scalar(model: &Wcsph, tiles: &[Tile], state: State, n: usize, rate
                     let image = mirrored(p_j, set, &walls);
                     let dv = v_i - reflected(v_j, set);
                     let (pressure_image, rho_image) =
-                        image_of(model, pressure_j, rho_j, p_j, image);
+                        image_of(constants, pressure_j, rho_j, p_j, image);
                     let pressures = [pressure_i, pressure_image];
                     let d = p_i - image;
-                    let terms = pair(model, d, dv, [rho_i, rho_image], pressures);
+                    let terms = pair(constants, d, dv, [rho_i, rho_image], pressures);
                     if let Some((da, [rate_i, rate_j])) = terms {
                         // j meets the image of i, which across the floor has its own
                         // hydrostatic pressure and density.
@@ -161,9 +287,9 @@ pub(super) fn scalar(model: &Wcsph, tiles: &[Tile], state: State, n: usize, rate
                         } else {
                             let image_i = mirrored(p_i, set, &walls);
                             let (pressure_image, rho_image) =
-                                image_of(model, pressure_i, rho_i, p_i, image_i);
+                                image_of(constants, pressure_i, rho_i, p_i, image_i);
                             let pressures = [pressure_image, pressure_j];
-                            let terms = pair(model, d, dv, [rho_image, rho_j], pressures);
+                            let terms = pair(constants, d, dv, [rho_image, rho_j], pressures);
                             terms.map_or((DVec3::ZERO, 0.0), |(da_j, [_, rate_j])| (da_j, rate_j))
                         };
                         let back = reflected(da_j, set);
@@ -178,20 +304,21 @@ pub(super) fn scalar(model: &Wcsph, tiles: &[Tile], state: State, n: usize, rate
             }
         }
     }
-    self_images(model, state, n, rates);
+    self_images(constants, state, n, rates);
 }
 
 /// The pair loop with each particle's terms summed on their own over its partners and
 /// images in id order, with compensated sums: the reference trajectory's.
-pub(super) fn reference(
-    model: &Wcsph,
-    tiles: &[Tile],
-    state: State,
-    id: &[u32],
-    n: usize,
-    rates: &mut Rates,
-) {
-    let support2 = model.support * model.support;
+pub(super) fn reference(pass: WeaklyCompressible) {
+    let WeaklyCompressible {
+        constants,
+        tiles,
+        state,
+        id,
+        mut rates,
+    } = pass;
+    let (rates, n) = (&mut rates, id.len());
+    let support2 = constants.support * constants.support;
     let mut partners = vec![Vec::new(); n];
     for tile in tiles {
         for i in tile.firsts() {
@@ -208,7 +335,7 @@ pub(super) fn reference(
         list.push(i as u32);
         list.sort_unstable_by_key(|&j| id[j as usize]);
         let (p_i, v_i) = (vector_at(state.p, i), vector_at(state.v, i));
-        let walls = NearWalls::of(p_i.to_array(), model.support);
+        let walls = NearWalls::of(p_i.to_array(), constants.support);
         let mut a = [0, 1, 2].map(|axis| Neumaier::new(rates.a[axis][i]));
         let mut rate = Neumaier::new(rates.rho[i]);
         for &j in list.iter() {
@@ -219,10 +346,11 @@ pub(super) fn reference(
             for set in std::iter::once(0).chain(walls.images()).skip(own) {
                 let image = mirrored(p_j, set, &walls);
                 let dv = v_i - reflected(v_j, set);
-                let (pressure_image, rho_image) = image_of(model, pressure_j, rho_j, p_j, image);
+                let (pressure_image, rho_image) =
+                    image_of(constants, pressure_j, rho_j, p_j, image);
                 let pressure = [state.pressure_terms[i], pressure_image];
                 let rho = [state.rho[i], rho_image];
-                if let Some((da, [rate_i, _])) = pair(model, p_i - image, dv, rho, pressure) {
+                if let Some((da, [rate_i, _])) = pair(constants, p_i - image, dv, rho, pressure) {
                     for (sum, term) in a.iter_mut().zip(da.to_array()) {
                         sum.add(term);
                     }
@@ -362,13 +490,15 @@ impl<L: Lanes> Pairs<'_, L> {
 }
 
 /// The pair loop on `L` lanes.
-pub(super) fn lanes<L: Lanes>(
-    model: &Wcsph,
-    tiles: &[Tile],
-    state: State,
-    n: usize,
-    rates: &mut Rates,
-) {
+pub(super) fn lanes<L: Lanes>(pass: WeaklyCompressible) {
+    let WeaklyCompressible {
+        constants,
+        tiles,
+        state,
+        id,
+        mut rates,
+    } = pass;
+    let (rates, n) = (&mut rates, id.len());
     let ([x, y, z], [vx, vy, vz]) = (state.p, state.v);
     let [ax, ay, az] = &mut *rates.a;
     let arrays = [&x[..], y, z, vx, vy, vz, state.rho, state.pressure_terms];
@@ -376,26 +506,30 @@ pub(super) fn lanes<L: Lanes>(
     assert_padded(slots_used(tiles), L::LANES, &[ax, ay, az, rates.rho]);
     let pairs = Pairs::<L> {
         state,
-        support2: L::splat(model.support * model.support),
-        over_2h: L::splat(0.5 / model.h),
+        support2: L::splat(constants.support * constants.support),
+        over_2h: L::splat(0.5 / constants.h),
         one: L::splat(1.0),
         zero: L::splat(0.0),
-        mass_gradient: L::splat(model.mass * model.gradient_factor),
-        viscosity: L::splat(2.0 * ARTIFICIAL_VISCOSITY * model.sound_speed * model.h),
-        diffusion: L::splat(2.0 * DENSITY_DIFFUSION * model.h * model.sound_speed),
-        eta2: L::splat(model.eta2),
+        mass_gradient: L::splat(constants.mass * constants.gradient_factor),
+        viscosity: L::splat(
+            2.0 * constants.artificial_viscosity * constants.sound_speed * constants.h,
+        ),
+        diffusion: L::splat(
+            2.0 * constants.density_diffusion * constants.h * constants.sound_speed,
+        ),
+        eta2: L::splat(constants.eta2),
         twice_gravity: L::splat(2.0 * GRAVITY.y),
-        inverse_sound_speed2: L::splat(1.0 / (model.sound_speed * model.sound_speed)),
+        inverse_sound_speed2: L::splat(1.0 / (constants.sound_speed * constants.sound_speed)),
     };
     let mut a = [ax, ay, az];
     for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
         for i in cell_tiles[0].firsts() {
             let position = [x[i], y[i], z[i]];
-            let walls = NearWalls::of(position, model.support);
+            let walls = NearWalls::of(position, constants.support);
             let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
             let floor_image = (walls.axes & 0b010 != 0 && walls.at[1] == BOX_MIN.y).then(|| {
                 let p = DVec3::from_array(position);
-                image_of(model, pressure, rho, p, mirrored(p, 0b010, &walls))
+                image_of(constants, pressure, rho, p, mirrored(p, 0b010, &walls))
             });
             let first = First {
                 p: position,
@@ -452,15 +586,15 @@ pub(super) fn lanes<L: Lanes>(
             rates.rho[i] += L::total(rate);
         }
     }
-    self_images(model, state, n, rates);
+    self_images(constants, state, n, rates);
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::kernel::interact_weakly_compressible;
-    use crate::sim::method::{Kernel, Method, Model};
-    use crate::sim::params::BOX_MAX;
+    use crate::sim::kernel::Kernel;
+    use crate::sim::method::Method;
+    use crate::sim::model::{Model, Wcsph};
     use crate::sim::particles::{Particles, PADDING};
     use crate::sim::simulation::Simulation;
 
@@ -522,11 +656,16 @@ mod tests {
             rho: &rho,
             pressure_terms: &pressure_terms,
         };
-        let mut out = Rates {
-            a: &mut a,
-            rho: &mut rates,
-        };
-        interact_weakly_compressible(kernel, model, sim.tiles(), state, &placed.id, &mut out);
+        kernel.run(WeaklyCompressible {
+            constants: &model.constants,
+            tiles: sim.tiles(),
+            state,
+            id: &placed.id,
+            rates: Rates {
+                a: &mut a,
+                rho: &mut rates,
+            },
+        });
         let (mut by_id_a, mut by_id_rate) = (vec![DVec3::ZERO; n], vec![0.0; n]);
         for (slot, (&id, &rate)) in placed.id.iter().zip(&rates).enumerate() {
             by_id_a[id as usize] = vector_at(&a, slot);
@@ -606,9 +745,10 @@ mod tests {
             }
         }
         let moved = explicit.p[0..3].iter().enumerate().all(|(axis, values)| {
-            values[..explicit.len()]
-                .iter()
-                .all(|&x| x - BOX_MIN[axis] > model.support && BOX_MAX[axis] - x > model.support)
+            values[..explicit.len()].iter().all(|&x| {
+                x - BOX_MIN[axis] > model.constants.support
+                    && BOX_MAX[axis] - x > model.constants.support
+            })
         });
         assert!(moved, "the explicit images are near a wall");
         [Kernel::Scalar, Kernel::Simd].map(|kernel| {

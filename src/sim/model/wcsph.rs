@@ -1,4 +1,4 @@
-//! The weakly compressible model ([`crate::sim::method::Model::Wcsph`]), designed as the
+//! The weakly compressible model ([`crate::sim::model::Model::Wcsph`]), designed as the
 //! validated SPH codes run water (DualSPHysics, PySPH): the density is a state of its own,
 //! advanced by the continuity equation with Molteni and Colagrossi's delta-SPH diffusion;
 //! the pressure follows Tait's equation of state, stiff enough (a sound speed ten times
@@ -6,13 +6,17 @@
 //! artificial viscosity; the Wendland C2 kernel; free-slip walls made of the mirror images
 //! of the particles near them; and a time step from a CFL condition.
 //!
-//! This module holds the model's constants and per-particle parts (equation of state,
-//! kernel, initial densities, time step, density update); its pair loop is in
-//! [`crate::sim::kernel`].
+//! This module holds the model's constants and its per-particle parts (equation of
+//! state, initial densities, time step, the densities' update) and runs its one pair pass,
+//! whose loops are in [`crate::sim::kernel`] ([`WeaklyCompressible`]).
 
-use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
-use crate::sim::particles::Particles;
-use crate::sim::timestep::Limit;
+use super::{Context, Dynamics};
+use crate::sim::cells::Walls;
+use crate::sim::kernel::{Rates, State, WcsphConstants, WeaklyCompressible};
+use crate::sim::params::{Params, BOX_MIN, FLUID_DENSITY, GRAVITY};
+use crate::sim::particles::{AxisArrays, Particles, PADDING};
+use crate::sim::stages::{self, Stage};
+use crate::sim::timestep::{Leapfrog, Limit, TimeStep};
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
@@ -33,38 +37,40 @@ pub const DENSITY_DIFFUSION: f64 = 0.1;
 /// The default Courant constant of the CFL time step.
 pub const COURANT: f64 = 0.2;
 
-/// The model's constants for one resolution and sound speed.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The model at one resolution and sound speed (chosen at its start), with the per-slot
+/// buffers of its pair pass.
+#[derive(Debug, Clone, Default)]
 pub struct Wcsph {
-    /// Smoothing length h (m).
-    pub h: f64,
-    /// Support radius 2h (m), the pair cut-off.
-    pub support: f64,
-    /// Particle mass rho_0 / ppm^3 (kg).
-    pub mass: f64,
-    /// Sound speed c_0 (m/s).
-    pub sound_speed: f64,
+    /// The pair terms' constants (h, support, mass, sound speed, ...).
+    pub constants: WcsphConstants,
     /// Tait's stiffness B = c_0^2 rho_0 / gamma (Pa).
     pub stiffness: f64,
-    /// 0.01 h^2, which keeps the viscosity and diffusion terms finite at r = 0.
-    pub eta2: f64,
-    /// G(0) of [`Self::gradient`]: 5 alpha_D / h^2, alpha_D = 21 / (16 pi h^3).
-    pub gradient_factor: f64,
+    /// p / rho^2 of each slot (padded).
+    pressure_terms: Vec<f64>,
+    /// drho/dt of each slot (padded).
+    rates: Vec<f64>,
+    /// The velocities the pair pass reads (padded): [`predicted_velocity`].
+    velocities: AxisArrays,
 }
 
 impl Wcsph {
-    /// The constants at `ppm` particles per metre with sound speed `sound_speed` (m/s).
+    /// The model at `ppm` particles per metre with sound speed `sound_speed` (m/s).
     pub fn new(ppm: f64, sound_speed: f64) -> Self {
         let h = SMOOTHING / ppm;
         let alpha_d = 21.0 / (16.0 * PI * h.powi(3));
         Wcsph {
-            h,
-            support: SUPPORT / ppm,
-            mass: FLUID_DENSITY / ppm.powi(3),
-            sound_speed,
+            constants: WcsphConstants {
+                h,
+                support: SUPPORT / ppm,
+                mass: FLUID_DENSITY / ppm.powi(3),
+                sound_speed,
+                eta2: 0.01 * h * h,
+                gradient_factor: 5.0 * alpha_d / (h * h),
+                artificial_viscosity: ARTIFICIAL_VISCOSITY,
+                density_diffusion: DENSITY_DIFFUSION,
+            },
             stiffness: sound_speed * sound_speed * FLUID_DENSITY / f64::from(GAMMA),
-            eta2: 0.01 * h * h,
-            gradient_factor: 5.0 * alpha_d / (h * h),
+            ..Wcsph::default()
         }
     }
 
@@ -93,14 +99,6 @@ impl Wcsph {
         FLUID_DENSITY * (1.0 + pressure / self.stiffness).powf(1.0 / f64::from(GAMMA))
     }
 
-    /// The kernel gradient's factor G(r) >= 0, with grad_i W(r_ij) = -G r_ij: for the
-    /// Wendland C2 kernel W = alpha_D (1 - q/2)^4 (2q + 1), q = r / h, it is
-    /// 5 alpha_D / h^2 (1 - q/2)^3 within the support and 0 beyond.
-    pub fn gradient(&self, r: f64) -> f64 {
-        let w = (1.0 - 0.5 * r / self.h).max(0.0);
-        self.gradient_factor * w * w * w
-    }
-
     /// Sets the densities of `particles` to those of water at rest below the top of the
     /// fluid above each: the particles are binned into columns one support radius wide
     /// in x and z, and each gets the density of its depth below the highest particle of
@@ -108,10 +106,10 @@ impl Wcsph {
     /// it too). A column at rest then starts near its equilibrium.
     pub fn settle_densities(&self, ppm: f64, particles: &mut Particles) {
         let n = particles.len();
+        let support = self.constants.support;
         let column = |slot: usize| {
-            let bin = |axis: usize| {
-                ((particles.p[axis][slot] - BOX_MIN[axis]) / self.support).floor() as i64
-            };
+            let bin =
+                |axis: usize| ((particles.p[axis][slot] - BOX_MIN[axis]) / support).floor() as i64;
             (bin(0), bin(2))
         };
         let mut tops: HashMap<(i64, i64), f64> = HashMap::new();
@@ -141,8 +139,9 @@ impl Wcsph {
                 .fold(0.0f64, f64::max)
                 .sqrt()
         };
-        let force = (self.h / largest(&particles.a)).sqrt();
-        let speed = self.h / (self.sound_speed + largest(&particles.hv));
+        let h = self.constants.h;
+        let force = (h / largest(&particles.a)).sqrt();
+        let speed = h / (self.constants.sound_speed + largest(&particles.hv));
         if force < speed {
             (courant * force, Limit::Force)
         } else {
@@ -151,46 +150,120 @@ impl Wcsph {
     }
 }
 
-/// The walls a particle's mirror images are taken across: per axis, the nearer box wall
-/// if the particle is within one support radius of it. (Below 41 particles per metre a
-/// particle can be within reach of both walls of x or z; only the nearer's images are
-/// taken, and the kernels may differ in which they take: a column so coarse is no fluid.)
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NearWalls {
-    /// Bit k set if the particle is near a wall of axis k.
-    pub axes: u8,
-    /// The coordinate of that wall, per axis (unused where the bit is clear).
-    pub at: [f64; 3],
-}
-
-impl NearWalls {
-    /// The walls within `support` of `position`.
-    pub fn of(position: [f64; 3], support: f64) -> Self {
-        let mut near = NearWalls {
-            axes: 0,
-            at: [0.0; 3],
-        };
-        for axis in 0..3 {
-            let (low, high) = (
-                position[axis] - BOX_MIN[axis],
-                BOX_MAX[axis] - position[axis],
-            );
-            if low.min(high) < support {
-                near.axes |= 1 << axis;
-                near.at[axis] = if low <= high {
-                    BOX_MIN[axis]
-                } else {
-                    BOX_MAX[axis]
-                };
-            }
-        }
-        near
+impl Dynamics for Wcsph {
+    fn cutoff(&self, ppm: f64) -> f64 {
+        SUPPORT / ppm
     }
 
-    /// Every non-empty set of the near walls' axes (as bits): the images across one wall,
-    /// two (an edge) and three (a corner).
-    pub fn images(self) -> impl Iterator<Item = u8> {
-        (1..8u8).filter(move |&set| set & !self.axes == 0)
+    fn default_time_step(&self) -> TimeStep {
+        TimeStep::Adaptive { courant: COURANT }
+    }
+
+    fn smoothing_length(&self, _params: &Params) -> f64 {
+        self.constants.h
+    }
+
+    fn carries_densities(&self) -> bool {
+        true
+    }
+
+    /// The sound speed for the height of the highest particle.
+    fn prepare(&mut self, params: &Params, particles: &Particles) {
+        *self = Wcsph::new(params.ppm, Wcsph::sound_speed_for(params.ppm, particles));
+    }
+
+    /// The densities of water at rest below the fluid's top ([`Self::settle_densities`]).
+    fn initial_state(&self, params: &Params, particles: &mut Particles) {
+        self.settle_densities(params.ppm, particles);
+    }
+
+    /// The sound speed.
+    fn saved(&self) -> Vec<f64> {
+        vec![self.constants.sound_speed]
+    }
+
+    fn restore(&mut self, params: &Params, saved: &[f64]) -> Result<(), String> {
+        match *saved {
+            [sound_speed] if sound_speed.is_finite() && sound_speed > 0.0 => {
+                *self = Wcsph::new(params.ppm, sound_speed);
+                Ok(())
+            }
+            _ => Err("its sound speed is not a positive number".into()),
+        }
+    }
+
+    /// The pair pass on the current state: its pair terms added to the accelerations
+    /// (gravity after stage 2), and the density rates.
+    fn interact(&mut self, context: &mut Context) {
+        let particles = &mut *context.particles;
+        let n = particles.len();
+        let padded = n + PADDING;
+        let mut pressure_terms = std::mem::take(&mut self.pressure_terms);
+        pressure_terms.clear();
+        pressure_terms.extend(
+            particles.rho[..n]
+                .iter()
+                .map(|&rho| self.pressure(rho) / (rho * rho)),
+        );
+        pressure_terms.resize(padded, 0.0);
+        self.pressure_terms = pressure_terms;
+        self.rates.clear();
+        self.rates.resize(padded, 0.0);
+        for (axis, velocities) in self.velocities.iter_mut().enumerate() {
+            let (hv, v) = (&particles.hv[axis][..n], &particles.v[axis][..n]);
+            velocities.clear();
+            velocities.extend(hv.iter().zip(v).map(|(&hv, &v)| predicted_velocity(hv, v)));
+            velocities.resize(padded, 0.0);
+        }
+        let Particles { id, p, rho, a, .. } = particles;
+        context.kernel.run(WeaklyCompressible {
+            constants: &self.constants,
+            tiles: context.tiles,
+            state: State {
+                p,
+                v: &self.velocities,
+                rho,
+                pressure_terms: &self.pressure_terms,
+            },
+            id,
+            rates: Rates {
+                a,
+                rho: &mut self.rates,
+            },
+        });
+    }
+
+    fn adaptive_step(&self, _params: &Params, particles: &Particles, courant: f64) -> (f64, Limit) {
+        self.time_step(particles, courant)
+    }
+
+    /// The leapfrog within the box's walls, and the densities advanced by their rates.
+    fn advance(&mut self, step: Leapfrog, _walls: &Walls, particles: &mut Particles) {
+        stages::advance_within_box(step, particles);
+        let n = particles.len();
+        advance_densities(step.dt, &self.rates[..n], &mut particles.rho[..n]);
+    }
+
+    /// One pair stage, [`Stage::TransferAccelerations`], which computes the accelerations
+    /// and density rates; the density stages do nothing (the densities are states,
+    /// advanced with the positions), nor does the wall penalty: the walls are the mirror
+    /// images, and the boundary stage mirrors particles beyond any wall of the box.
+    fn run_stage(&mut self, stage: Stage, context: &mut Context) {
+        match stage {
+            Stage::Reposition
+            | Stage::IncrementDensities
+            | Stage::TransformDensities
+            | Stage::CollideWithWalls => {}
+            Stage::InitAccelerations => context.particles.reset_accelerations(),
+            Stage::TransferAccelerations => self.interact(context),
+            Stage::Move => stages::move_particles(context.params.dt, context.particles),
+            Stage::InteractWithBoundary => stages::reflect_into_box(context.particles),
+        }
+    }
+
+    fn heap_bytes(&self) -> usize {
+        let axes: usize = self.velocities.iter().map(crate::sim::heap_bytes).sum();
+        crate::sim::heap_bytes(&self.pressure_terms) + crate::sim::heap_bytes(&self.rates) + axes
     }
 }
 
@@ -218,6 +291,8 @@ pub fn advance_densities(dt: f64, rates: &[f64], rho: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::kernel::NearWalls;
+    use crate::sim::params::BOX_MAX;
 
     #[test]
     fn the_equation_of_state_is_tait_s_with_gamma_7() {
@@ -236,7 +311,7 @@ mod tests {
     #[test]
     fn the_kernel_gradient_is_wendland_s_and_vanishes_at_the_support() {
         let model = Wcsph::new(200.0, 10.0);
-        let h = model.h;
+        let h = model.constants.h;
         // Numerical derivative of W = alpha_D (1 - q/2)^4 (2q + 1) against -G r.
         let alpha_d = 21.0 / (16.0 * PI * h.powi(3));
         let w = |r: f64| {
@@ -246,11 +321,11 @@ mod tests {
         for r in [0.3 * h, h, 1.7 * h] {
             let e = 1e-7 * h;
             let slope = (w(r + e) - w(r - e)) / (2.0 * e);
-            assert!(((-model.gradient(r) * r) - slope).abs() < 1e-6 * slope.abs());
+            assert!(((-model.constants.gradient(r) * r) - slope).abs() < 1e-6 * slope.abs());
         }
-        assert_eq!(model.gradient(2.0 * h), 0.0);
-        assert_eq!(model.gradient(3.0 * h), 0.0);
-        assert_eq!(model.support, 2.0 * h);
+        assert_eq!(model.constants.gradient(2.0 * h), 0.0);
+        assert_eq!(model.constants.gradient(3.0 * h), 0.0);
+        assert_eq!(model.constants.support, 2.0 * h);
     }
 
     #[test]
@@ -273,11 +348,11 @@ mod tests {
         particles.a[1][2] = -9.8;
         let (dt, limit) = model.time_step(&particles, 0.2);
         assert_eq!(limit, Limit::Speed);
-        assert!((dt - 0.2 * model.h / 12.0).abs() < 1e-18);
+        assert!((dt - 0.2 * model.constants.h / 12.0).abs() < 1e-18);
         particles.a[1][2] = -1e6;
         let (dt, limit) = model.time_step(&particles, 0.2);
         assert_eq!(limit, Limit::Force);
-        assert!((dt - 0.2 * (model.h / 1e6).sqrt()).abs() < 1e-18);
+        assert!((dt - 0.2 * (model.constants.h / 1e6).sqrt()).abs() < 1e-18);
         particles.a[1][0] = f64::NAN;
         assert_eq!(model.time_step(&particles, 0.2), (dt, limit));
     }
@@ -332,7 +407,9 @@ mod tests {
     /// depth below the surface, half a spacing above the top layer), from the floor up;
     /// and the fastest particle at the end.
     fn resting_tank(ppm: f64, depth: f64, settle: f64, end: f64) -> (Vec<f64>, f64) {
-        use crate::sim::method::{Kernel, Method, Model};
+        use crate::sim::kernel::Kernel;
+        use crate::sim::method::Method;
+        use crate::sim::model::Model;
         use crate::sim::simulation::Simulation;
         let counts = [
             (BOX_MAX.x - BOX_MIN.x) * ppm,
@@ -356,8 +433,8 @@ mod tests {
             model: Model::Wcsph,
             kernel: Kernel::NATIVE,
         };
+        let model = Wcsph::new(ppm, Wcsph::sound_speed_for(ppm, &particles));
         let mut sim = Simulation::with_method(ppm, particles, method).unwrap();
-        let model = *sim.weakly_compressible().unwrap();
         while !sim.has_reached(settle) {
             sim.step_towards(settle);
         }
