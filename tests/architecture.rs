@@ -2,9 +2,11 @@
 //! from `io/`, `lab/` or the door; `io/` nothing from `lab/` or the door; the door
 //! (`cli`, `progargs`, `error`, and the `fluid` binary) nothing from `lab/`, so the
 //! `fluid` binary's path reaches no workbench code; `lab/` nothing from the door. Every
-//! module lives in a wing or at the door. Inside `sim/`, the modules sit in layers
-//! ([`SIM_LAYERS`]: constants and derived parameters below the models, the models below
-//! the driver), and a module uses only lower ones, so no import circle can form.
+//! module lives in a wing or at the door. Inside `sim/`, the top-level modules sit in
+//! layers ([`SIM_LAYERS`]: constants and derived parameters below the models, the models
+//! below the driver), and a module uses only lower ones (and its own folder), so no import
+//! circle can form between them; `sim/mod.rs` uses none of them, so that no re-export
+//! there can hide a use.
 //!
 //! Each file under `src/` is parsed with `syn`. A use of another module is any path that
 //! starts with `crate`, `self` or `super` (or `fluid` in a binary), in `use` items, in
@@ -293,6 +295,10 @@ impl<'ast> Visit<'ast> for FileVisitor<'_> {
     }
 
     fn visit_item_use(&mut self, item: &'ast syn::ItemUse) {
+        if self.module == ["sim"] && self.test_depth == 0 {
+            // A re-export there would let a lower layer name a higher one as `crate::sim::X`.
+            self.refuse("a `use` in the root of sim/, which only declares its modules,".into());
+        }
         let mut paths = Vec::new();
         use_tree_paths(&item.tree, &mut Vec::new(), &mut paths);
         if self.module.is_empty() && matches!(item.vis, syn::Visibility::Public(_)) {
@@ -456,6 +462,14 @@ impl Graph {
             }
         }
         for edge in self.edges.iter().filter(|edge| !edge.test_only) {
+            if edge.from == ["sim"] && sim_layer(&edge.to).is_some() {
+                found.push(format!(
+                    "{}: sim uses {} through {}: the wing's root uses none of its layers",
+                    edge.file.display(),
+                    name(&edge.to),
+                    edge.text
+                ));
+            }
             let (Some(Some(from)), Some(Some(to))) = (sim_layer(&edge.from), sim_layer(&edge.to))
             else {
                 continue;
@@ -647,7 +661,7 @@ fn sim_modules_use_only_lower_layers() {
           through crate::sim::simulation::Simulation"
         ]
     );
-    // Across one layer, from a model's own file; a test module may use any layer.
+    // Up two layers, from a model's own file; a test module may use any layer.
     let mut sideways = layered.to_vec();
     sideways.push((
         "sim/model/course.rs",
@@ -684,6 +698,28 @@ fn sim_modules_use_only_lower_layers() {
     assert_eq!(
         crate_with(&stray),
         ["sim::wcsph is in none of sim/'s layers"]
+    );
+    // A re-export in the wing's root would hide a use from the layers.
+    let mut hidden = layered.to_vec();
+    hidden.push((
+        "sim/mod.rs",
+        "pub mod grid; pub mod simulation; pub use simulation::Simulation;",
+    ));
+    assert_eq!(
+        crate_with(&hidden),
+        ["sim/mod.rs: a `use` in the root of sim/, which only declares its modules, is refused"]
+    );
+    let mut named = layered.to_vec();
+    named.push((
+        "sim/mod.rs",
+        "pub mod grid; fn f() { crate::sim::grid::g(); }",
+    ));
+    assert_eq!(
+        crate_with(&named),
+        [
+            "sim/mod.rs: sim uses sim::grid through crate::sim::grid::g: the wing's root uses \
+          none of its layers"
+        ]
     );
 }
 

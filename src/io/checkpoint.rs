@@ -74,7 +74,8 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     }
     bytes.extend_from_slice(&value.to_le_bytes());
     bytes.extend_from_slice(&last_dt.to_le_bytes());
-    bytes.push(state.model_state.len() as u8);
+    let kept = u8::try_from(state.model_state.len()).expect("a model keeps at most 255 values");
+    bytes.push(kept);
     for value in &state.model_state {
         bytes.extend_from_slice(&value.to_le_bytes());
     }

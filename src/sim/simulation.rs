@@ -191,17 +191,29 @@ impl Simulation {
         self.search.tiles()
     }
 
-    /// A copy that goes on with another kernel, or another model. A copy of another model
-    /// is set up as [`Self::with_method`] sets up a start (its parameters, per-particle
-    /// state and time-step rule), at the same time; its cut-off may admit no grid.
+    /// A copy that goes on with another kernel, or another model. A model of the same
+    /// cut-off whose state, like this one's, is only the particles' positions and
+    /// velocities (the course model and fluidanimate) takes over the copy as it is (its
+    /// cell order, time step, skin and last step). Any other model's copy is set up as
+    /// [`Self::with_method`] sets up a start (its parameters, per-particle state and
+    /// time-step rule), at the same time; its cut-off may admit no grid.
     pub fn clone_with_method(&self, method: Method) -> Result<Simulation, GridSizeError> {
-        if method.model != self.method.model {
+        let mut dynamics = method.model.dynamics();
+        let ppm = self.params.ppm;
+        let takes_over = !dynamics.carries_densities()
+            && !self.dynamics.carries_densities()
+            && dynamics.cutoff(ppm) == self.dynamics.cutoff(ppm);
+        if method.model != self.method.model && !takes_over {
             let particles = self.particles.unpadded();
-            let mut copy = Simulation::with_method(self.params.ppm, particles, method)?;
+            let mut copy = Simulation::with_method(ppm, particles, method)?;
             copy.time = self.time;
             return Ok(copy);
         }
         let mut copy = self.clone();
+        if method.model != self.method.model {
+            dynamics.prepare(&copy.params, &copy.particles);
+            copy.dynamics = dynamics;
+        }
         copy.method = method;
         copy.placement += 1;
         Ok(copy)
@@ -680,28 +692,39 @@ mod tests {
     }
 
     #[test]
-    fn the_acceleration_transfer_needs_only_the_close_pairs() {
-        // Along x: pairs closer than h, pairs in adjacent cells farther than h, and 600
-        // particles in one far cell (groups past the overflow bit on 4 and on 8 lanes).
-        let mut xs = vec![0.0, 0.004, 0.0075, 0.0165, 0.03, 0.06];
-        xs.extend((0..600).map(|k| 50.0 + 1e-6 * k as f64));
-        for kernel in Kernel::ALL {
-            let method = Method {
-                model: Model::Course,
-                kernel,
-            };
-            let mut sim = Simulation::with_method(204.0, along_x(&xs), method).unwrap();
-            sim.run_stage(Stage::IncrementDensities);
-            sim.run_stage(Stage::TransformDensities);
-            // A new placement number: what the density pass found is stale, so the copy's
-            // acceleration pass visits every tile.
-            let mut all_tiles = sim.clone();
-            all_tiles.placement += 1;
-            sim.run_stage(Stage::TransferAccelerations);
-            all_tiles.run_stage(Stage::TransferAccelerations);
-            assert_eq!(sim.particles().a, all_tiles.particles().a, "{kernel:?}");
-            assert_ne!(sim.particles().a[0][0], 0.0);
-        }
+    fn a_copy_of_another_model_of_the_same_state_goes_on_from_the_same_place() {
+        // The course model after two 0.5 ms steps with a skin, copied to fluidanimate: the
+        // copy keeps the time step, the skin, the cell order and the last step, and goes
+        // on with fluidanimate's viscosity.
+        let method = |model| Method {
+            model,
+            kernel: Kernel::Simd,
+        };
+        let mut particles = along_x(&[0.0, 0.004, 0.0075, 0.0165]);
+        particles.v[1][0] = 1.0;
+        particles.hv[1][0] = 1.0;
+        let mut course = Simulation::with_method(204.0, particles, method(Model::Course)).unwrap();
+        course.set_time_step(TimeStep::Fixed(5e-4));
+        course.set_skin(Some(1e-3)).unwrap();
+        course.run(2);
+        let mut copy = course
+            .clone_with_method(method(Model::Fluidanimate))
+            .unwrap();
+        assert_eq!(copy.method().model, Model::Fluidanimate);
+        assert_eq!(copy.time_step(), TimeStep::Fixed(5e-4));
+        assert_eq!(
+            copy.skin().unwrap().builds(),
+            course.skin().unwrap().builds()
+        );
+        assert_eq!(copy.last_step(), course.last_step());
+        assert_eq!(copy.particles(), course.particles());
+        copy.run(3);
+        course.run(3);
+        assert_ne!(copy.particles(), course.particles());
+        // Another model's copy starts afresh at the same time.
+        let stiff = course.clone_with_method(method(Model::Wcsph)).unwrap();
+        assert_eq!(stiff.time(), course.time());
+        assert_eq!(stiff.last_step(), None);
     }
 
     #[test]

@@ -272,4 +272,53 @@ mod tests {
         assert_eq!(limit, Limit::Speed);
         assert!(dt.is_finite() && dt > 0.0);
     }
+
+    #[test]
+    fn the_acceleration_pass_visits_only_the_close_pairs_of_its_placement() {
+        use crate::sim::kernel::Kernel;
+        use crate::sim::method::Method;
+        use crate::sim::model::Model;
+        use crate::sim::params::BOX_MIN;
+        use crate::sim::simulation::Simulation;
+        // Along x: pairs closer than h, pairs in adjacent cells farther than h, and 600
+        // particles in one far cell (groups past the overflow bit on 4 and on 8 lanes).
+        let mut xs = vec![0.0, 0.004, 0.0075, 0.0165, 0.03, 0.06];
+        xs.extend((0..600).map(|k| 50.0 + 1e-6 * k as f64));
+        let mut particles = Particles::zeroed(xs.len());
+        particles.p[1] = vec![BOX_MIN.y + 0.05; xs.len()];
+        particles.p[2] = vec![BOX_MIN.z + 0.05; xs.len()];
+        particles.p[0] = xs;
+        for kernel in Kernel::ALL {
+            let model = Model::Course;
+            let sim = Simulation::with_method(204.0, particles.clone(), Method { model, kernel })
+                .unwrap();
+            let (mut close, mut every) = (sim.particles().clone(), sim.particles().clone());
+            let mut course = Spec::default();
+            let mut run = |stage, placement, particles: &mut Particles| {
+                let mut context = Context {
+                    params: sim.params(),
+                    kernel,
+                    tiles: sim.tiles(),
+                    walls: sim.cells().walls(),
+                    placement,
+                    particles,
+                };
+                course.run_stage(stage, &mut context);
+            };
+            run(Stage::IncrementDensities, 1, &mut close);
+            run(Stage::TransformDensities, 1, &mut close);
+            every.rho.clone_from(&close.rho);
+            // The pass of placement 1 visits what the density pass found; that of a later
+            // placement, every tile.
+            run(Stage::TransferAccelerations, 1, &mut close);
+            run(Stage::TransferAccelerations, 2, &mut every);
+            assert_eq!(close.a, every.a, "{kernel:?}");
+            assert_ne!(close.a[0][0], 0.0);
+            let found = course.close.tiles.len();
+            assert!(
+                found > 0 && found < sim.tiles().len(),
+                "{kernel:?}: {found}"
+            );
+        }
+    }
 }

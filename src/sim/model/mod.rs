@@ -94,8 +94,9 @@ pub struct Context<'a> {
 }
 
 /// A physical model as the driver runs it. A step is: the driver places the particles
-/// (stage 1, and stage 2 unless [`Self::carries_densities`]), [`Self::interact`], the
-/// step's length (fixed, or [`Self::adaptive_step`]), then [`Self::advance`].
+/// (stage 1) and resets what the pair passes sum into (stage 2: accelerations to gravity,
+/// and densities to zero unless [`Self::carries_densities`]), then [`Self::interact`],
+/// the step's length (fixed, or [`Self::adaptive_step`]), then [`Self::advance`].
 pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// The pair cut-off at `ppm` particles per metre (m): the smallest side of a block.
     fn cutoff(&self, ppm: f64) -> f64;
@@ -131,7 +132,7 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
         match saved {
             [] => Ok(()),
             _ => Err(format!(
-                "it keeps {} values this model does not",
+                "it keeps {} value(s) of its model, which keeps none",
                 saved.len()
             )),
         }
