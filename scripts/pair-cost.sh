@@ -9,19 +9,24 @@
 # is the time per step divided by it. The time includes every stage, not only the pair
 # loops, so it is an upper bound of the pair loops' own cost.
 #
-# Usage: scripts/pair-cost.sh [--steps N] [--every K] [--model M] [INPUT] [KERNEL ...]
-#        defaults: --steps 1000 --every 10 --model fluidanimate data/in/large.fld simd simd8 mixed scalar
+# Usage: scripts/pair-cost.sh [--steps N] [--every K] [--model M] [--pairs S] [INPUT] [KERNEL ...]
+#        defaults: --steps 1000 --every 10 --model fluidanimate --pairs tiles
+#                  data/in/large.fld simd simd8 mixed scalar
+# (--pairs clusters runs the SIMD kernels of the course models on clusters; see
+# `fluid-lab run --help`.)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 steps=1000
 every=10
 model=fluidanimate
+pairs=tiles
 while [ $# -gt 0 ]; do
     case "$1" in
     --steps) steps="$2"; shift 2 ;;
     --every) every="$2"; shift 2 ;;
     --model) model="$2"; shift 2 ;;
+    --pairs) pairs="$2"; shift 2 ;;
     --*) echo "pair-cost.sh: unknown option $1" >&2; exit 2 ;;
     *) break ;;
     esac
@@ -44,7 +49,7 @@ trap 'rm -rf "$work"' EXIT
 
 echo "input model kernel particles steps seconds ns_per_particle_step pairs_per_step ns_per_pair"
 for kernel in "${kernels[@]}"; do
-    line="$("$lab" run --model "$model" --kernel "$kernel" --steps "$steps" "$input" \
+    line="$("$lab" run --model "$model" --kernel "$kernel" --pairs "$pairs" --steps "$steps" "$input" \
         --diagnostics "$work/diagnostics.csv" --every "$every")"
     # The timing line: model=... kernel=... particles=N steps=N seconds=S ns_per_particle_step=T
     particles="$(sed -n 's/.* particles=\([0-9]*\) .*/\1/p' <<<"$line")"

@@ -67,7 +67,7 @@ const SIM_LAYERS: [&[&str]; 8] = [
     &["params"],
     &["particles", "grid"],
     &["timestep", "cells"],
-    &["neighbours", "skin", "stages"],
+    &["neighbours", "clusters", "skin", "stages"],
     &["kernel"],
     &["model"],
     &["method"],

@@ -11,13 +11,21 @@ use fluid::Kernel;
 #[test]
 fn every_f64_kernel_reproduces_every_reference_output() {
     let dir = tempfile::tempdir().unwrap();
-    let kernels = Kernel::F64.map(Kernel::name);
-    let runs = kernels.iter().flat_map(|&k| [(k, "small"), (k, "large")]);
-    for (kernel, name) in runs {
+    // Every f64 kernel on the tiles, and those with loops on clusters on clusters too.
+    let kernels = Kernel::F64.map(|kernel| kernel.name());
+    let tiles = kernels.iter().map(|&k| (k, "tiles"));
+    let on_clusters = Kernel::F64
+        .into_iter()
+        .filter(|k| k.cluster_width().is_some());
+    let methods = tiles.chain(on_clusters.map(|k| (k.name(), "clusters")));
+    let runs = methods.flat_map(|(k, pairs)| [(k, pairs, "small"), (k, pairs, "large")]);
+    for (kernel, pairs, name) in runs {
         for steps in 1..=5 {
             let out = dir.path().join(format!("{name}-{steps}.fld"));
             let output = run_lab(&[
                 "run".as_ref(),
+                "--pairs".as_ref(),
+                pairs.as_ref(),
                 "--kernel".as_ref(),
                 kernel.as_ref(),
                 "--steps".as_ref(),
@@ -29,7 +37,7 @@ fn every_f64_kernel_reproduces_every_reference_output() {
             let expected = std::fs::read(reference_output(name, steps)).unwrap();
             assert!(
                 std::fs::read(&out).unwrap() == expected,
-                "{kernel}: {name}-{steps} differs"
+                "{kernel} on {pairs}: {name}-{steps} differs"
             );
         }
     }

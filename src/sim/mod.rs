@@ -14,6 +14,7 @@
 //! models below the driver ([`simulation`]).
 
 pub mod cells;
+pub mod clusters;
 pub mod grid;
 pub mod kernel;
 pub mod method;

@@ -4,7 +4,8 @@
 //! computes between placing the particles and advancing the clock is the model's
 //! ([`crate::sim::model::Dynamics`]); the driver names none.
 
-use crate::sim::cells::CellOrder;
+use crate::sim::cells::{CellOrder, SENTINELS};
+use crate::sim::clusters::{Clusters, PairStructure};
 use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::method::Method;
 use crate::sim::model::{Context, Dynamics};
@@ -51,6 +52,11 @@ pub struct Simulation {
     particles: Particles,
     cells: CellOrder,
     search: TileSearch,
+    /// The neighbour structure the SIMD pair loops run on.
+    structure: PairStructure,
+    /// The clusters of the current placement, if built ([`Self::build_clusters`]).
+    clusters: Clusters,
+    clusters_built: bool,
     /// Counts the placements and kernel changes ([`Context::placement`]).
     placement: u64,
     /// Buffer reused by the reordering.
@@ -136,6 +142,9 @@ impl Simulation {
             particles,
             cells: CellOrder::default(),
             search: TileSearch::default(),
+            structure: PairStructure::default(),
+            clusters: Clusters::default(),
+            clusters_built: false,
             placement: 0,
             spare: Particles::default(),
             time_step,
@@ -182,6 +191,7 @@ impl Simulation {
             + self.spare.heap_bytes()
             + self.cells.heap_bytes()
             + self.search.heap_bytes()
+            + self.clusters.heap_bytes()
             + self.dynamics.heap_bytes()
             + self.skin.as_ref().map_or(0, Skin::heap_bytes)
     }
@@ -216,6 +226,7 @@ impl Simulation {
         }
         copy.method = method;
         copy.placement += 1;
+        copy.clusters_built = false;
         Ok(copy)
     }
 
@@ -267,6 +278,12 @@ impl Simulation {
     pub fn set_skin(&mut self, width: Option<f64>) -> Result<(), GridSizeError> {
         self.skin = width.map(|w| Skin::new(self.params.h, w)).transpose()?;
         Ok(())
+    }
+
+    /// Runs the SIMD pair loops on `structure` from the next placement on (the
+    /// reference outputs hold on either; only the order of the sums differs).
+    pub fn set_pair_structure(&mut self, structure: PairStructure) {
+        self.structure = structure;
     }
 
     /// How steps' lengths are chosen.
@@ -374,6 +391,7 @@ impl Simulation {
             params: &self.params,
             kernel: self.method.kernel,
             tiles: self.search.tiles(),
+            clusters: self.clusters_built.then_some(&self.clusters),
             walls: self.cells.walls(),
             placement: self.placement,
             particles: &mut self.particles,
@@ -401,6 +419,7 @@ impl Simulation {
                 // The lists of an earlier step still hold every pair closer than h.
                 self.reset_for_pairs();
                 self.cells.refresh_walls(&self.grid, &self.particles);
+                self.build_clusters();
                 return;
             }
             Some(skin) => self.cells.sort_on(skin.grid(), &self.grid, &self.particles),
@@ -421,6 +440,25 @@ impl Simulation {
             skin.record(&self.particles);
         }
         self.find_tiles();
+        self.build_clusters();
+    }
+
+    /// Clusters of the placement's cell order at the current positions, where they were
+    /// asked for, the scene is dense (not mostly lone particles), the kernel has loops on
+    /// clusters and the model's passes run on them.
+    fn build_clusters(&mut self) {
+        let width = self.method.kernel.cluster_width();
+        let wanted = self.structure == PairStructure::Clusters
+            && self.dynamics.pairs_on_clusters()
+            && !self.cells.is_sparse();
+        self.clusters_built = false;
+        if let Some(width) = width.filter(|_| wanted) {
+            let keys = self.cells.keys();
+            let paired = &keys[..keys.len() - SENTINELS];
+            let layout = self.cells.layout();
+            self.clusters.build(width, paired, layout, &self.particles);
+            self.clusters_built = true;
+        }
     }
 
     /// Stage 2: accelerations to gravity, and densities to zero unless they are states.

@@ -3,6 +3,7 @@
 
 use crate::io::fld;
 use crate::lab::diagnostics::Vitals;
+use crate::sim::clusters::PairStructure;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
@@ -44,6 +45,9 @@ pub struct SimulationArgs {
     /// stay exactly those of a rebuild every step).
     #[arg(long, allow_negative_numbers = true, value_name = "FRACTION_OF_H", value_parser = parse_skin)]
     pub skin: Option<f64>,
+    /// The neighbour structure of the SIMD pair loops.
+    #[arg(long, value_enum, default_value_t = PairStructure::Tiles)]
+    pub pairs: PairStructure,
 }
 
 impl SimulationArgs {
@@ -87,6 +91,7 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     let ppm = scene.ppm;
     let mut simulation = scene.into_simulation(method, &name)?;
     simulation.set_time_step(args.time_step());
+    simulation.set_pair_structure(args.pairs);
     let h = simulation.params().h;
     simulation
         .set_skin(args.skin.map(|fraction| fraction * h))

@@ -16,6 +16,7 @@
 //! kernels, only those groups of partners (a lane-width each), without testing the others
 //! again.
 
+mod clustered;
 mod reference;
 mod scalar;
 mod simd;
@@ -25,6 +26,7 @@ pub(crate) use simd::Lanes;
 use simd::{F64x4, F64x8, MixedF32x8};
 pub use wcsph::{NearWalls, Rates, State, WcsphConstants, WeaklyCompressible};
 
+use crate::sim::clusters::Clusters;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::Params;
 use crate::sim::particles::AxisArrays;
@@ -89,6 +91,16 @@ impl Kernel {
         }
     }
 
+    /// The places per cluster of the kernel's loops on [`Clusters`] (its lanes), or
+    /// `None` for a kernel that runs on the tiles only.
+    pub fn cluster_width(self) -> Option<usize> {
+        match self {
+            Kernel::Simd => Some(4),
+            Kernel::Simd8 | Kernel::Mixed => Some(8),
+            Kernel::Scalar | Kernel::Reference => None,
+        }
+    }
+
     /// Runs `pass` with this kernel's loop: the one place a kernel is mapped to its loops
     /// (the lanes of each SIMD kernel included).
     pub(crate) fn run(self, pass: impl PairPass) {
@@ -136,17 +148,48 @@ pub struct ClosePairs {
     /// [`Tile::partners`], L the kernel's lanes) hold such a pair; bit 63 stands for every
     /// group from the 63rd on. The SIMD kernels keep all tiles of a cell with any such pair.
     pub groups: Vec<u64>,
+    /// On [`Clusters`]: for each place, in order, the clusters holding a partner closer
+    /// than h (its own cluster for the places after it in it).
+    pub clusters: Vec<u32>,
+    /// Where each place's clusters start in [`Self::clusters`], then their end.
+    pub starts: Vec<u32>,
 }
 
 impl ClosePairs {
     /// The bytes its buffers hold on the heap.
     pub fn heap_bytes(&self) -> usize {
-        crate::sim::heap_bytes(&self.tiles) + crate::sim::heap_bytes(&self.groups)
+        crate::sim::heap_bytes(&self.tiles)
+            + crate::sim::heap_bytes(&self.groups)
+            + crate::sim::heap_bytes(&self.clusters)
+            + crate::sim::heap_bytes(&self.starts)
     }
 
     fn clear(&mut self) {
         self.tiles.clear();
         self.groups.clear();
+        self.clusters.clear();
+        self.starts.clear();
+    }
+}
+
+/// The per-place copies the loops on [`Clusters`] read and sum into (reused from step to
+/// step): velocities and densities by place, and the sums of densities and
+/// accelerations, added back to the particles' slots at the end of a pass.
+#[derive(Debug, Clone, Default)]
+pub struct Packed {
+    /// Velocities by place.
+    v: AxisArrays,
+    /// Densities by place (the density pass's sums, then the densities).
+    rho: Vec<f64>,
+    /// Accelerations by place.
+    a: AxisArrays,
+}
+
+impl Packed {
+    /// The bytes its buffers hold on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        let axes = |arrays: &AxisArrays| arrays.iter().map(crate::sim::heap_bytes).sum::<usize>();
+        axes(&self.v) + crate::sim::heap_bytes(&self.rho) + axes(&self.a)
     }
 }
 
@@ -176,6 +219,8 @@ pub struct Densities<'a> {
     pub params: &'a Params,
     /// The candidate pairs.
     pub tiles: &'a [Tile],
+    /// The clusters of the same placement, which the SIMD kernels run on where given.
+    pub clusters: Option<&'a Clusters>,
     /// Positions.
     pub p: &'a AxisArrays,
     /// Each slot's particle: the order of the reference kernel's sums.
@@ -184,6 +229,8 @@ pub struct Densities<'a> {
     pub rho: &'a mut [f64],
     /// Where pairs closer than h are, for [`Candidates::Close`].
     pub close: &'a mut ClosePairs,
+    /// The copies by place, on [`Clusters`].
+    pub packed: &'a mut Packed,
 }
 
 impl PairPass for Densities<'_> {
@@ -193,7 +240,10 @@ impl PairPass for Densities<'_> {
     }
     fn lanes<L: Lanes>(self) {
         self.close.clear();
-        simd::increment_densities::<L>(self);
+        match self.clusters {
+            Some(clusters) => clustered::increment_densities::<L>(self, clusters),
+            None => simd::increment_densities::<L>(self),
+        }
     }
     fn reference(self) {
         self.close.clear();
@@ -218,6 +268,8 @@ pub struct Accelerations<'a, const FLUIDANIMATE: bool> {
     pub params: &'a Params,
     /// The candidate pairs.
     pub candidates: Candidates<'a>,
+    /// The clusters of the same placement, which the SIMD kernels run on where given.
+    pub clusters: Option<&'a Clusters>,
     /// Positions.
     pub p: &'a AxisArrays,
     /// Velocities.
@@ -228,6 +280,8 @@ pub struct Accelerations<'a, const FLUIDANIMATE: bool> {
     pub id: &'a [u32],
     /// Accelerations, added to.
     pub a: &'a mut AxisArrays,
+    /// The copies by place, on [`Clusters`].
+    pub packed: &'a mut Packed,
 }
 
 impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
@@ -235,7 +289,10 @@ impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
         scalar::transfer_accelerations(self);
     }
     fn lanes<L: Lanes>(self) {
-        simd::transfer_accelerations::<L, FLUIDANIMATE>(self);
+        match self.clusters {
+            Some(clusters) => clustered::transfer_accelerations::<L, FLUIDANIMATE>(self, clusters),
+            None => simd::transfer_accelerations::<L, FLUIDANIMATE>(self),
+        }
     }
     fn reference(self) {
         reference::transfer_accelerations(self);

@@ -80,6 +80,7 @@ pub(super) fn increment_densities(pass: Densities) {
         id,
         rho,
         close,
+        ..
     } = pass;
     let h2 = params.h2;
     let partners = close_partners(tiles, p, h2, id, &mut close.tiles);
@@ -104,6 +105,7 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(pass: Acceleratio
         rho,
         id,
         a,
+        ..
     } = pass;
     let partners = close_partners(candidates.tiles(), p, params.h2, id, &mut Vec::new());
     for (i, list) in partners.iter().enumerate() {

@@ -16,7 +16,7 @@ use super::{Accelerations, Candidates, Densities, OVERFLOW_GROUP};
 /// The group bit that stands for every group from [`OVERFLOW_GROUP`] on.
 const OVERFLOW_BIT: u64 = 1 << OVERFLOW_GROUP;
 use crate::sim::neighbours::Tile;
-use crate::sim::params::{FLUID_DENSITY, MIN_DISTANCE_SQUARED};
+use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::{AxisArrays, PADDING};
 use std::ops::{Add, BitAnd, Div, Mul, Sub};
 use wide::{f32x8, f64x4, f64x8};
@@ -429,7 +429,7 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities) {
 /// # Safety
 /// `j + LANES` is within `rho` and every array of `p`.
 #[inline(always)]
-unsafe fn density_group<L: Lanes>(
+pub(super) unsafe fn density_group<L: Lanes>(
     p: &AxisArrays,
     rho: &mut [f64],
     first: [f64; 3],
@@ -452,14 +452,14 @@ unsafe fn density_group<L: Lanes>(
 }
 
 /// The particle whose partners a group loop visits.
-struct First {
-    p: [f64; 3],
-    v: [f64; 3],
-    rho: f64,
+pub(super) struct First {
+    pub(super) p: [f64; 3],
+    pub(super) v: [f64; 3],
+    pub(super) rho: f64,
 }
 
 /// The arrays and constants of the acceleration transfer.
-struct Transfer<'a, L: Lanes, const FLUIDANIMATE: bool> {
+pub(super) struct Transfer<'a, L: Lanes, const FLUIDANIMATE: bool> {
     p: [&'a [f64]; 3],
     v: [&'a [f64]; 3],
     rho: &'a [f64],
@@ -468,6 +468,27 @@ struct Transfer<'a, L: Lanes, const FLUIDANIMATE: bool> {
     min_distance_squared: L::V,
     pressure_factor: L::V,
     viscosity_factor: L::V,
+}
+
+impl<'a, L: Lanes, const FLUIDANIMATE: bool> Transfer<'a, L, FLUIDANIMATE> {
+    /// The transfer of `params` over these arrays.
+    pub(super) fn new(
+        params: &Params,
+        p: [&'a [f64]; 3],
+        v: [&'a [f64]; 3],
+        rho: &'a [f64],
+    ) -> Self {
+        Transfer {
+            p,
+            v,
+            rho,
+            h: L::splat(params.h),
+            h2: L::splat(params.h2),
+            min_distance_squared: L::splat(MIN_DISTANCE_SQUARED),
+            pressure_factor: L::splat(params.pressure_factor),
+            viscosity_factor: L::splat(params.viscosity_factor),
+        }
+    }
 }
 
 impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
@@ -525,7 +546,7 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
     /// # Safety
     /// `j + LANES` is within every array.
     #[inline(always)]
-    unsafe fn visit(
+    pub(super) unsafe fn visit(
         &self,
         first: &First,
         j: usize,
@@ -564,16 +585,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     let [ax, ay, az] = a;
     let arrays = [&x[..], y, z, vx, vy, vz, rho, ax, ay, az];
     assert_padded(slots_used(tiles), L::LANES, &arrays);
-    let transfer = Transfer::<L, FLUIDANIMATE> {
-        p: [x, y, z],
-        v: [vx, vy, vz],
-        rho,
-        h: L::splat(params.h),
-        h2: L::splat(params.h2),
-        min_distance_squared: L::splat(MIN_DISTANCE_SQUARED),
-        pressure_factor: L::splat(params.pressure_factor),
-        viscosity_factor: L::splat(params.viscosity_factor),
-    };
+    let transfer = Transfer::<L, FLUIDANIMATE>::new(params, [x, y, z], [vx, vy, vz], rho);
     let mut recorded_groups = match candidates {
         Candidates::Close(close) if !close.groups.is_empty() => Some(close.groups.iter()),
         _ => None,

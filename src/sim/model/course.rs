@@ -8,7 +8,7 @@
 
 use super::{Context, Dynamics};
 use crate::sim::cells::Walls;
-use crate::sim::kernel::{self, Accelerations, Candidates, ClosePairs, Densities};
+use crate::sim::kernel::{self, Accelerations, Candidates, ClosePairs, Densities, Packed};
 use crate::sim::params::{
     Params, COLLISION_STIFFNESS, DAMPING, FLUID_DENSITY, PRESSURE_STIFFNESS, RADIUS_MULTIPLIER,
     TIME_STEP,
@@ -26,6 +26,8 @@ pub struct Course<const FLUIDANIMATE: bool> {
     close: ClosePairs,
     /// The placement ([`Context::placement`]) that pass ran on.
     found_on: Option<u64>,
+    /// The copies by place of the passes on clusters.
+    packed: Packed,
 }
 
 /// PARSEC fluidanimate's stable variant of the course model.
@@ -108,6 +110,10 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
         TimeStep::Fixed(TIME_STEP)
     }
 
+    fn pairs_on_clusters(&self) -> bool {
+        true
+    }
+
     fn interact(&mut self, context: &mut Context) {
         for stage in [
             Stage::IncrementDensities,
@@ -136,6 +142,7 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
             params,
             kernel,
             tiles,
+            clusters,
             walls,
             placement,
             ref mut particles,
@@ -149,10 +156,12 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
                 kernel.run(Densities {
                     params,
                     tiles,
+                    clusters,
                     p,
                     id,
                     rho,
                     close: &mut self.close,
+                    packed: &mut self.packed,
                 });
                 self.found_on = Some(placement);
             }
@@ -171,11 +180,13 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
                 kernel.run(Accelerations::<FLUIDANIMATE> {
                     params,
                     candidates,
+                    clusters,
                     p,
                     v,
                     rho,
                     id,
                     a,
+                    packed: &mut self.packed,
                 });
             }
             Stage::CollideWithWalls => stages::collide_with_walls(walls, params.dt, particles),
@@ -185,7 +196,7 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
     }
 
     fn heap_bytes(&self) -> usize {
-        self.close.heap_bytes()
+        self.close.heap_bytes() + self.packed.heap_bytes()
     }
 }
 
@@ -299,6 +310,7 @@ mod tests {
                     params: sim.params(),
                     kernel,
                     tiles: sim.tiles(),
+                    clusters: None,
                     walls: sim.cells().walls(),
                     placement,
                     particles,

@@ -14,6 +14,7 @@ pub use course::Course;
 pub use wcsph::Wcsph;
 
 use crate::sim::cells::Walls;
+use crate::sim::clusters::Clusters;
 use crate::sim::kernel::Kernel;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::Params;
@@ -84,6 +85,9 @@ pub struct Context<'a> {
     pub kernel: Kernel,
     /// The tiles of candidate pairs.
     pub tiles: &'a [Tile],
+    /// The clusters of the same placement, where the driver built them (a dense scene,
+    /// a kernel on lanes, a model that asks for them).
+    pub clusters: Option<&'a Clusters>,
     /// The walls of each slot's block (stage 1).
     pub walls: &'a Walls,
     /// A new number each time the particles are placed (stage 1) or the kernel changes:
@@ -108,6 +112,12 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// given: the cut-off unless the kernel's support is wider than h.
     fn smoothing_length(&self, params: &Params) -> f64 {
         params.h
+    }
+
+    /// Whether the model's pair passes run on [`Clusters`] on the kernels that have
+    /// loops on them ([`Kernel::cluster_width`]); else on the tiles alone.
+    fn pairs_on_clusters(&self) -> bool {
+        false
     }
 
     /// Whether the densities are a state of their own, carried from step to step (moved

@@ -1,0 +1,202 @@
+//! The course models' SIMD pair loops on [`Clusters`]: each particle against whole
+//! clusters of its candidate windows, a cluster one register of lanes (loaded without a
+//! gather: its places are contiguous), the particle's sums in registers, the cluster's
+//! updated lane-wise in memory. The density pass records, per place, the clusters that
+//! hold a partner closer than h ([`ClosePairs::clusters`]), which the acceleration pass
+//! of the same positions then visits alone. Both sum into copies by place ([`Packed`]),
+//! added to the particles' slots at the end.
+
+use super::simd::{density_group, First, Lanes, Transfer};
+use super::{Accelerations, Candidates, ClosePairs, Densities, Packed};
+use crate::sim::clusters::{Clusters, EMPTY};
+use crate::sim::particles::AxisArrays;
+
+/// Calls `visit(j, end)` for each group of the place `i`: the places after it in its own
+/// cluster (`i + 1..` its cluster's end), then each cluster of its own cluster's
+/// `windows` (`start..start + width`). With `close` (of the same positions), only the
+/// clusters recorded there.
+#[inline(always)]
+fn for_each_group(
+    clusters: &Clusters,
+    close: Option<&ClosePairs>,
+    i: usize,
+    windows: &[std::ops::Range<usize>; 5],
+    mut visit: impl FnMut(usize, usize),
+) {
+    let width = clusters.width();
+    let own = i / width;
+    let group = |k: usize| {
+        if k == own {
+            (i + 1, (own + 1) * width)
+        } else {
+            (k * width, (k + 1) * width)
+        }
+    };
+    match close {
+        Some(close) => {
+            let (from, to) = (close.starts[i] as usize, close.starts[i + 1] as usize);
+            for &k in &close.clusters[from..to] {
+                let (j, end) = group(k as usize);
+                visit(j, end);
+            }
+        }
+        None => {
+            if i + 1 < (own + 1) * width {
+                visit(i + 1, (own + 1) * width);
+            }
+            for window in windows {
+                for k in window.clone() {
+                    visit(k * width, (k + 1) * width);
+                }
+            }
+        }
+    }
+}
+
+/// Copies `source` (by slot) into `packed` by place, `empty` at empty places, with
+/// `width` more after the last place.
+fn pack(places: &[u32], source: &[f64], empty: f64, width: usize, packed: &mut Vec<f64>) {
+    packed.clear();
+    packed.extend(places.iter().map(|&slot| match slot {
+        EMPTY => empty,
+        slot => source[slot as usize],
+    }));
+    packed.extend(std::iter::repeat_n(empty, width));
+}
+
+/// Adds `packed` (by place) to `target` (by slot).
+fn unpack_add(places: &[u32], packed: &[f64], target: &mut [f64]) {
+    for (&slot, &value) in places.iter().zip(packed) {
+        if slot != EMPTY {
+            target[slot as usize] += value;
+        }
+    }
+}
+
+/// Panics unless every packed array holds a whole cluster after its last place.
+fn assert_loadable<L: Lanes>(clusters: &Clusters, arrays: &[&[f64]]) {
+    let needed = clusters.places().len() + L::LANES;
+    assert!(
+        L::LANES <= clusters.width(),
+        "clusters narrower than the lanes"
+    );
+    assert!(arrays.iter().all(|a| a.len() >= needed));
+}
+
+/// Stage 3 on `L` lanes, over `clusters`: records the clusters with a partner closer than
+/// h per place in `close`.
+pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters) {
+    let Densities {
+        params,
+        rho,
+        close,
+        packed,
+        ..
+    } = pass;
+    let Packed { rho: sums, .. } = packed;
+    let (places, p) = (clusters.places(), clusters.positions());
+    sums.clear();
+    sums.resize(places.len() + clusters.width(), 0.0);
+    assert_loadable::<L>(clusters, &[&p[0], &p[1], &p[2], sums]);
+    let width = clusters.width();
+    let h2 = L::splat(params.h2);
+    close.starts.reserve(places.len() + 1);
+    let mut windows = clusters.windows(0, params.h);
+    for i in 0..places.len() {
+        close.starts.push(close.clusters.len() as u32);
+        let own = i / width;
+        if i % width == 0 && places[i] != EMPTY {
+            windows = clusters.windows(own, params.h);
+        }
+        if places[i] == EMPTY {
+            continue;
+        }
+        let first = [p[0][i], p[1][i], p[2][i]];
+        let mut sum = L::ZERO_SUM;
+        for_each_group(clusters, None, i, &windows, |j, end| {
+            let lanes = L::first(end - j);
+            // SAFETY: j < end <= places + width, and assert_loadable checked that every
+            // array holds places + width >= j + LANES elements.
+            let found = unsafe { density_group::<L>(p, sums, first, h2, j, lanes, &mut sum) };
+            if found {
+                let k = if j < own * width + width {
+                    own
+                } else {
+                    j / width
+                };
+                close.clusters.push(k as u32);
+            }
+        });
+        sums[i] += L::total(sum);
+    }
+    close.starts.push(close.clusters.len() as u32);
+    unpack_add(places, sums, rho);
+}
+
+/// Stage 5 on `L` lanes, over `clusters`; with [`Candidates::Close`] recorded on them,
+/// only the clusters recorded there.
+pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
+    pass: Accelerations<FLUIDANIMATE>,
+    clusters: &Clusters,
+) {
+    let Accelerations {
+        params,
+        candidates,
+        v,
+        rho,
+        a,
+        packed,
+        ..
+    } = pass;
+    let places = clusters.places();
+    let width = clusters.width();
+    let close = match candidates {
+        Candidates::Close(close) if close.starts.len() == places.len() + 1 => Some(close),
+        _ => None,
+    };
+    let Packed {
+        v: packed_v,
+        rho: packed_rho,
+        a: packed_a,
+    } = packed;
+    for axis in 0..3 {
+        pack(places, &v[axis], 0.0, width, &mut packed_v[axis]);
+        packed_a[axis].clear();
+        packed_a[axis].resize(places.len() + width, 0.0);
+    }
+    pack(places, rho, 1.0, width, packed_rho);
+    let p = clusters.positions();
+    let [vx, vy, vz] = &*packed_v;
+    let arrays = [&p[0][..], &p[1], &p[2], vx, vy, vz, packed_rho];
+    assert_loadable::<L>(clusters, &arrays);
+    let transfer =
+        Transfer::<L, FLUIDANIMATE>::new(params, [&p[0], &p[1], &p[2]], [vx, vy, vz], packed_rho);
+    let [ax, ay, az] = packed_a;
+    assert_loadable::<L>(clusters, &[ax, ay, az]);
+    let mut sums_to = [ax, ay, az];
+    let no_windows = [0..0, 0..0, 0..0, 0..0, 0..0];
+    let mut windows = no_windows.clone();
+    for i in (0..places.len()).filter(|&i| places[i] != EMPTY) {
+        if close.is_none() && i % width == 0 {
+            windows = clusters.windows(i / width, params.h);
+        }
+        let first = First {
+            p: [p[0][i], p[1][i], p[2][i]],
+            v: [vx[i], vy[i], vz[i]],
+            rho: packed_rho[i],
+        };
+        let mut sum = [L::ZERO_SUM; 3];
+        for_each_group(clusters, close, i, &windows, |j, end| {
+            // SAFETY: j < end <= places + width, and assert_loadable checked that every
+            // array holds places + width >= j + LANES elements.
+            unsafe { transfer.visit(&first, j, end, &mut sums_to, &mut sum) };
+        });
+        for axis in 0..3 {
+            sums_to[axis][i] += L::total(sum[axis]);
+        }
+    }
+    let a: &mut AxisArrays = a;
+    for axis in 0..3 {
+        unpack_add(places, &sums_to[axis][..], &mut a[axis]);
+    }
+}
