@@ -13,6 +13,11 @@
 //! y - 1, y, y + 1 at z + 1), each cut to the clusters whose x range comes within the
 //! cut-off of the particle's x ([`Clusters::windows`]): every pair closer than the
 //! cut-off once, and far fewer candidates than whole neighbour cells.
+//!
+//! Where the cell order is kept over steps with a skin, the clusters are too, with a
+//! list per place of the clusters within the cut-off plus the skin at the build
+//! ([`Clusters::list`]): until a particle has moved half the skin, every pair closer than
+//! the cut-off is in it, and a step only packs the new positions ([`Clusters::repack`]).
 
 use crate::sim::cells::CellLayout;
 use crate::sim::particles::{AxisArrays, Particles};
@@ -71,18 +76,25 @@ pub struct Clusters {
     positions: AxisArrays,
     /// A row's (x, slot) pairs while it is sorted.
     order: Vec<(f64, u32)>,
+    /// Where kept over steps: for each place, the clusters within reach of it at the
+    /// build (its own for the places after it in it).
+    list: Vec<u32>,
+    /// Where each place's clusters start in `list`, then their end (empty without a list).
+    starts: Vec<u32>,
 }
 
 impl Clusters {
     /// Clusters of `width` places of the slots `keys` covers (their cell keys in
     /// `layout`, ascending; the slots after them are lone and have no pair), at the
-    /// positions of `particles`.
+    /// positions of `particles`; with `reach` (the cut-off plus a skin, no more than the
+    /// cells' side), the list of the clusters within it of each place.
     pub fn build(
         &mut self,
         width: usize,
         keys: &[u64],
         layout: &CellLayout,
         particles: &Particles,
+        reach: Option<f64>,
     ) {
         self.width = width;
         self.places.clear();
@@ -122,6 +134,17 @@ impl Clusters {
             start = end;
         }
         self.link_rows();
+        self.repack(particles);
+        self.list.clear();
+        self.starts.clear();
+        if let Some(reach) = reach {
+            self.build_list(reach);
+        }
+    }
+
+    /// Packs the positions of `particles` by place (the clusters' particles in the same
+    /// slots as at the build).
+    pub fn repack(&mut self, particles: &Particles) {
         for (axis, packed) in self.positions.iter_mut().enumerate() {
             let source = &particles.p[axis];
             packed.clear();
@@ -129,8 +152,49 @@ impl Clusters {
                 EMPTY => FAR,
                 slot => source[slot as usize],
             }));
-            packed.extend(std::iter::repeat_n(FAR, width));
+            packed.extend(std::iter::repeat_n(FAR, self.width));
         }
+    }
+
+    /// For each place, the clusters of its candidates (its own after it, its windows)
+    /// holding a particle within `reach`.
+    fn build_list(&mut self, reach: f64) {
+        let width = self.width;
+        let mut windows = [0..0, 0..0, 0..0, 0..0, 0..0];
+        for i in 0..self.places.len() {
+            self.starts.push(self.list.len() as u32);
+            let own = i / width;
+            if i % width == 0 {
+                windows = self.windows(own, reach);
+            }
+            if self.places[i] == EMPTY {
+                continue;
+            }
+            let Clusters {
+                positions: p, list, ..
+            } = self;
+            let within = |places: std::ops::Range<usize>| {
+                places.into_iter().any(|j| {
+                    let r2: f64 = (0..3).map(|axis| (p[axis][i] - p[axis][j]).powi(2)).sum();
+                    r2 < reach * reach
+                })
+            };
+            if within(i + 1..(own + 1) * width) {
+                list.push(own as u32);
+            }
+            for k in windows.iter().cloned().flatten() {
+                if within(k * width..(k + 1) * width) {
+                    list.push(k as u32);
+                }
+            }
+        }
+        self.starts.push(self.list.len() as u32);
+    }
+
+    /// Where kept over steps, each place's clusters within reach at the build: the list,
+    /// and where each place's entries start in it (then their end).
+    pub fn list(&self) -> Option<(&[u32], &[u32])> {
+        (!self.starts.is_empty()).then_some((&self.list, &self.starts))
     }
 
     /// Finds each row's forward rows (rows ascend by z, then y).
@@ -203,6 +267,8 @@ impl Clusters {
             + bytes(&self.rows)
             + self.positions.iter().map(bytes).sum::<usize>()
             + bytes(&self.order)
+            + bytes(&self.list)
+            + bytes(&self.starts)
     }
 }
 
@@ -242,7 +308,7 @@ mod tests {
         for width in [4, 8] {
             let mut clusters = Clusters::default();
             let keys = &cells.keys()[..n];
-            clusters.build(width, keys, cells.layout(), &particles);
+            clusters.build(width, keys, cells.layout(), &particles, None);
             let places = clusters.places();
             assert_eq!(places.len() % width, 0);
             let mut seen: Vec<u32> = places.iter().copied().filter(|&s| s != EMPTY).collect();

@@ -419,7 +419,10 @@ impl Simulation {
                 // The lists of an earlier step still hold every pair closer than h.
                 self.reset_for_pairs();
                 self.cells.refresh_walls(&self.grid, &self.particles);
-                self.build_clusters();
+                if self.clusters_built {
+                    // Kept with the cell order, with their lists.
+                    self.clusters.repack(&self.particles);
+                }
                 return;
             }
             Some(skin) => self.cells.sort_on(skin.grid(), &self.grid, &self.particles),
@@ -456,7 +459,9 @@ impl Simulation {
             let keys = self.cells.keys();
             let paired = &keys[..keys.len() - SENTINELS];
             let layout = self.cells.layout();
-            self.clusters.build(width, paired, layout, &self.particles);
+            let reach = self.skin.as_ref().map(|skin| self.params.h + skin.width());
+            self.clusters
+                .build(width, paired, layout, &self.particles, reach);
             self.clusters_built = true;
         }
     }
@@ -638,19 +643,21 @@ mod tests {
         })
     }
 
-    /// Steps `particles` 60 times with lists kept with a skin of 0.3 h and with lists
-    /// rebuilt every step; checks at every step that the kept tiles hold every pair
-    /// closer than h, and returns the builds and the largest distance between the runs.
-    fn run_with_and_without_a_skin(particles: Particles) -> (u64, f64) {
+    /// Steps `particles` 60 times with lists kept with a skin of 0.3 h (the pair loops
+    /// on `structure`) and with tiles rebuilt every step; checks at every step that the
+    /// kept tiles hold every pair closer than h, and returns the builds and the largest
+    /// distance between the runs; panics if the last step was asked to run on clusters
+    /// of a dense scene and did not.
+    fn run_with_and_without_a_skin(particles: Particles, structure: PairStructure) -> (u64, f64) {
         let method = Method {
             model: Model::Fluidanimate,
             kernel: Kernel::Simd,
         };
         let mut sim = Simulation::with_method(150.0, particles, method).unwrap();
         let h = sim.params().h;
-        sim.set_skin(Some(0.3 * h)).unwrap();
         let mut rebuilt = sim.clone();
-        rebuilt.set_skin(None).unwrap();
+        sim.set_skin(Some(0.3 * h)).unwrap();
+        sim.set_pair_structure(structure);
         for _ in 0..60 {
             sim.step();
             rebuilt.step();
@@ -685,6 +692,9 @@ mod tests {
             .map(|(x, y)| x.distance(*y))
             .fold(0.0, f64::max);
         assert!(sim.heap_bytes() > rebuilt.heap_bytes());
+        let on_clusters = structure == PairStructure::Clusters && !sim.cells.is_sparse();
+        assert_eq!(sim.clusters_built, on_clusters);
+        assert_eq!(sim.clusters.list().is_some(), on_clusters);
         (sim.skin().unwrap().builds(), largest)
     }
 
@@ -704,10 +714,13 @@ mod tests {
                 block.hv[axis][slot] = speed;
             }
         }
-        let (builds, largest) = run_with_and_without_a_skin(block);
-        assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
-        // The same pairs, the same physics: only the order of the sums differs.
-        assert!(largest < 1e-9, "{largest}");
+        // The same pairs, the same physics: only the order of the sums differs, on the
+        // tiles and on clusters with their lists kept.
+        for structure in [PairStructure::Tiles, PairStructure::Clusters] {
+            let (builds, largest) = run_with_and_without_a_skin(block.clone(), structure);
+            assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
+            assert!(largest < 1e-9, "{structure:?}: {largest}");
+        }
         // A sparse, jittered lattice high in the box, lone particles 2.7 h apart with
         // two close pairs among them (the cell order's lone filter at work), falling.
         let mut cloud = Particles::zeroed(4 * 4 * 4 + 2);
@@ -724,7 +737,7 @@ mod tests {
                 cloud.p[axis][slot] = cloud.p[axis][partner] + 0.006;
             }
         }
-        let (builds, largest) = run_with_and_without_a_skin(cloud);
+        let (builds, largest) = run_with_and_without_a_skin(cloud, PairStructure::Clusters);
         assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
         assert!(largest < 1e-9, "{largest}");
     }

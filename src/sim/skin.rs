@@ -22,6 +22,11 @@ pub struct Skin {
 }
 
 impl Skin {
+    /// The skin's width (m).
+    pub fn width(&self) -> f64 {
+        self.width
+    }
+
     /// A skin `width` metres wide beyond the smoothing length `h`.
     pub fn new(h: f64, width: f64) -> Result<Skin, GridSizeError> {
         Ok(Skin {

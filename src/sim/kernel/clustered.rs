@@ -2,23 +2,23 @@
 //! clusters of its candidate windows, a cluster one register of lanes (loaded without a
 //! gather: its places are contiguous), the particle's sums in registers, the cluster's
 //! updated lane-wise in memory. The density pass records, per place, the clusters that
-//! hold a partner closer than h ([`ClosePairs::clusters`]), which the acceleration pass
+//! hold a partner closer than h (`ClosePairs::clusters`), which the acceleration pass
 //! of the same positions then visits alone. Both sum into copies by place ([`Packed`]),
 //! added to the particles' slots at the end.
 
 use super::simd::{density_group, First, Lanes, Transfer};
-use super::{Accelerations, Candidates, ClosePairs, Densities, Packed};
+use super::{Accelerations, Candidates, Densities, Packed};
 use crate::sim::clusters::{Clusters, EMPTY};
 use crate::sim::particles::AxisArrays;
 
 /// Calls `visit(j, end)` for each group of the place `i`: the places after it in its own
 /// cluster (`i + 1..` its cluster's end), then each cluster of its own cluster's
-/// `windows` (`start..start + width`). With `close` (of the same positions), only the
-/// clusters recorded there.
+/// `windows` (`start..start + width`). With a `list` (entries, and where each place's
+/// start), only the clusters listed for `i` (its own standing for the places after it).
 #[inline(always)]
 fn for_each_group(
     clusters: &Clusters,
-    close: Option<&ClosePairs>,
+    list: Option<(&[u32], &[u32])>,
     i: usize,
     windows: &[std::ops::Range<usize>; 5],
     mut visit: impl FnMut(usize, usize),
@@ -32,10 +32,10 @@ fn for_each_group(
             (k * width, (k + 1) * width)
         }
     };
-    match close {
-        Some(close) => {
-            let (from, to) = (close.starts[i] as usize, close.starts[i + 1] as usize);
-            for &k in &close.clusters[from..to] {
+    match list {
+        Some((entries, starts)) => {
+            let (from, to) = (starts[i] as usize, starts[i + 1] as usize);
+            for &k in &entries[from..to] {
                 let (j, end) = group(k as usize);
                 visit(j, end);
             }
@@ -101,11 +101,12 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     let width = clusters.width();
     let h2 = L::splat(params.h2);
     close.starts.reserve(places.len() + 1);
-    let mut windows = clusters.windows(0, params.h);
+    let kept = clusters.list();
+    let mut windows = [0..0, 0..0, 0..0, 0..0, 0..0];
     for i in 0..places.len() {
         close.starts.push(close.clusters.len() as u32);
         let own = i / width;
-        if i % width == 0 && places[i] != EMPTY {
+        if kept.is_none() && i % width == 0 && places[i] != EMPTY {
             windows = clusters.windows(own, params.h);
         }
         if places[i] == EMPTY {
@@ -113,7 +114,7 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
         }
         let first = [p[0][i], p[1][i], p[2][i]];
         let mut sum = L::ZERO_SUM;
-        for_each_group(clusters, None, i, &windows, |j, end| {
+        for_each_group(clusters, kept, i, &windows, |j, end| {
             let lanes = L::first(end - j);
             // SAFETY: j < end <= places + width, and assert_loadable checked that every
             // array holds places + width >= j + LANES elements.
@@ -174,8 +175,8 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     let [ax, ay, az] = packed_a;
     assert_loadable::<L>(clusters, &[ax, ay, az]);
     let mut sums_to = [ax, ay, az];
-    let no_windows = [0..0, 0..0, 0..0, 0..0, 0..0];
-    let mut windows = no_windows.clone();
+    let mut windows = [0..0, 0..0, 0..0, 0..0, 0..0];
+    let list = close.map(|close| (&close.clusters[..], &close.starts[..]));
     for i in (0..places.len()).filter(|&i| places[i] != EMPTY) {
         if close.is_none() && i % width == 0 {
             windows = clusters.windows(i / width, params.h);
@@ -186,7 +187,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
             rho: packed_rho[i],
         };
         let mut sum = [L::ZERO_SUM; 3];
-        for_each_group(clusters, close, i, &windows, |j, end| {
+        for_each_group(clusters, list, i, &windows, |j, end| {
             // SAFETY: j < end <= places + width, and assert_loadable checked that every
             // array holds places + width >= j + LANES elements.
             unsafe { transfer.visit(&first, j, end, &mut sums_to, &mut sum) };
