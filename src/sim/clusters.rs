@@ -108,12 +108,16 @@ impl Clusters {
         while start < keys.len() {
             let row_key = keys[start] >> shift;
             let end = start + keys[start..].partition_point(|&k| k >> shift == row_key);
-            // Sorted by x: insertion sort, as a row arrives sorted cell by cell.
+            // Sorted by x: insertion sort from the back, as a row arrives sorted cell by
+            // cell and only a cell's few particles are out of order.
             self.order.clear();
             for (slot, &x) in x.iter().enumerate().take(end).skip(start) {
-                let item = (x, slot as u32);
-                let at = self.order.partition_point(|o| o.0 <= item.0);
-                self.order.insert(at, item);
+                self.order.push((x, slot as u32));
+                let mut at = self.order.len() - 1;
+                while at > 0 && self.order[at - 1].0 > x {
+                    self.order.swap(at - 1, at);
+                    at -= 1;
+                }
             }
             let row = self.rows.len() as u32;
             let first = self.first_x.len() as u32;

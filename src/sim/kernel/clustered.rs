@@ -103,8 +103,12 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     close.starts.reserve(places.len() + 1);
     let kept = clusters.list();
     let mut windows = [0..0, 0..0, 0..0, 0..0, 0..0];
+    // The recorded clusters are written without a branch on whether a group holds a
+    // close pair (half of them do, unpredictably): each candidate is written at the
+    // end, which advances only past those that do.
+    let mut recorded = 0;
     for i in 0..places.len() {
-        close.starts.push(close.clusters.len() as u32);
+        close.starts.push(recorded as u32);
         let own = i / width;
         if kept.is_none() && i % width == 0 && places[i] != EMPTY {
             windows = clusters.windows(own, params.h);
@@ -112,25 +116,28 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
         if places[i] == EMPTY {
             continue;
         }
+        let candidates = match kept {
+            Some((_, starts)) => (starts[i + 1] - starts[i]) as usize,
+            None => 1 + windows.iter().map(ExactSizeIterator::len).sum::<usize>(),
+        };
+        if close.clusters.len() < recorded + candidates {
+            close.clusters.resize(2 * (recorded + candidates), 0);
+        }
         let first = [p[0][i], p[1][i], p[2][i]];
         let mut sum = L::ZERO_SUM;
+        let record = &mut close.clusters[..];
         for_each_group(clusters, kept, i, &windows, |j, end| {
             let lanes = L::first(end - j);
             // SAFETY: j < end <= places + width, and assert_loadable checked that every
             // array holds places + width >= j + LANES elements.
             let found = unsafe { density_group::<L>(p, sums, first, h2, j, lanes, &mut sum) };
-            if found {
-                let k = if j < own * width + width {
-                    own
-                } else {
-                    j / width
-                };
-                close.clusters.push(k as u32);
-            }
+            record[recorded] = (j / width) as u32;
+            recorded += usize::from(found);
         });
         sums[i] += L::total(sum);
     }
-    close.starts.push(close.clusters.len() as u32);
+    close.clusters.truncate(recorded);
+    close.starts.push(recorded as u32);
     unpack_add(places, sums, rho);
 }
 
