@@ -12,7 +12,7 @@ use std::fmt;
 /// The CSV header of [`Diagnostics::csv_row`].
 pub const CSV_HEADER: &str = "step,time_s,max_speed_m_s,outside,kinetic_j,potential_j,\
                               total_j,mean_density_error,max_density_error,pairs_within_h,\
-                              dt_s,dt_limit,beyond_f32";
+                              dt_s,dt_limit,beyond_f32,pair_lanes";
 
 /// What one scan of the particles tells, without densities: cheap enough to check a run
 /// after every step.
@@ -96,6 +96,10 @@ pub struct Diagnostics {
     pub max_density_error: f64,
     /// Pairs of particles closer than h.
     pub pairs: u64,
+    /// The pair lanes a pass over every candidate evaluates on the run's kernel and
+    /// neighbour structure ([`Simulation::pair_lanes`]): `pairs` over it is the useful
+    /// fraction of the lanes.
+    pub pair_lanes: u64,
 }
 
 impl Diagnostics {
@@ -113,6 +117,7 @@ impl Diagnostics {
             mean_density_error: 0.0,
             max_density_error: 0.0,
             pairs: 0,
+            pair_lanes: copy.pair_lanes(),
         };
         for &density in &particles.rho[..n] {
             let error = (density - FLUID_DENSITY).abs() / FLUID_DENSITY;
@@ -131,7 +136,7 @@ impl Diagnostics {
     /// One CSV row, in the order of [`CSV_HEADER`].
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{:.6},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{:.6},{},{},{},{},{},{},{},{},{},{},{},{}",
             self.step,
             self.time,
             csv_number(self.vitals.max_speed),
@@ -146,6 +151,7 @@ impl Diagnostics {
                 .map_or(String::new(), |(dt, _)| csv_number(dt)),
             self.last_step.map_or("", |(_, limit)| limit.name()),
             self.vitals.beyond_f32,
+            self.pair_lanes,
         )
     }
 }
@@ -385,7 +391,10 @@ mod tests {
         let error = (FLUID_DENSITY - alone) / FLUID_DENSITY;
         assert!((diagnostics.max_density_error - error).abs() < 1e-12);
         assert!(diagnostics.csv_row().starts_with("7,0.000000,5,1,"));
-        assert!(diagnostics.csv_row().ends_with(",1,,,0"));
+        // The one close pair is the one candidate: a whole group of the native lanes.
+        let lanes = crate::sim::kernel::Kernel::NATIVE.lanes() as u64;
+        assert_eq!(diagnostics.pair_lanes, lanes);
+        assert!(diagnostics.csv_row().ends_with(&format!(",1,,,0,{lanes}")));
         assert_eq!(
             CSV_HEADER.split(',').count(),
             diagnostics.csv_row().split(',').count()
@@ -400,7 +409,7 @@ mod tests {
         let fixed = Diagnostics::of(&state, 3);
         assert!((fixed.time - 6e-3).abs() < 1e-15);
         assert!(
-            fixed.csv_row().ends_with(",0.002,fixed,0"),
+            fixed.csv_row().ends_with(",0.002,fixed,0,0"),
             "{}",
             fixed.csv_row()
         );
@@ -411,7 +420,7 @@ mod tests {
         assert!((adaptive.time - (6e-3 + dt)).abs() < 1e-15);
         assert!(adaptive
             .csv_row()
-            .ends_with(&format!(",{},{},0", csv_number(dt), limit.name())));
+            .ends_with(&format!(",{},{},0,0", csv_number(dt), limit.name())));
     }
 
     #[test]
@@ -424,7 +433,7 @@ mod tests {
         assert_eq!(diagnostics.vitals.beyond_f32, 1);
         let row = diagnostics.csv_row();
         assert!(row.starts_with("1,0.000000,1e39,"), "{row}");
-        assert!(row.ends_with(",1"), "{row}");
+        assert!(row.ends_with(",1,0"), "{row}");
         assert!(row.len() < 200, "{row}");
         assert_eq!(csv_number(1.5e-7), "1.5e-7");
         assert_eq!(csv_number(0.25), "0.25");

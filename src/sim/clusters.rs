@@ -261,6 +261,26 @@ impl Clusters {
         ]
     }
 
+    /// The pair lanes a pass over every candidate evaluates (a whole cluster per
+    /// candidate, masked lanes included): over the kept lists where there are, else over
+    /// the windows of `cutoff`.
+    pub fn candidate_lanes(&self, cutoff: f64) -> u64 {
+        let width = self.width;
+        let groups: usize = match self.list() {
+            Some((list, _)) => list.len(),
+            None => (0..self.places.len())
+                .filter(|&i| self.places[i] != EMPTY)
+                .map(|i| {
+                    let own = i / width;
+                    let own_rest = usize::from(i + 1 < (own + 1) * width);
+                    let windows = self.windows(own, cutoff);
+                    own_rest + windows.iter().map(ExactSizeIterator::len).sum::<usize>()
+                })
+                .sum(),
+        };
+        (groups * width) as u64
+    }
+
     /// The bytes its buffers hold on the heap.
     pub fn heap_bytes(&self) -> usize {
         use crate::sim::heap_bytes as bytes;

@@ -201,6 +201,28 @@ impl Simulation {
         self.search.tiles()
     }
 
+    /// The pair lanes a pass over every candidate of the current placement evaluates on
+    /// the run's kernel and structure (a SIMD kernel's masked lanes included): on the
+    /// clusters, a whole cluster per candidate; on the tiles, each first slot's partner
+    /// range rounded up to whole groups of the kernel's lanes (1 per pair on the scalar
+    /// and reference kernels). The density pass of the course models is such a pass.
+    pub fn pair_lanes(&self) -> u64 {
+        if self.clusters_built {
+            return self.clusters.candidate_lanes(self.params.h);
+        }
+        let lanes = self.method.kernel.lanes();
+        let groups: usize = self
+            .search
+            .tiles()
+            .iter()
+            .flat_map(|tile| {
+                tile.firsts()
+                    .map(|i| tile.partners(i).len().div_ceil(lanes))
+            })
+            .sum();
+        (groups * lanes) as u64
+    }
+
     /// A copy that goes on with another kernel, or another model. A model of the same
     /// cut-off whose state, like this one's, is only the particles' positions and
     /// velocities (the course model and fluidanimate) takes over the copy as it is (its

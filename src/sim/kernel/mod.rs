@@ -91,14 +91,20 @@ impl Kernel {
         }
     }
 
+    /// The pairs the kernel's loops evaluate at once: its lanes (1 for the scalar and
+    /// reference kernels).
+    pub fn lanes(self) -> usize {
+        match self {
+            Kernel::Scalar | Kernel::Reference => 1,
+            Kernel::Simd => 4,
+            Kernel::Simd8 | Kernel::Mixed => 8,
+        }
+    }
+
     /// The places per cluster of the kernel's loops on [`Clusters`] (its lanes), or
     /// `None` for a kernel that runs on the tiles only.
     pub fn cluster_width(self) -> Option<usize> {
-        match self {
-            Kernel::Simd => Some(4),
-            Kernel::Simd8 | Kernel::Mixed => Some(8),
-            Kernel::Scalar | Kernel::Reference => None,
-        }
+        Some(self.lanes()).filter(|&lanes| lanes > 1)
     }
 
     /// Runs `pass` with this kernel's loop: the one place a kernel is mapped to its loops
