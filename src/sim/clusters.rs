@@ -149,15 +149,22 @@ impl Clusters {
     /// Packs the positions of `particles` by place (the clusters' particles in the same
     /// slots as at the build).
     pub fn repack(&mut self, particles: &Particles) {
-        for (axis, packed) in self.positions.iter_mut().enumerate() {
-            let source = &particles.p[axis];
-            packed.clear();
-            packed.extend(self.places.iter().map(|&slot| match slot {
-                EMPTY => FAR,
-                slot => source[slot as usize],
-            }));
-            packed.extend(std::iter::repeat_n(FAR, self.width));
+        let mut positions = std::mem::take(&mut self.positions);
+        for (packed, source) in positions.iter_mut().zip(&particles.p) {
+            self.pack(source, FAR, packed);
         }
+        self.positions = positions;
+    }
+
+    /// Copies `source` (by slot) into `packed` by place, `empty` at empty places and in
+    /// `width` more places after the last (so a whole cluster loads from any place).
+    pub fn pack(&self, source: &[f64], empty: f64, packed: &mut Vec<f64>) {
+        packed.clear();
+        packed.extend(self.places.iter().map(|&slot| match slot {
+            EMPTY => empty,
+            slot => source[slot as usize],
+        }));
+        packed.extend(std::iter::repeat_n(empty, self.width));
     }
 
     /// For each place, the clusters of its candidates (its own after it, its windows)

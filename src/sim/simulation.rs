@@ -421,11 +421,13 @@ impl Simulation {
         (&mut *self.dynamics, context)
     }
 
-    /// Runs one stage alone (for trace comparisons and stage benchmarks): stage 1 is the
-    /// driver's, the others the model's ([`Dynamics::run_stage`]).
+    /// Runs one stage alone (for trace comparisons and stage benchmarks): stages 1 and 2
+    /// are the driver's, the others the model's ([`Dynamics::run_stage`]).
     pub fn run_stage(&mut self, stage: Stage) {
-        if stage == Stage::Reposition {
-            return self.reposition();
+        match stage {
+            Stage::Reposition => return self.reposition(),
+            Stage::InitAccelerations => return self.reset_for_pairs(),
+            _ => {}
         }
         let (dynamics, mut context) = self.model_and_context();
         dynamics.run_stage(stage, &mut context);

@@ -4,6 +4,8 @@
 //! criteria are in its module of [`crate::sim::model`]). And the leapfrog of a step whose
 //! length differs from the last one's.
 
+use crate::sim::particles::Particles;
+
 /// How each step's length is chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TimeStep {
@@ -57,6 +59,19 @@ impl Limit {
             Limit::Landing => "landing",
         }
     }
+}
+
+/// The largest |a| and the largest |hv| (half-step speed) of `particles`, which the
+/// models' adaptive steps scale from; non-finite values are skipped (0 without any).
+pub fn largest_acceleration_and_speed(particles: &Particles) -> (f64, f64) {
+    let largest = |arrays: &[Vec<f64>; 3]| {
+        (0..particles.len())
+            .map(|s| arrays[0][s].powi(2) + arrays[1][s].powi(2) + arrays[2][s].powi(2))
+            .filter(|x| x.is_finite())
+            .fold(0.0f64, f64::max)
+            .sqrt()
+    };
+    (largest(&particles.a), largest(&particles.hv))
 }
 
 /// The step lengths the leapfrog of one step uses, with the state (p_n, hv_{n-1/2},

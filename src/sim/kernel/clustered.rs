@@ -53,17 +53,6 @@ fn for_each_group(
     }
 }
 
-/// Copies `source` (by slot) into `packed` by place, `empty` at empty places, with
-/// `width` more after the last place.
-fn pack(places: &[u32], source: &[f64], empty: f64, width: usize, packed: &mut Vec<f64>) {
-    packed.clear();
-    packed.extend(places.iter().map(|&slot| match slot {
-        EMPTY => empty,
-        slot => source[slot as usize],
-    }));
-    packed.extend(std::iter::repeat_n(empty, width));
-}
-
 /// Adds `packed` (by place) to `target` (by slot).
 fn unpack_add(places: &[u32], packed: &[f64], target: &mut [f64]) {
     for (&slot, &value) in places.iter().zip(packed) {
@@ -168,11 +157,11 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         a: packed_a,
     } = packed;
     for axis in 0..3 {
-        pack(places, &v[axis], 0.0, width, &mut packed_v[axis]);
+        clusters.pack(&v[axis], 0.0, &mut packed_v[axis]);
         packed_a[axis].clear();
         packed_a[axis].resize(places.len() + width, 0.0);
     }
-    pack(places, rho, 1.0, width, packed_rho);
+    clusters.pack(rho, 1.0, packed_rho);
     let p = clusters.positions();
     let [vx, vy, vz] = &*packed_v;
     let arrays = [&p[0][..], &p[1], &p[2], vx, vy, vz, packed_rho];

@@ -15,7 +15,7 @@ use crate::sim::params::{
 };
 use crate::sim::particles::Particles;
 use crate::sim::stages::{self, Stage};
-use crate::sim::timestep::{Leapfrog, Limit, TimeStep};
+use crate::sim::timestep::{largest_acceleration_and_speed, Leapfrog, Limit, TimeStep};
 use std::f64::consts::PI;
 
 /// The course model (`FLUIDANIMATE` false) or fluidanimate's (true), with where its last
@@ -63,27 +63,13 @@ impl<const FLUIDANIMATE: bool> Course<FLUIDANIMATE> {
     /// 2 / sqrt(s_c)) = 11.5 ms, and the criterion that set it. The last two are explicit
     /// stability limits. Non-finite values are skipped (the run's own checks report them).
     pub fn step_for(params: &Params, particles: &Particles, courant: f64) -> (f64, Limit) {
-        let n = particles.len();
-        let squared = |arrays: &[Vec<f64>; 3], slot: usize| {
-            arrays[0][slot].powi(2) + arrays[1][slot].powi(2) + arrays[2][slot].powi(2)
-        };
-        let (mut largest_a2, mut largest_v2) = (0.0f64, 0.0f64);
-        for slot in 0..n {
-            let a2 = squared(&particles.a, slot);
-            let v2 = squared(&particles.hv, slot);
-            if a2.is_finite() {
-                largest_a2 = largest_a2.max(a2);
-            }
-            if v2.is_finite() {
-                largest_v2 = largest_v2.max(v2);
-            }
-        }
+        let (acceleration, speed) = largest_acceleration_and_speed(particles);
         let criteria = [
             (
-                (params.h / largest_a2.sqrt()).sqrt(), // infinite without accelerations
+                (params.h / acceleration).sqrt(), // infinite without accelerations
                 Limit::Force,
             ),
-            (params.h / (sound_speed() + largest_v2.sqrt()), Limit::Speed),
+            (params.h / (sound_speed() + speed), Limit::Speed),
             (2.0 / Self::viscous_rate(params), Limit::Viscosity),
             (walls_limit(), Limit::Walls),
         ];
@@ -149,8 +135,7 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
         } = *context;
         let n = particles.len();
         match stage {
-            Stage::Reposition => {}
-            Stage::InitAccelerations => particles.reset_densities_and_accelerations(),
+            Stage::Reposition | Stage::InitAccelerations => {}
             Stage::IncrementDensities => {
                 let Particles { id, p, rho, .. } = &mut **particles;
                 kernel.run(Densities {

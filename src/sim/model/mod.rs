@@ -164,8 +164,8 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// advanced over it.
     fn advance(&mut self, step: Leapfrog, walls: &Walls, particles: &mut Particles);
 
-    /// Runs one stage alone (for traces and benchmarks); [`Stage::Reposition`] is the
-    /// driver's.
+    /// Runs one stage alone (for traces and benchmarks); [`Stage::Reposition`] and
+    /// [`Stage::InitAccelerations`] are the driver's.
     fn run_stage(&mut self, stage: Stage, context: &mut Context);
 
     /// The bytes the model's buffers hold on the heap.

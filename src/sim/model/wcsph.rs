@@ -16,7 +16,7 @@ use crate::sim::kernel::{Rates, State, WcsphConstants, WeaklyCompressible};
 use crate::sim::params::{Params, BOX_MIN, FLUID_DENSITY, GRAVITY};
 use crate::sim::particles::{AxisArrays, Particles, PADDING};
 use crate::sim::stages::{self, Stage};
-use crate::sim::timestep::{Leapfrog, Limit, TimeStep};
+use crate::sim::timestep::{largest_acceleration_and_speed, Leapfrog, Limit, TimeStep};
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
@@ -131,17 +131,10 @@ impl Wcsph {
     /// h / (c_0 + |hv|), of the particles with the largest acceleration and half-step
     /// speed, and the criterion that set it. Non-finite values are skipped.
     pub fn time_step(&self, particles: &Particles, courant: f64) -> (f64, Limit) {
-        let n = particles.len();
-        let largest = |arrays: &[Vec<f64>; 3]| {
-            (0..n)
-                .map(|s| arrays[0][s].powi(2) + arrays[1][s].powi(2) + arrays[2][s].powi(2))
-                .filter(|x| x.is_finite())
-                .fold(0.0f64, f64::max)
-                .sqrt()
-        };
+        let (acceleration, fastest) = largest_acceleration_and_speed(particles);
         let h = self.constants.h;
-        let force = (h / largest(&particles.a)).sqrt();
-        let speed = h / (self.constants.sound_speed + largest(&particles.hv));
+        let force = (h / acceleration).sqrt();
+        let speed = h / (self.constants.sound_speed + fastest);
         if force < speed {
             (courant * force, Limit::Force)
         } else {
@@ -251,10 +244,10 @@ impl Dynamics for Wcsph {
     fn run_stage(&mut self, stage: Stage, context: &mut Context) {
         match stage {
             Stage::Reposition
+            | Stage::InitAccelerations
             | Stage::IncrementDensities
             | Stage::TransformDensities
             | Stage::CollideWithWalls => {}
-            Stage::InitAccelerations => context.particles.reset_accelerations(),
             Stage::TransferAccelerations => self.interact(context),
             Stage::Move => stages::move_particles(context.params.dt, context.particles),
             Stage::InteractWithBoundary => stages::reflect_into_box(context.particles),
