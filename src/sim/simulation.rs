@@ -196,19 +196,21 @@ impl Simulation {
             + self.skin.as_ref().map_or(0, Skin::heap_bytes)
     }
 
-    /// The tiles of candidate pairs of the current step.
+    /// The tiles of candidate pairs of the current step (not found where the step's pair
+    /// passes run on clusters, but in [`Self::with_fresh_densities`]'s copies).
     pub fn tiles(&self) -> &[Tile] {
         self.search.tiles()
     }
 
     /// The pair lanes a pass over every candidate of the current placement evaluates on
     /// the run's kernel and structure (a SIMD kernel's masked lanes included): on the
-    /// clusters, a whole cluster per candidate; on the tiles, each first slot's partner
+    /// clusters, each particle against a register of clusters per entry of its cluster's
+    /// list (and its own cluster); on the tiles, each first slot's partner
     /// range rounded up to whole groups of the kernel's lanes (1 per pair on the scalar
     /// and reference kernels). The density pass of the course models is such a pass.
     pub fn pair_lanes(&self) -> u64 {
         if self.clusters_built {
-            return self.clusters.candidate_lanes(self.params.h);
+            return self.clusters.candidate_lanes(self.method.kernel.lanes());
         }
         let lanes = self.method.kernel.lanes();
         let groups: usize = self
@@ -329,7 +331,8 @@ impl Simulation {
     }
 
     /// A copy whose densities are those of the current positions (stage 1 and the model's
-    /// density stages run on the copy), with the copy's cell order and tiles: for looking
+    /// density stages run on the copy), with the copy's cell order and tiles (found even
+    /// where its pair passes run on clusters): for looking
     /// at a state without disturbing the run. A model whose densities are states of their
     /// own is only placed (stage 1).
     pub fn with_fresh_densities(&self) -> Simulation {
@@ -337,6 +340,10 @@ impl Simulation {
         copy.reposition();
         let (dynamics, mut context) = copy.model_and_context();
         dynamics.refresh_densities(&mut context);
+        if copy.clusters_built {
+            // For counting its pairs.
+            copy.find_tiles();
+        }
         copy
     }
 
@@ -466,27 +473,27 @@ impl Simulation {
         if let Some(skin) = &mut self.skin {
             skin.record(&self.particles);
         }
-        self.find_tiles();
         self.build_clusters();
+        if !self.clusters_built {
+            self.find_tiles();
+        }
     }
 
     /// Clusters of the placement's cell order at the current positions, where they were
     /// asked for, the scene is dense (not mostly lone particles), the kernel has loops on
     /// clusters and the model's passes run on them.
     fn build_clusters(&mut self) {
-        let width = self.method.kernel.cluster_width();
-        let wanted = self.structure == PairStructure::Clusters
+        self.clusters_built = self.structure == PairStructure::Clusters
+            && self.method.kernel.runs_on_clusters()
             && self.dynamics.pairs_on_clusters()
             && !self.cells.is_sparse();
-        self.clusters_built = false;
-        if let Some(width) = width.filter(|_| wanted) {
+        if self.clusters_built {
             let keys = self.cells.keys();
             let paired = &keys[..keys.len() - SENTINELS];
             let layout = self.cells.layout();
-            let reach = self.skin.as_ref().map(|skin| self.params.h + skin.width());
-            self.clusters
-                .build(width, paired, layout, &self.particles, reach);
-            self.clusters_built = true;
+            let skin = self.skin.as_ref().map_or(0.0, Skin::width);
+            let reach = self.params.h + skin;
+            self.clusters.build(paired, layout, &self.particles, reach);
         }
     }
 
@@ -667,9 +674,43 @@ mod tests {
         })
     }
 
+    /// The candidate pairs of slots of `sim`'s clusters where its pair passes run on
+    /// them (each cluster's pairs among its particles and with the clusters of its
+    /// list), else of its tiles.
+    fn candidate_pairs(sim: &Simulation) -> Vec<(usize, usize)> {
+        use crate::sim::clusters::{CLUSTER, EMPTY};
+        if !sim.clusters_built {
+            return tile_pairs(sim).collect();
+        }
+        let clusters = &sim.clusters;
+        let slots = |k: usize| -> Vec<usize> {
+            let places = &clusters.places()[k * CLUSTER..(k + 1) * CLUSTER];
+            places
+                .iter()
+                .filter(|&&slot| slot != EMPTY)
+                .map(|&slot| slot as usize)
+                .collect()
+        };
+        let (pairs, starts) = clusters.pairs();
+        let mut candidates = Vec::new();
+        for own in 0..clusters.empty_cluster() {
+            let mine = slots(own);
+            for (at, &i) in mine.iter().enumerate() {
+                candidates.extend(mine[at + 1..].iter().map(|&j| (i, j)));
+            }
+            for &k in &pairs[starts[own] as usize..starts[own + 1] as usize] {
+                let theirs = slots(k as usize);
+                for &i in &mine {
+                    candidates.extend(theirs.iter().map(|&j| (i, j)));
+                }
+            }
+        }
+        candidates
+    }
+
     /// Steps `particles` 60 times with lists kept with a skin of 0.3 h (the pair loops
     /// on `structure`) and with tiles rebuilt every step; checks at every step that the
-    /// kept tiles hold every pair closer than h, and returns the builds and the largest
+    /// kept tiles or clusters hold every pair closer than h, and returns the builds and the largest
     /// distance between the runs; panics if the last step was asked to run on clusters
     /// of a dense scene and did not.
     fn run_with_and_without_a_skin(particles: Particles, structure: PairStructure) -> (u64, f64) {
@@ -689,7 +730,7 @@ mod tests {
             let mut next = sim.clone();
             next.run_stage(Stage::Reposition);
             let (kept, every) = (
-                pairs_within_h(&next, tile_pairs(&next)),
+                pairs_within_h(&next, candidate_pairs(&next).into_iter()),
                 pairs_within_h(&next, all_pairs(&next)),
             );
             let missed: Vec<_> = every.iter().filter(|p| !kept.contains(p)).collect();
@@ -718,7 +759,6 @@ mod tests {
         assert!(sim.heap_bytes() > rebuilt.heap_bytes());
         let on_clusters = structure == PairStructure::Clusters && !sim.cells.is_sparse();
         assert_eq!(sim.clusters_built, on_clusters);
-        assert_eq!(sim.clusters.list().is_some(), on_clusters);
         (sim.skin().unwrap().builds(), largest)
     }
 

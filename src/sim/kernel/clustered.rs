@@ -1,55 +1,46 @@
-//! The course models' SIMD pair loops on [`Clusters`]: each particle against whole
-//! clusters of its candidate windows, a cluster one register of lanes (loaded without a
-//! gather: its places are contiguous), the particle's sums in registers, the cluster's
-//! updated lane-wise in memory. The density pass records, per place, the clusters that
-//! hold a partner closer than h (`ClosePairs::clusters`), which the acceleration pass
-//! of the same positions then visits alone. Both sum into copies by place ([`Packed`]),
-//! added to the particles' slots at the end.
+//! The course models' SIMD pair loops on [`Clusters`]: the 4 particles of a cluster
+//! against a register of partner clusters (one on 4 lanes, two on 8) from its cluster
+//! pair list, GROMACS' cluster pairs. The partners are loaded once for the 4 particles,
+//! without a gather (a cluster's places are contiguous); each particle's sums stay in
+//! registers over the whole list, the partners' in a register over the 4 particles,
+//! added to memory once per register (Newton's third law in registers). A cluster's
+//! pairs among its own particles run in a register of their own, lanes masked to the
+//! partners after each particle.
+//!
+//! The density pass records, per cluster, the clusters of its list that hold a partner
+//! closer than h (`ClosePairs::clusters`), which the acceleration pass of the same
+//! positions then visits alone, skipping the particles without such a partner in a
+//! register. Both sum into copies by place ([`Packed`]), added to the particles' slots
+//! at the end.
 
-use super::simd::{density_group, First, Lanes, Transfer};
+use super::simd::{First, Lanes, Places, Transfer};
 use super::{Accelerations, Candidates, Densities, Packed};
-use crate::sim::clusters::{Clusters, EMPTY};
+use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
 use crate::sim::particles::AxisArrays;
 
-/// Calls `visit(j, end)` for each group of the place `i`: the places after it in its own
-/// cluster (`i + 1..` its cluster's end), then each cluster of its own cluster's
-/// `windows` (`start..start + width`). With a `list` (entries, and where each place's
-/// start), only the clusters listed for `i` (its own standing for the places after it).
+/// The places of a register holding the clusters of `chunk` (one per quarter of 4
+/// lanes), its spare quarter the `empty` cluster.
 #[inline(always)]
-fn for_each_group(
-    clusters: &Clusters,
-    list: Option<(&[u32], &[u32])>,
-    i: usize,
-    windows: &[std::ops::Range<usize>; 5],
-    mut visit: impl FnMut(usize, usize),
-) {
-    let width = clusters.width();
-    let own = i / width;
-    let group = |k: usize| {
-        if k == own {
-            (i + 1, (own + 1) * width)
-        } else {
-            (k * width, (k + 1) * width)
-        }
-    };
-    match list {
-        Some((entries, starts)) => {
-            let (from, to) = (starts[i] as usize, starts[i + 1] as usize);
-            for &k in &entries[from..to] {
-                let (j, end) = group(k as usize);
-                visit(j, end);
-            }
-        }
-        None => {
-            if i + 1 < (own + 1) * width {
-                visit(i + 1, (own + 1) * width);
-            }
-            for window in windows {
-                for k in window.clone() {
-                    visit(k * width, (k + 1) * width);
-                }
-            }
-        }
+fn places_of(chunk: &[u32], empty: usize) -> Places {
+    let second = chunk.get(1).map_or(empty, |&k| k as usize);
+    Places::quarters(chunk[0] as usize * CLUSTER, second * CLUSTER)
+}
+
+/// The places of the register of cluster `own`'s pairs among its particles: its own,
+/// then (on 8 lanes) the `empty` cluster.
+#[inline(always)]
+fn own_places(own: usize, empty: usize) -> Places {
+    Places::quarters(own * CLUSTER, empty * CLUSTER)
+}
+
+/// The lanes particle `row` of a cluster is compared with: with `OWN` (its own
+/// cluster's register), the particles after it; else every lane.
+#[inline(always)]
+fn lanes_of<L: Lanes, const OWN: bool>(row: usize) -> L::V {
+    if OWN {
+        L::lanes_between(row + 1, CLUSTER)
+    } else {
+        L::all()
     }
 }
 
@@ -62,18 +53,49 @@ fn unpack_add(places: &[u32], packed: &[f64], target: &mut [f64]) {
     }
 }
 
-/// Panics unless every packed array holds a whole cluster after its last place.
-fn assert_loadable<L: Lanes>(clusters: &Clusters, arrays: &[&[f64]]) {
-    let needed = clusters.places().len() + L::LANES;
-    assert!(
-        L::LANES <= clusters.width(),
-        "clusters narrower than the lanes"
-    );
+/// Panics unless every packed array holds the empty cluster after the last place.
+fn assert_loadable(clusters: &Clusters, arrays: &[&[f64]]) {
+    let needed = (clusters.empty_cluster() + 1) * CLUSTER;
     assert!(arrays.iter().all(|a| a.len() >= needed));
 }
 
-/// Stage 3 on `L` lanes, over `clusters`: records the clusters with a partner closer than
-/// h per place in `close`.
+/// The density terms (h^2 - r^2)^3 of the 4 particles at `rows` with the partners at
+/// `at` (with `OWN`, only those after each): each particle's added to its `row_sums`,
+/// the partners' to `sums` at `at`. Returns a bit per lane holding a partner closer
+/// than h to any of the 4.
+///
+/// # Safety
+/// Every place `at` names is within `sums` and every array of `p`.
+#[inline(always)]
+unsafe fn density_block<L: Lanes, const OWN: bool>(
+    p: &AxisArrays,
+    sums: &mut [f64],
+    rows: &[[f64; 3]; CLUSTER],
+    h2: L::V,
+    at: Places,
+    row_sums: &mut [L::Sum; CLUSTER],
+) -> u32 {
+    let mut partners = L::splat(0.0);
+    let mut found = 0;
+    for (row, first) in rows.iter().enumerate() {
+        // SAFETY: guaranteed by the caller.
+        let offset = |axis: usize| unsafe { L::offsets(&p[axis], at, first[axis]) };
+        let (dx, dy, dz) = (offset(0), offset(1), offset(2));
+        let r2 = dx * dx + dy * dy + dz * dz;
+        let close = L::lt(r2, h2) & lanes_of::<L, OWN>(row);
+        let q = h2 - r2;
+        let t = (q * q * q) & close;
+        L::accumulate(&mut row_sums[row], t);
+        partners = partners + t;
+        found |= L::bitmask(close);
+    }
+    // SAFETY: guaranteed by the caller.
+    unsafe { L::add_to(sums, at, partners) };
+    found
+}
+
+/// Stage 3 on `L` lanes, over `clusters`: records, per cluster, the clusters of its list
+/// holding a partner closer than h in `close`.
 pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters) {
     let Densities {
         params,
@@ -84,54 +106,83 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     } = pass;
     let Packed { rho: sums, .. } = packed;
     let (places, p) = (clusters.places(), clusters.positions());
+    let empty = clusters.empty_cluster();
     sums.clear();
-    sums.resize(places.len() + clusters.width(), 0.0);
-    assert_loadable::<L>(clusters, &[&p[0], &p[1], &p[2], sums]);
-    let width = clusters.width();
+    sums.resize((empty + 1) * CLUSTER, 0.0);
+    assert_loadable(clusters, &[&p[0], &p[1], &p[2], sums]);
     let h2 = L::splat(params.h2);
-    close.starts.reserve(places.len() + 1);
-    let kept = clusters.list();
-    let mut windows = [0..0, 0..0, 0..0, 0..0, 0..0];
-    // The recorded clusters are written without a branch on whether a group holds a
-    // close pair (half of them do, unpredictably): each candidate is written at the
-    // end, which advances only past those that do.
+    let per_register = L::LANES / CLUSTER;
+    let (pairs, starts) = clusters.pairs();
+    // The recorded clusters are written without a branch on whether a cluster holds a
+    // close pair (about half do, unpredictably): each is written at the end, which
+    // advances only past those that do.
+    close.clusters.resize(pairs.len(), 0);
+    close.starts.reserve(empty + 1);
     let mut recorded = 0;
-    for i in 0..places.len() {
+    for own in 0..empty {
         close.starts.push(recorded as u32);
-        let own = i / width;
-        if kept.is_none() && i % width == 0 && places[i] != EMPTY {
-            windows = clusters.windows(own, params.h);
+        let base = own * CLUSTER;
+        let rows =
+            std::array::from_fn(|row| [p[0][base + row], p[1][base + row], p[2][base + row]]);
+        let mut row_sums = [L::ZERO_SUM; CLUSTER];
+        // SAFETY (both blocks): every place of a cluster or of the empty cluster is
+        // within every array (assert_loadable).
+        unsafe {
+            let at = own_places(base / CLUSTER, empty);
+            density_block::<L, true>(p, sums, &rows, h2, at, &mut row_sums);
         }
-        if places[i] == EMPTY {
-            continue;
+        let listed = &pairs[starts[own] as usize..starts[own + 1] as usize];
+        for chunk in listed.chunks(per_register) {
+            let at = places_of(chunk, empty);
+            let found = unsafe { density_block::<L, false>(p, sums, &rows, h2, at, &mut row_sums) };
+            for (quarter, &k) in chunk.iter().enumerate() {
+                close.clusters[recorded] = k;
+                let lanes = found >> (CLUSTER * quarter) & ((1 << CLUSTER) - 1);
+                recorded += usize::from(lanes != 0);
+            }
         }
-        let candidates = match kept {
-            Some((_, starts)) => (starts[i + 1] - starts[i]) as usize,
-            None => 1 + windows.iter().map(ExactSizeIterator::len).sum::<usize>(),
-        };
-        if close.clusters.len() < recorded + candidates {
-            close.clusters.resize(2 * (recorded + candidates), 0);
+        for (row, sum) in row_sums.into_iter().enumerate() {
+            sums[base + row] += L::total(sum);
         }
-        let first = [p[0][i], p[1][i], p[2][i]];
-        let mut sum = L::ZERO_SUM;
-        let record = &mut close.clusters[..];
-        for_each_group(clusters, kept, i, &windows, |j, end| {
-            let lanes = L::first(end - j);
-            // SAFETY: j < end <= places + width, and assert_loadable checked that every
-            // array holds places + width >= j + LANES elements.
-            let found = unsafe { density_group::<L>(p, sums, first, h2, j, lanes, &mut sum) };
-            record[recorded] = (j / width) as u32;
-            recorded += usize::from(found);
-        });
-        sums[i] += L::total(sum);
     }
     close.clusters.truncate(recorded);
     close.starts.push(recorded as u32);
     unpack_add(places, sums, rho);
 }
 
+/// The acceleration terms of the 4 particles `rows` with the partners at `at` (with
+/// `OWN`, only those after each): each particle's added to its `row_sums`, the
+/// partners' subtracted from `a` at `at`. A particle without a partner closer than h
+/// in the register is skipped after its distances.
+///
+/// # Safety
+/// Every place `at` names is within every array of `transfer` and `a`.
+#[inline(always)]
+unsafe fn transfer_block<L: Lanes, const FLUIDANIMATE: bool, const OWN: bool>(
+    transfer: &Transfer<L, FLUIDANIMATE>,
+    rows: &[First; CLUSTER],
+    at: Places,
+    a: &mut [&mut Vec<f64>; 3],
+    row_sums: &mut [[L::Sum; 3]; CLUSTER],
+) {
+    let mut partners = [L::splat(0.0); 3];
+    for (row, first) in rows.iter().enumerate() {
+        // SAFETY: guaranteed by the caller.
+        if let Some(terms) = unsafe { transfer.group(first, at, lanes_of::<L, OWN>(row)) } {
+            for axis in 0..3 {
+                L::accumulate(&mut row_sums[row][axis], terms[axis]);
+                partners[axis] = partners[axis] + terms[axis];
+            }
+        }
+    }
+    for axis in 0..3 {
+        // SAFETY: guaranteed by the caller.
+        unsafe { L::subtract_from(a[axis], at, partners[axis]) };
+    }
+}
+
 /// Stage 5 on `L` lanes, over `clusters`; with [`Candidates::Close`] recorded on them,
-/// only the clusters recorded there.
+/// only the clusters recorded there, else every cluster of each list.
 pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     pass: Accelerations<FLUIDANIMATE>,
     clusters: &Clusters,
@@ -146,10 +197,12 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         ..
     } = pass;
     let places = clusters.places();
-    let width = clusters.width();
-    let close = match candidates {
-        Candidates::Close(close) if close.starts.len() == places.len() + 1 => Some(close),
-        _ => None,
+    let empty = clusters.empty_cluster();
+    let (list, starts) = match candidates {
+        Candidates::Close(close) if close.starts.len() == empty + 1 => {
+            (&close.clusters[..], &close.starts[..])
+        }
+        _ => clusters.pairs(),
     };
     let Packed {
         v: packed_v,
@@ -159,37 +212,58 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     for axis in 0..3 {
         clusters.pack(&v[axis], 0.0, &mut packed_v[axis]);
         packed_a[axis].clear();
-        packed_a[axis].resize(places.len() + width, 0.0);
+        packed_a[axis].resize((empty + 1) * CLUSTER, 0.0);
     }
     clusters.pack(rho, 1.0, packed_rho);
     let p = clusters.positions();
     let [vx, vy, vz] = &*packed_v;
-    let arrays = [&p[0][..], &p[1], &p[2], vx, vy, vz, packed_rho];
-    assert_loadable::<L>(clusters, &arrays);
+    let [ax, ay, az] = packed_a;
+    let arrays = [&p[0][..], &p[1], &p[2], vx, vy, vz, packed_rho, ax, ay, az];
+    assert_loadable(clusters, &arrays);
     let transfer =
         Transfer::<L, FLUIDANIMATE>::new(params, [&p[0], &p[1], &p[2]], [vx, vy, vz], packed_rho);
-    let [ax, ay, az] = packed_a;
-    assert_loadable::<L>(clusters, &[ax, ay, az]);
     let mut sums_to = [ax, ay, az];
-    let mut windows = [0..0, 0..0, 0..0, 0..0, 0..0];
-    let list = close.map(|close| (&close.clusters[..], &close.starts[..]));
-    for i in (0..places.len()).filter(|&i| places[i] != EMPTY) {
-        if close.is_none() && i % width == 0 {
-            windows = clusters.windows(i / width, params.h);
-        }
-        let first = First {
-            p: [p[0][i], p[1][i], p[2][i]],
-            v: [vx[i], vy[i], vz[i]],
-            rho: packed_rho[i],
-        };
-        let mut sum = [L::ZERO_SUM; 3];
-        for_each_group(clusters, list, i, &windows, |j, end| {
-            // SAFETY: j < end <= places + width, and assert_loadable checked that every
-            // array holds places + width >= j + LANES elements.
-            unsafe { transfer.visit(&first, j, end, &mut sums_to, &mut sum) };
+    let per_register = L::LANES / CLUSTER;
+    for own in 0..empty {
+        let base = own * CLUSTER;
+        let rows: [First; CLUSTER] = std::array::from_fn(|row| {
+            let i = base + row;
+            First {
+                p: [p[0][i], p[1][i], p[2][i]],
+                v: [vx[i], vy[i], vz[i]],
+                rho: packed_rho[i],
+            }
         });
-        for axis in 0..3 {
-            sums_to[axis][i] += L::total(sum[axis]);
+        let mut row_sums = [[L::ZERO_SUM; 3]; CLUSTER];
+        // SAFETY (both blocks): every place of a cluster or of the empty cluster is
+        // within every array (assert_loadable).
+        unsafe {
+            let at = own_places(own, empty);
+            transfer_block::<L, FLUIDANIMATE, true>(
+                &transfer,
+                &rows,
+                at,
+                &mut sums_to,
+                &mut row_sums,
+            );
+        }
+        let listed = &list[starts[own] as usize..starts[own + 1] as usize];
+        for chunk in listed.chunks(per_register) {
+            let at = places_of(chunk, empty);
+            unsafe {
+                transfer_block::<L, FLUIDANIMATE, false>(
+                    &transfer,
+                    &rows,
+                    at,
+                    &mut sums_to,
+                    &mut row_sums,
+                )
+            };
+        }
+        for (row, sums) in row_sums.into_iter().enumerate() {
+            for (axis, sum) in sums.into_iter().enumerate() {
+                sums_to[axis][base + row] += L::total(sum);
+            }
         }
     }
     let a: &mut AxisArrays = a;

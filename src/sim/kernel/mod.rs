@@ -101,10 +101,10 @@ impl Kernel {
         }
     }
 
-    /// The places per cluster of the kernel's loops on [`Clusters`] (its lanes), or
-    /// `None` for a kernel that runs on the tiles only.
-    pub fn cluster_width(self) -> Option<usize> {
-        Some(self.lanes()).filter(|&lanes| lanes > 1)
+    /// Whether the kernel has loops on [`Clusters`] (the SIMD kernels; the others run
+    /// on the tiles only).
+    pub fn runs_on_clusters(self) -> bool {
+        self.lanes() > 1
     }
 
     /// Runs `pass` with this kernel's loop: the one place a kernel is mapped to its loops
@@ -154,10 +154,10 @@ pub struct ClosePairs {
     /// [`Tile::partners`], L the kernel's lanes) hold such a pair; bit 63 stands for every
     /// group from the 63rd on. The SIMD kernels keep all tiles of a cell with any such pair.
     pub groups: Vec<u64>,
-    /// On [`Clusters`]: for each place, in order, the clusters holding a partner closer
-    /// than h (its own cluster for the places after it in it).
+    /// On [`Clusters`]: for each cluster, in order, the clusters of its list holding a
+    /// partner closer than h to one of its particles.
     pub clusters: Vec<u32>,
-    /// Where each place's clusters start in [`Self::clusters`], then their end.
+    /// Where each cluster's entries start in [`Self::clusters`], then their end.
     pub starts: Vec<u32>,
 }
 

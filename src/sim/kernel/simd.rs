@@ -54,67 +54,92 @@ pub(crate) trait Lanes {
     fn max(a: Self::V, b: Self::V) -> Self::V;
     /// The lane-wise square root.
     fn sqrt(a: Self::V) -> Self::V;
-    /// `values[at..at + LANES]`.
+    /// Whether each lane of a mask is set, a bit per lane from the lowest.
+    fn bitmask(mask: Self::V) -> u32;
+    /// A mask of the lanes `from..to`.
+    fn lanes_between(from: usize, to: usize) -> Self::V;
+    /// The lanes of `values` at `at`.
     ///
     /// # Safety
-    /// `at + LANES <= values.len()`.
-    unsafe fn load(values: &[f64], at: usize) -> Self::V;
-    /// `center - values[at..at + LANES]`, subtracted in f64.
-    ///
-    /// # Safety
-    /// As for [`Self::load`].
-    unsafe fn offsets(values: &[f64], at: usize, center: f64) -> Self::V;
-    /// `values[at..at + LANES] - center`, subtracted in f64.
-    ///
-    /// # Safety
-    /// As for [`Self::load`].
-    unsafe fn differences(values: &[f64], at: usize, center: f64) -> Self::V;
-    /// `(rho + values[at..at + LANES]) - 2 * FLUID_DENSITY`, computed in f64.
+    /// Every place `at` names for the lanes is within `values`.
+    unsafe fn load(values: &[f64], at: impl Into<Places>) -> Self::V;
+    /// `center - ` the lanes of `values` at `at`, subtracted in f64.
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn excess_density(rho: f64, values: &[f64], at: usize) -> Self::V;
-    /// `values[at..at + LANES] += terms`, in f64.
+    unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: f64) -> Self::V;
+    /// The lanes of `values` at `at` `- center`, subtracted in f64.
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn add_to(values: &mut [f64], at: usize, terms: Self::V);
-    /// `values[at..at + LANES] -= terms`, in f64.
+    unsafe fn differences(values: &[f64], at: impl Into<Places>, center: f64) -> Self::V;
+    /// `(rho + ` the lanes of `values` at `at` `) - 2 * FLUID_DENSITY`, computed in f64.
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn subtract_from(values: &mut [f64], at: usize, terms: Self::V);
+    unsafe fn excess_density(rho: f64, values: &[f64], at: impl Into<Places>) -> Self::V;
+    /// The lanes of `values` at `at` `+= terms`, in f64.
+    ///
+    /// # Safety
+    /// As for [`Self::load`].
+    unsafe fn add_to(values: &mut [f64], at: impl Into<Places>, terms: Self::V);
+    /// The lanes of `values` at `at` `-= terms`, in f64.
+    ///
+    /// # Safety
+    /// As for [`Self::load`].
+    unsafe fn subtract_from(values: &mut [f64], at: impl Into<Places>, terms: Self::V);
     /// Adds `terms` to `sum`.
     fn accumulate(sum: &mut Self::Sum, terms: Self::V);
     /// The total of a sum's lanes.
     fn total(sum: Self::Sum) -> f64;
 }
 
-/// `values[at..at + N]` as an array.
-///
-/// # Safety
-/// `at + N <= values.len()`.
-#[inline(always)]
-unsafe fn read<const N: usize>(values: &[f64], at: usize) -> [f64; N] {
-    debug_assert!(at + N <= values.len());
-    // SAFETY: the caller guarantees the elements are in bounds; any alignment works.
-    unsafe { values.as_ptr().add(at).cast::<[f64; N]>().read_unaligned() }
+/// Where a group of lanes lives in an array: the first place of each quarter of 4 lanes
+/// (a group of 8 lanes reads two quarters, a group of 4 the first). A `usize` stands for
+/// contiguous places from it; [`Places::quarters`] for two clusters of 4 apart.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Places([usize; 2]);
+
+impl Places {
+    /// The lanes 0..4 at `first..first + 4`, the lanes 4..8 at `second..second + 4`.
+    pub(super) fn quarters(first: usize, second: usize) -> Self {
+        Places([first, second])
+    }
 }
 
-/// `values[at..at + N] = lanes`.
+impl From<usize> for Places {
+    fn from(at: usize) -> Self {
+        Places([at, at + 4])
+    }
+}
+
+/// The `N` lanes of `values` at `at`.
 ///
 /// # Safety
-/// `at + N <= values.len()`.
+/// Every place `at` names for the `N` lanes is within `values`.
 #[inline(always)]
-unsafe fn write<const N: usize>(values: &mut [f64], at: usize, lanes: [f64; N]) {
-    debug_assert!(at + N <= values.len());
-    // SAFETY: as for `read`.
-    unsafe {
-        values
-            .as_mut_ptr()
-            .add(at)
-            .cast::<[f64; N]>()
-            .write_unaligned(lanes)
+unsafe fn read<const N: usize>(values: &[f64], at: Places) -> [f64; N] {
+    let Places(quarters) = at;
+    std::array::from_fn(|lane| {
+        let place = quarters[lane / 4] + lane % 4;
+        debug_assert!(place < values.len());
+        // SAFETY: guaranteed by the caller.
+        unsafe { *values.get_unchecked(place) }
+    })
+}
+
+/// Sets the `N` lanes of `values` at `at` to `lanes`.
+///
+/// # Safety
+/// As for [`read`].
+#[inline(always)]
+unsafe fn write<const N: usize>(values: &mut [f64], at: Places, lanes: [f64; N]) {
+    let Places(quarters) = at;
+    for (lane, value) in lanes.into_iter().enumerate() {
+        let place = quarters[lane / 4] + lane % 4;
+        debug_assert!(place < values.len());
+        // SAFETY: guaranteed by the caller.
+        unsafe { *values.get_unchecked_mut(place) = value };
     }
 }
 
@@ -168,38 +193,52 @@ macro_rules! f64_lanes {
             }
 
             #[inline(always)]
-            unsafe fn load(values: &[f64], at: usize) -> $type {
-                // SAFETY: guaranteed by the caller.
-                <$type>::from(unsafe { read::<$lanes>(values, at) })
+            fn bitmask(mask: $type) -> u32 {
+                mask.to_bitmask()
             }
 
             #[inline(always)]
-            unsafe fn offsets(values: &[f64], at: usize, center: f64) -> $type {
+            fn lanes_between(from: usize, to: usize) -> $type {
+                let lanes = <$type>::new(std::array::from_fn(|k| k as f64));
+                lanes.simd_ge(<$type>::splat(from as f64))
+                    & lanes.simd_lt(<$type>::splat(to as f64))
+            }
+
+            #[inline(always)]
+            unsafe fn load(values: &[f64], at: impl Into<Places>) -> $type {
+                // SAFETY: guaranteed by the caller.
+                <$type>::from(unsafe { read::<$lanes>(values, at.into()) })
+            }
+
+            #[inline(always)]
+            unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: f64) -> $type {
                 // SAFETY: guaranteed by the caller.
                 unsafe { <$type>::splat(center) - Self::load(values, at) }
             }
 
             #[inline(always)]
-            unsafe fn differences(values: &[f64], at: usize, center: f64) -> $type {
+            unsafe fn differences(values: &[f64], at: impl Into<Places>, center: f64) -> $type {
                 // SAFETY: guaranteed by the caller.
                 unsafe { Self::load(values, at) - <$type>::splat(center) }
             }
 
             #[inline(always)]
-            unsafe fn excess_density(rho: f64, values: &[f64], at: usize) -> $type {
+            unsafe fn excess_density(rho: f64, values: &[f64], at: impl Into<Places>) -> $type {
                 let twice_rest_density = <$type>::splat(2.0 * FLUID_DENSITY);
                 // SAFETY: guaranteed by the caller.
                 <$type>::splat(rho) + unsafe { Self::load(values, at) } - twice_rest_density
             }
 
             #[inline(always)]
-            unsafe fn add_to(values: &mut [f64], at: usize, terms: $type) {
+            unsafe fn add_to(values: &mut [f64], at: impl Into<Places>, terms: $type) {
+                let at = at.into();
                 // SAFETY: guaranteed by the caller.
                 unsafe { write(values, at, (Self::load(values, at) + terms).to_array()) }
             }
 
             #[inline(always)]
-            unsafe fn subtract_from(values: &mut [f64], at: usize, terms: $type) {
+            unsafe fn subtract_from(values: &mut [f64], at: impl Into<Places>, terms: $type) {
+                let at = at.into();
                 // SAFETY: guaranteed by the caller.
                 unsafe { write(values, at, (Self::load(values, at) - terms).to_array()) }
             }
@@ -279,35 +318,46 @@ impl Lanes for MixedF32x8 {
     }
 
     #[inline(always)]
-    unsafe fn load(values: &[f64], at: usize) -> f32x8 {
-        // SAFETY: guaranteed by the caller.
-        narrow(unsafe { read::<8>(values, at) })
+    fn bitmask(mask: f32x8) -> u32 {
+        mask.to_bitmask()
     }
 
     #[inline(always)]
-    unsafe fn offsets(values: &[f64], at: usize, center: f64) -> f32x8 {
+    fn lanes_between(from: usize, to: usize) -> f32x8 {
+        let lanes = f32x8::new(std::array::from_fn(|k| k as f32));
+        lanes.simd_ge(f32x8::splat(from as f32)) & lanes.simd_lt(f32x8::splat(to as f32))
+    }
+
+    #[inline(always)]
+    unsafe fn load(values: &[f64], at: impl Into<Places>) -> f32x8 {
         // SAFETY: guaranteed by the caller.
-        let values = unsafe { read::<8>(values, at) };
+        narrow(unsafe { read::<8>(values, at.into()) })
+    }
+
+    #[inline(always)]
+    unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: f64) -> f32x8 {
+        // SAFETY: guaranteed by the caller.
+        let values = unsafe { read::<8>(values, at.into()) };
         narrow(values.map(|v| center - v))
     }
 
     #[inline(always)]
-    unsafe fn differences(values: &[f64], at: usize, center: f64) -> f32x8 {
+    unsafe fn differences(values: &[f64], at: impl Into<Places>, center: f64) -> f32x8 {
         // SAFETY: guaranteed by the caller.
-        let values = unsafe { read::<8>(values, at) };
+        let values = unsafe { read::<8>(values, at.into()) };
         narrow(values.map(|v| v - center))
     }
 
     #[inline(always)]
-    unsafe fn excess_density(rho: f64, values: &[f64], at: usize) -> f32x8 {
+    unsafe fn excess_density(rho: f64, values: &[f64], at: impl Into<Places>) -> f32x8 {
         // SAFETY: guaranteed by the caller.
-        let values = unsafe { read::<8>(values, at) };
+        let values = unsafe { read::<8>(values, at.into()) };
         narrow(values.map(|v| rho + v - 2.0 * FLUID_DENSITY))
     }
 
     #[inline(always)]
-    unsafe fn add_to(values: &mut [f64], at: usize, terms: f32x8) {
-        let terms = widen(terms);
+    unsafe fn add_to(values: &mut [f64], at: impl Into<Places>, terms: f32x8) {
+        let (at, terms) = (at.into(), widen(terms));
         // SAFETY: guaranteed by the caller.
         let old = unsafe { read::<8>(values, at) };
         // SAFETY: as above.
@@ -315,8 +365,8 @@ impl Lanes for MixedF32x8 {
     }
 
     #[inline(always)]
-    unsafe fn subtract_from(values: &mut [f64], at: usize, terms: f32x8) {
-        let terms = widen(terms);
+    unsafe fn subtract_from(values: &mut [f64], at: impl Into<Places>, terms: f32x8) {
+        let (at, terms) = (at.into(), widen(terms));
         // SAFETY: guaranteed by the caller.
         let old = unsafe { read::<8>(values, at) };
         // SAFETY: as above.
@@ -463,6 +513,7 @@ pub(super) struct Transfer<'a, L: Lanes, const FLUIDANIMATE: bool> {
     p: [&'a [f64]; 3],
     v: [&'a [f64]; 3],
     rho: &'a [f64],
+    one: L::V,
     h: L::V,
     h2: L::V,
     min_distance_squared: L::V,
@@ -482,6 +533,7 @@ impl<'a, L: Lanes, const FLUIDANIMATE: bool> Transfer<'a, L, FLUIDANIMATE> {
             p,
             v,
             rho,
+            one: L::splat(1.0),
             h: L::splat(params.h),
             h2: L::splat(params.h2),
             min_distance_squared: L::splat(MIN_DISTANCE_SQUARED),
@@ -492,20 +544,15 @@ impl<'a, L: Lanes, const FLUIDANIMATE: bool> Transfer<'a, L, FLUIDANIMATE> {
 }
 
 impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
-    /// The acceleration terms of `first` with partners j..j+LANES (lanes before `end`;
-    /// zero in lanes that are not a pair closer than h), or `None` if no lane is.
+    /// The acceleration terms of `first` with the partners at `at` (in the lanes of
+    /// `lanes`; zero in lanes that are not a pair closer than h), or `None` if no lane is.
     ///
     /// # Safety
-    /// `j + LANES` is within every array.
+    /// Every place `at` names is within every array.
     #[inline(always)]
-    unsafe fn group(&self, first: &First, j: usize, end: usize) -> Option<[L::V; 3]> {
-        let lanes = if j + L::LANES <= end {
-            L::all()
-        } else {
-            L::first(end - j)
-        };
+    pub(super) unsafe fn group(&self, first: &First, at: Places, lanes: L::V) -> Option<[L::V; 3]> {
         // SAFETY: guaranteed by the caller.
-        let offset = |values: &[f64], center| unsafe { L::offsets(values, j, center) };
+        let offset = |values: &[f64], center| unsafe { L::offsets(values, at, center) };
         let d = [
             offset(self.p[0], first.p[0]),
             offset(self.p[1], first.p[1]),
@@ -520,19 +567,21 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
         let q = self.h - dist;
         // SAFETY: guaranteed by the caller.
         let (rho_j, excess) = unsafe {
-            let excess = L::excess_density(first.rho, self.rho, j);
-            (L::load(self.rho, j), excess)
+            let excess = L::excess_density(first.rho, self.rho, at);
+            (L::load(self.rho, at), excess)
         };
         let pressure = self.pressure_factor * q * q / dist * excess;
-        let density_product = L::splat(first.rho) * rho_j;
+        // One division for the three axes: the divider, not the lanes, bounds this loop
+        // (a square root and two divisions per group, not four).
+        let per_density_product = self.one / (L::splat(first.rho) * rho_j);
         let term = |axis: usize| {
             // SAFETY: guaranteed by the caller.
-            let dv = unsafe { L::differences(self.v[axis], j, first.v[axis]) };
+            let dv = unsafe { L::differences(self.v[axis], at, first.v[axis]) };
             let mut viscosity = dv * self.viscosity_factor;
             if FLUIDANIMATE {
                 viscosity = viscosity * q;
             }
-            ((d[axis] * pressure + viscosity) / density_product) & close
+            ((d[axis] * pressure + viscosity) * per_density_product) & close
         };
         // Three calls, not an array map: the map's closure is not always inlined.
         Some([term(0), term(1), term(2)])
@@ -554,8 +603,13 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
         a: &mut [&mut Vec<f64>; 3],
         sum: &mut [L::Sum; 3],
     ) {
+        let lanes = if j + L::LANES <= end {
+            L::all()
+        } else {
+            L::first(end - j)
+        };
         // SAFETY: guaranteed by the caller.
-        if let Some(da) = unsafe { self.group(first, j, end) } {
+        if let Some(da) = unsafe { self.group(first, j.into(), lanes) } {
             for axis in 0..3 {
                 L::accumulate(&mut sum[axis], da[axis]);
                 // SAFETY: guaranteed by the caller.

@@ -115,7 +115,7 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     }
 
     /// Whether the model's pair passes run on [`Clusters`] on the kernels that have
-    /// loops on them ([`Kernel::cluster_width`]); else on the tiles alone.
+    /// loops on them ([`Kernel::runs_on_clusters`]); else on the tiles alone.
     fn pairs_on_clusters(&self) -> bool {
         false
     }
