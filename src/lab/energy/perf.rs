@@ -90,22 +90,46 @@ pub fn rapl_events(pmus: &Path) -> Result<Vec<String>, String> {
     Ok(events)
 }
 
-/// The RAPL events that `program` can count system-wide here, probed with a short window,
-/// or why none can.
+/// How long [`usable_events`] counts: RAPL counters advance every millisecond or so,
+/// so a working one reads more than 0 J over it.
+const PROBE: std::time::Duration = std::time::Duration::from_millis(20);
+
+/// The RAPL events that `program` can count system-wide here, probed with a window of
+/// [`PROBE`], or why none can.
 pub fn usable_events(program: &Path, pmus: &Path) -> Result<Vec<String>, String> {
     let events = rapl_events(pmus)?;
     let counts = Counting::start(program, &events)
-        .and_then(Counting::stop)
+        .and_then(|counting| {
+            std::thread::sleep(PROBE);
+            counting.stop()
+        })
         .map_err(|error| error.0)?;
-    let usable: Vec<String> = counts
-        .into_iter()
-        .filter(|count| count.value.is_ok() && Domain::of_perf_event(&count.event).is_some())
-        .map(|count| count.event)
+    advancing_events(&counts).map_err(|reason| format!("{reason} (of {})", events.join(",")))
+}
+
+/// The RAPL events of a probe's `counts` that counted more than 0 J, or why none did:
+/// some virtual machines offer a RAPL event that never advances, which would put a
+/// made-up 0 J in every measurement.
+fn advancing_events(counts: &[Count]) -> Result<Vec<String>, String> {
+    let rapl = counts
+        .iter()
+        .filter(|count| Domain::of_perf_event(&count.event).is_some());
+    let usable: Vec<String> = rapl
+        .clone()
+        .filter(|count| count.value.as_ref().is_ok_and(|&joules| joules > 0.0))
+        .map(|count| count.event.clone())
         .collect();
-    if usable.is_empty() {
-        return Err(format!("perf counted none of {}", events.join(",")));
+    if !usable.is_empty() {
+        return Ok(usable);
     }
-    Ok(usable)
+    if rapl.clone().any(|count| count.value.is_ok()) {
+        Err(format!(
+            "perf's RAPL events read 0 J over a {} ms probe: they do not advance here",
+            PROBE.as_millis()
+        ))
+    } else {
+        Err("perf counted no RAPL event".to_string())
+    }
 }
 
 /// A `perf stat -a` process counting between [`Counting::start`] and [`Counting::stop`].
@@ -292,6 +316,29 @@ mod tests {
         assert!(parse_csv("twelve,Joules,power/energy-pkg/,1,100.00,,\n").is_err());
         let counts = parse_csv("12.3,mJ,power/energy-pkg/,1,100.00,,\n").unwrap();
         assert!(energy_of(&counts).is_err());
+    }
+
+    #[test]
+    fn only_rapl_events_that_advance_are_usable() {
+        let stuck = parse_csv(&fixture("perf-stat-psys-stuck.csv")).unwrap();
+        assert_eq!(
+            advancing_events(&stuck).unwrap_err(),
+            "perf's RAPL events read 0 J over a 20 ms probe: they do not advance here"
+        );
+        let not_counted = parse_csv(&fixture("perf-stat-not-supported.csv")).unwrap();
+        let counted: Vec<&Count> = not_counted.iter().filter(|c| c.value.is_ok()).collect();
+        assert!(!counted.is_empty() && counted.len() < not_counted.len());
+        assert_eq!(
+            advancing_events(&not_counted).unwrap(),
+            counted.iter().map(|c| c.event.clone()).collect::<Vec<_>>()
+        );
+        let software = parse_csv(&fixture("perf-stat-software.csv")).unwrap();
+        assert_eq!(
+            advancing_events(&software).unwrap_err(),
+            "perf counted no RAPL event"
+        );
+        let intel = parse_csv(&fixture("perf-stat-intel.csv")).unwrap();
+        assert_eq!(advancing_events(&intel).unwrap().len(), 5);
     }
 
     #[test]
