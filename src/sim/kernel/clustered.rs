@@ -18,12 +18,25 @@ use super::{Accelerations, Candidates, Densities, Packed};
 use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
 use crate::sim::particles::AxisArrays;
 
-/// The places of a register holding the clusters of `chunk` (one per quarter of 4
-/// lanes), its spare quarter the `empty` cluster.
+/// Where a recorded cluster's entry holds the particles of the recording cluster that
+/// have a partner closer than h in it (a bit per particle; the cluster's index below).
+const ROWS_SHIFT: u32 = 28;
+
+/// Every particle of a cluster, a bit each.
+const ALL_ROWS: u32 = (1 << CLUSTER) - 1;
+
+/// The cluster of a list entry (recorded or not).
+#[inline(always)]
+fn cluster_of(entry: u32) -> usize {
+    (entry & ((1 << ROWS_SHIFT) - 1)) as usize
+}
+
+/// The places of a register holding the clusters of the entries `chunk` (one per
+/// quarter of 4 lanes), its spare quarter the `empty` cluster.
 #[inline(always)]
 fn places_of(chunk: &[u32], empty: usize) -> Places {
-    let second = chunk.get(1).map_or(empty, |&k| k as usize);
-    Places::quarters(chunk[0] as usize * CLUSTER, second * CLUSTER)
+    let second = chunk.get(1).map_or(empty, |&entry| cluster_of(entry));
+    Places::quarters(cluster_of(chunk[0]) * CLUSTER, second * CLUSTER)
 }
 
 /// The places of the register of cluster `own`'s pairs among its particles: its own,
@@ -61,8 +74,8 @@ fn assert_loadable(clusters: &Clusters, arrays: &[&[f64]]) {
 
 /// The density terms (h^2 - r^2)^3 of the 4 particles at `rows` with the partners at
 /// `at` (with `OWN`, only those after each): each particle's added to its `row_sums`,
-/// the partners' to `sums` at `at`. Returns a bit per lane holding a partner closer
-/// than h to any of the 4.
+/// the partners' to `sums` at `at`. Returns, for each of the 4, a bit per lane holding
+/// a partner closer than h.
 ///
 /// # Safety
 /// Every place `at` names is within `sums` and every array of `p`.
@@ -74,9 +87,9 @@ unsafe fn density_block<L: Lanes, const OWN: bool>(
     h2: L::V,
     at: Places,
     row_sums: &mut [L::Sum; CLUSTER],
-) -> u32 {
+) -> [u32; CLUSTER] {
     let mut partners = L::splat(0.0);
-    let mut found = 0;
+    let mut found = [0; CLUSTER];
     for (row, first) in rows.iter().enumerate() {
         // SAFETY: guaranteed by the caller.
         let offset = |axis: usize| unsafe { L::offsets(&p[axis], at, first[axis]) };
@@ -87,7 +100,7 @@ unsafe fn density_block<L: Lanes, const OWN: bool>(
         let t = (q * q * q) & close;
         L::accumulate(&mut row_sums[row], t);
         partners = partners + t;
-        found |= L::bitmask(close);
+        found[row] = L::bitmask(close);
     }
     // SAFETY: guaranteed by the caller.
     unsafe { L::add_to(sums, at, partners) };
@@ -112,6 +125,7 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     assert_loadable(clusters, &[&p[0], &p[1], &p[2], sums]);
     let h2 = L::splat(params.h2);
     let per_register = L::LANES / CLUSTER;
+    assert!(empty < 1 << ROWS_SHIFT, "too many clusters to record");
     let (pairs, starts) = clusters.pairs();
     // The recorded clusters are written without a branch on whether a cluster holds a
     // close pair (about half do, unpredictably): each is written at the end, which
@@ -136,9 +150,12 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
             let at = places_of(chunk, empty);
             let found = unsafe { density_block::<L, false>(p, sums, &rows, h2, at, &mut row_sums) };
             for (quarter, &k) in chunk.iter().enumerate() {
-                close.clusters[recorded] = k;
-                let lanes = found >> (CLUSTER * quarter) & ((1 << CLUSTER) - 1);
-                recorded += usize::from(lanes != 0);
+                let rows = found.iter().enumerate().fold(0, |rows, (row, &lanes)| {
+                    let quarter_lanes = lanes >> (CLUSTER * quarter) & ALL_ROWS;
+                    rows | u32::from(quarter_lanes != 0) << row
+                });
+                close.clusters[recorded] = k | rows << ROWS_SHIFT;
+                recorded += usize::from(rows != 0);
             }
         }
         for (row, sum) in row_sums.into_iter().enumerate() {
@@ -150,10 +167,11 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     unpack_add(places, sums, rho);
 }
 
-/// The acceleration terms of the 4 particles `rows` with the partners at `at` (with
-/// `OWN`, only those after each): each particle's added to its `row_sums`, the
-/// partners' subtracted from `a` at `at`. A particle without a partner closer than h
-/// in the register is skipped after its distances.
+/// The acceleration terms of the particles `rows` of a cluster named in `wanted` (a bit
+/// each) with the partners at `at` (with `OWN`, only those after each): each
+/// particle's added to its `row_sums`, the partners' subtracted from `a` at `at`. A
+/// particle without a partner closer than h in the register is skipped after its
+/// distances.
 ///
 /// # Safety
 /// Every place `at` names is within every array of `transfer` and `a`.
@@ -164,11 +182,16 @@ unsafe fn transfer_block<L: Lanes, const FLUIDANIMATE: bool, const OWN: bool>(
     at: Places,
     a: &mut [&mut Vec<f64>; 3],
     row_sums: &mut [[L::Sum; 3]; CLUSTER],
+    wanted: u32,
 ) {
     let mut partners = [L::splat(0.0); 3];
-    for (row, first) in rows.iter().enumerate() {
+    let mut left = wanted;
+    while left != 0 {
+        let row = left.trailing_zeros() as usize;
+        left &= left - 1;
+        let lanes = lanes_of::<L, OWN>(row);
         // SAFETY: guaranteed by the caller.
-        if let Some(terms) = unsafe { transfer.group(first, at, lanes_of::<L, OWN>(row)) } {
+        if let Some(terms) = unsafe { transfer.group(&rows[row], at, lanes) } {
             for axis in 0..3 {
                 L::accumulate(&mut row_sums[row][axis], terms[axis]);
                 partners[axis] = partners[axis] + terms[axis];
@@ -198,11 +221,15 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     } = pass;
     let places = clusters.places();
     let empty = clusters.empty_cluster();
-    let (list, starts) = match candidates {
+    // Recorded entries name their particles with a close partner; others stand for all.
+    let (list, starts, unrecorded_rows) = match candidates {
         Candidates::Close(close) if close.starts.len() == empty + 1 => {
-            (&close.clusters[..], &close.starts[..])
+            (&close.clusters[..], &close.starts[..], 0)
         }
-        _ => clusters.pairs(),
+        _ => {
+            let (pairs, starts) = clusters.pairs();
+            (pairs, starts, ALL_ROWS)
+        }
     };
     let Packed {
         v: packed_v,
@@ -245,11 +272,15 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
                 at,
                 &mut sums_to,
                 &mut row_sums,
+                ALL_ROWS,
             );
         }
         let listed = &list[starts[own] as usize..starts[own + 1] as usize];
         for chunk in listed.chunks(per_register) {
             let at = places_of(chunk, empty);
+            let wanted = chunk
+                .iter()
+                .fold(unrecorded_rows, |rows, &entry| rows | entry >> ROWS_SHIFT);
             unsafe {
                 transfer_block::<L, FLUIDANIMATE, false>(
                     &transfer,
@@ -257,6 +288,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
                     at,
                     &mut sums_to,
                     &mut row_sums,
+                    wanted,
                 )
             };
         }
