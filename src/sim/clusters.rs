@@ -21,6 +21,7 @@
 
 use crate::sim::cells::CellLayout;
 use crate::sim::particles::{AxisArrays, Particles};
+use wide::f64x4;
 
 /// The neighbour structure the SIMD pair loops run on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
@@ -47,25 +48,27 @@ fn far(place: usize) -> f64 {
     1e100 * (place + 1) as f64
 }
 
-/// A cluster's bounding box.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Bounds {
-    low: [f64; 3],
-    high: [f64; 3],
-}
-
-impl Bounds {
-    /// The squared distance between the boxes (0 where they overlap).
-    fn distance_squared(&self, other: &Bounds) -> f64 {
-        (0..3)
-            .map(|axis| {
-                let gap = (other.low[axis] - self.high[axis])
-                    .max(self.low[axis] - other.high[axis])
-                    .max(0.0);
-                gap * gap
-            })
-            .sum()
+/// A bit per cluster of `from..from + 4` (lanes from `to` on clear) whose bounding box
+/// (`low` and `high` by cluster, 4 boxes more after the last) comes within the squared
+/// distance `reach2` of cluster `own`'s; 4 at a time, as the candidates of a window are
+/// consecutive clusters.
+fn near_boxes(
+    [low, high]: [&AxisArrays; 2],
+    own: usize,
+    from: usize,
+    to: usize,
+    reach2: f64,
+) -> u32 {
+    let lanes = |values: &[f64]| f64x4::new(std::array::from_fn(|lane| values[from + lane]));
+    let mut distance2 = f64x4::ZERO;
+    for axis in 0..3 {
+        let above = lanes(&low[axis]) - f64x4::splat(high[axis][own]);
+        let below = f64x4::splat(low[axis][own]) - lanes(&high[axis]);
+        let gap = above.max(below).max(f64x4::ZERO);
+        distance2 += gap * gap;
     }
+    let live = (1 << (to - from).min(4)) - 1;
+    distance2.simd_lt(f64x4::splat(reach2)).to_bitmask() & live
 }
 
 /// A row of cells: its y and z offsets in the cell layout, its clusters and its forward
@@ -89,10 +92,10 @@ const NO_ROW: u32 = u32::MAX;
 pub struct Clusters {
     /// The slot at each place, or [`EMPTY`].
     places: Vec<u32>,
-    /// Each cluster's bounding box at the build (its first and last x first and last).
-    bounds: Vec<Bounds>,
-    /// The row of each cluster.
-    row_of: Vec<u32>,
+    /// Each cluster's bounding box at the build, its lowest and highest coordinates
+    /// (along x, its first and last particle's), then 4 boxes more (never near).
+    low: AxisArrays,
+    high: AxisArrays,
     rows: Vec<Row>,
     /// Positions by place, then an empty cluster ([`Clusters::empty_cluster`]).
     positions: AxisArrays,
@@ -111,8 +114,9 @@ impl Clusters {
     /// kept over steps; no more than the cells' side).
     pub fn build(&mut self, keys: &[u64], layout: &CellLayout, particles: &Particles, reach: f64) {
         self.places.clear();
-        self.bounds.clear();
-        self.row_of.clear();
+        for bounds in self.low.iter_mut().chain(&mut self.high) {
+            bounds.clear();
+        }
         self.rows.clear();
         let shift = layout.shift()[1];
         let p = &particles.p;
@@ -131,33 +135,31 @@ impl Clusters {
                     at -= 1;
                 }
             }
-            let row = self.rows.len() as u32;
-            let first = self.bounds.len() as u32;
+            let first = self.empty_cluster() as u32;
             for chunk in self.order.chunks(CLUSTER) {
                 self.places.extend(chunk.iter().map(|&(_, slot)| slot));
                 self.places
                     .extend(std::iter::repeat_n(EMPTY, CLUSTER - chunk.len()));
-                let mut bounds = Bounds {
-                    low: [f64::INFINITY; 3],
-                    high: [f64::NEG_INFINITY; 3],
-                };
-                for &(_, slot) in chunk {
-                    for (axis, coordinates) in p.iter().enumerate() {
-                        let coordinate = coordinates[slot as usize];
-                        bounds.low[axis] = bounds.low[axis].min(coordinate);
-                        bounds.high[axis] = bounds.high[axis].max(coordinate);
-                    }
+                for (axis, coordinates) in p.iter().enumerate() {
+                    let along = chunk.iter().map(|&(_, slot)| coordinates[slot as usize]);
+                    let (low, high) = along
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), c| {
+                            (l.min(c), h.max(c))
+                        });
+                    self.low[axis].push(low);
+                    self.high[axis].push(high);
                 }
-                self.bounds.push(bounds);
-                self.row_of.push(row);
             }
             let [_, y, z] = layout.unpack(keys[start]);
             self.rows.push(Row {
                 yz: [y, z],
-                clusters: [first, self.bounds.len() as u32],
+                clusters: [first, self.empty_cluster() as u32],
                 forward: [NO_ROW; 4],
             });
             start = end;
+        }
+        for bounds in self.low.iter_mut().chain(&mut self.high) {
+            bounds.extend([f64::INFINITY; 4]);
         }
         self.link_rows();
         self.repack(particles);
@@ -202,7 +204,8 @@ impl Clusters {
     /// their low and their high x alike, so each window's ends only advance along a row.
     fn build_pairs(&mut self, reach: f64) {
         let Clusters {
-            bounds,
+            low,
+            high,
             rows,
             pairs,
             pair_starts,
@@ -229,25 +232,27 @@ impl Clusters {
                 windows.map(|[start, end]| [start as usize, start as usize, end as usize]);
             for own in first..last {
                 pair_starts.push(listed as u32);
-                let own_bounds = bounds[own];
-                let (low, high) = (own_bounds.low[0] - reach, own_bounds.high[0] + reach);
+                let (from_x, to_x) = (low[0][own] - reach, high[0][own] + reach);
                 // In its own row, the clusters after it (none before it ends below
-                // `low`).
+                // `from_x`).
                 cursors[0][0] = own + 1;
                 for [begin, end, row_end] in cursors.iter_mut() {
-                    while *begin < *row_end && bounds[*begin].high[0] <= low {
+                    while *begin < *row_end && high[0][*begin] <= from_x {
                         *begin += 1;
                     }
                     *end = (*end).max(*begin);
-                    while *end < *row_end && bounds[*end].low[0] < high {
+                    while *end < *row_end && low[0][*end] < to_x {
                         *end += 1;
                     }
-                    if pairs.len() < listed + (*end - *begin) {
-                        pairs.resize(2 * (listed + *end - *begin), 0);
+                    if pairs.len() < listed + (*end - *begin) + 4 {
+                        pairs.resize(2 * (listed + *end - *begin + 4), 0);
                     }
-                    for (k, candidate) in bounds.iter().enumerate().take(*end).skip(*begin) {
-                        pairs[listed] = k as u32;
-                        listed += usize::from(own_bounds.distance_squared(candidate) < reach2);
+                    for from in (*begin..*end).step_by(4) {
+                        let near = near_boxes([low, high], own, from, *end, reach2);
+                        for lane in 0..4 {
+                            pairs[listed] = (from + lane) as u32;
+                            listed += (near >> lane & 1) as usize;
+                        }
                     }
                 }
             }
@@ -285,7 +290,7 @@ impl Clusters {
     /// The number of clusters; also the index of the empty cluster after the last, whose
     /// places hold no particle (the kernels fill a register's spare quarters with it).
     pub fn empty_cluster(&self) -> usize {
-        self.bounds.len()
+        self.places.len() / CLUSTER
     }
 
     /// The slot at each place ([`EMPTY`] for none).
@@ -315,8 +320,7 @@ impl Clusters {
     pub fn heap_bytes(&self) -> usize {
         use crate::sim::heap_bytes as bytes;
         bytes(&self.places)
-            + bytes(&self.bounds)
-            + bytes(&self.row_of)
+            + self.low.iter().chain(&self.high).map(bytes).sum::<usize>()
             + bytes(&self.rows)
             + self.positions.iter().map(bytes).sum::<usize>()
             + bytes(&self.order)
@@ -430,17 +434,34 @@ mod tests {
     }
 
     #[test]
-    fn boxes_measure_their_gap() {
-        let unit = Bounds {
-            low: [0.0; 3],
-            high: [1.0; 3],
-        };
-        let apart = Bounds {
-            low: [2.0, 0.5, 4.0],
-            high: [3.0, 0.7, 5.0],
-        };
-        assert_eq!(unit.distance_squared(&apart), 1.0 + 9.0);
-        assert_eq!(apart.distance_squared(&unit), 10.0);
-        assert_eq!(unit.distance_squared(&unit), 0.0);
+    fn boxes_are_near_within_the_reach_of_their_gap() {
+        // Cluster 0 the unit box; clusters 1..5 boxes at squared gaps 10, 0.5, 0, 4.
+        let boxes = [
+            ([0.0; 3], [1.0; 3]),
+            ([2.0, 0.5, 4.0], [3.0, 0.7, 5.0]),
+            ([-1.0, 0.0, 1.5], [-0.5, 0.2, 1.6]),
+            ([0.5; 3], [0.6; 3]),
+            ([0.0, 3.0, 0.0], [1.0, 4.0, 1.0]),
+        ];
+        let mut bounds: [AxisArrays; 2] = Default::default();
+        for (low, high) in boxes
+            .iter()
+            .chain([&([f64::INFINITY; 3], [f64::INFINITY; 3]); 4])
+        {
+            for axis in 0..3 {
+                bounds[0][axis].push(low[axis]);
+                bounds[1][axis].push(high[axis]);
+            }
+        }
+        let near = |from, to, reach2| near_boxes([&bounds[0], &bounds[1]], 0, from, to, reach2);
+        assert_eq!(near(1, 5, 4.5), 0b1110);
+        assert_eq!(near(1, 5, 4.0), 0b0110, "a gap of the reach is not near");
+        assert_eq!(near(1, 5, 10.5), 0b1111);
+        assert_eq!(
+            near(1, 3, 10.5),
+            0b0011,
+            "lanes from the window's end are clear"
+        );
+        assert_eq!(near(3, 5, 0.1), 0b01);
     }
 }

@@ -234,6 +234,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     let Packed {
         v: packed_v,
         rho: packed_rho,
+        inverse_rho,
         a: packed_a,
     } = packed;
     for axis in 0..3 {
@@ -242,13 +243,32 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         packed_a[axis].resize((empty + 1) * CLUSTER, 0.0);
     }
     clusters.pack(rho, 1.0, packed_rho);
+    inverse_rho.clear();
+    inverse_rho.extend(packed_rho.iter().map(|rho| 1.0 / rho));
     let p = clusters.positions();
     let [vx, vy, vz] = &*packed_v;
     let [ax, ay, az] = packed_a;
-    let arrays = [&p[0][..], &p[1], &p[2], vx, vy, vz, packed_rho, ax, ay, az];
+    let arrays = [
+        &p[0][..],
+        &p[1],
+        &p[2],
+        vx,
+        vy,
+        vz,
+        packed_rho,
+        inverse_rho,
+        ax,
+        ay,
+        az,
+    ];
     assert_loadable(clusters, &arrays);
-    let transfer =
-        Transfer::<L, FLUIDANIMATE>::new(params, [&p[0], &p[1], &p[2]], [vx, vy, vz], packed_rho);
+    let transfer = Transfer::<L, FLUIDANIMATE>::new(
+        params,
+        [&p[0], &p[1], &p[2]],
+        [vx, vy, vz],
+        packed_rho,
+        inverse_rho,
+    );
     let mut sums_to = [ax, ay, az];
     let per_register = L::LANES / CLUSTER;
     for own in 0..empty {
@@ -259,6 +279,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
                 p: [p[0][i], p[1][i], p[2][i]],
                 v: [vx[i], vy[i], vz[i]],
                 rho: packed_rho[i],
+                inverse_rho: inverse_rho[i],
             }
         });
         let mut row_sums = [[L::ZERO_SUM; 3]; CLUSTER];

@@ -180,13 +180,16 @@ impl ClosePairs {
 
 /// The per-place copies the loops on [`Clusters`] read and sum into (reused from step to
 /// step): velocities and densities by place, and the sums of densities and
-/// accelerations, added back to the particles' slots at the end of a pass.
+/// accelerations, added back to the particles' slots at the end of a pass; and the
+/// densities' reciprocals of the SIMD acceleration loops.
 #[derive(Debug, Clone, Default)]
 pub struct Packed {
     /// Velocities by place.
     v: AxisArrays,
     /// Densities by place (the density pass's sums, then the densities).
     rho: Vec<f64>,
+    /// The densities' reciprocals (by place on [`Clusters`], else by slot).
+    inverse_rho: Vec<f64>,
     /// Accelerations by place.
     a: AxisArrays,
 }
@@ -195,7 +198,10 @@ impl Packed {
     /// The bytes its buffers hold on the heap.
     pub fn heap_bytes(&self) -> usize {
         let axes = |arrays: &AxisArrays| arrays.iter().map(crate::sim::heap_bytes).sum::<usize>();
-        axes(&self.v) + crate::sim::heap_bytes(&self.rho) + axes(&self.a)
+        axes(&self.v)
+            + crate::sim::heap_bytes(&self.rho)
+            + crate::sim::heap_bytes(&self.inverse_rho)
+            + axes(&self.a)
     }
 }
 

@@ -506,6 +506,7 @@ pub(super) struct First {
     pub(super) p: [f64; 3],
     pub(super) v: [f64; 3],
     pub(super) rho: f64,
+    pub(super) inverse_rho: f64,
 }
 
 /// The arrays and constants of the acceleration transfer.
@@ -513,7 +514,7 @@ pub(super) struct Transfer<'a, L: Lanes, const FLUIDANIMATE: bool> {
     p: [&'a [f64]; 3],
     v: [&'a [f64]; 3],
     rho: &'a [f64],
-    one: L::V,
+    inverse_rho: &'a [f64],
     h: L::V,
     h2: L::V,
     min_distance_squared: L::V,
@@ -522,18 +523,20 @@ pub(super) struct Transfer<'a, L: Lanes, const FLUIDANIMATE: bool> {
 }
 
 impl<'a, L: Lanes, const FLUIDANIMATE: bool> Transfer<'a, L, FLUIDANIMATE> {
-    /// The transfer of `params` over these arrays.
+    /// The transfer of `params` over these arrays (`inverse_rho` the reciprocals of
+    /// `rho`).
     pub(super) fn new(
         params: &Params,
         p: [&'a [f64]; 3],
         v: [&'a [f64]; 3],
         rho: &'a [f64],
+        inverse_rho: &'a [f64],
     ) -> Self {
         Transfer {
             p,
             v,
             rho,
-            one: L::splat(1.0),
+            inverse_rho,
             h: L::splat(params.h),
             h2: L::splat(params.h2),
             min_distance_squared: L::splat(MIN_DISTANCE_SQUARED),
@@ -566,14 +569,15 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
         let dist = L::sqrt(L::max(r2, self.min_distance_squared));
         let q = self.h - dist;
         // SAFETY: guaranteed by the caller.
-        let (rho_j, excess) = unsafe {
+        let (inverse_rho_j, excess) = unsafe {
             let excess = L::excess_density(first.rho, self.rho, at);
-            (L::load(self.rho, at), excess)
+            (L::load(self.inverse_rho, at), excess)
         };
         let pressure = self.pressure_factor * q * q / dist * excess;
-        // One division for the three axes: the divider, not the lanes, bounds this loop
-        // (a square root and two divisions per group, not four).
-        let per_density_product = self.one / (L::splat(first.rho) * rho_j);
+        // The divider, not the lanes, bounds this loop: the densities' reciprocals are
+        // taken once per particle, not per pair and axis (a square root and a division
+        // per group, not three divisions more).
+        let per_density_product = L::splat(first.inverse_rho) * inverse_rho_j;
         let term = |axis: usize| {
             // SAFETY: guaranteed by the caller.
             let dv = unsafe { L::differences(self.v[axis], at, first.v[axis]) };
@@ -632,14 +636,20 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         v,
         rho,
         a,
+        packed,
         ..
     } = pass;
     let tiles = candidates.tiles();
     let ([x, y, z], [vx, vy, vz]) = (p, v);
     let [ax, ay, az] = a;
-    let arrays = [&x[..], y, z, vx, vy, vz, rho, ax, ay, az];
+    let inverse_rho = &mut packed.inverse_rho;
+    inverse_rho.clear();
+    inverse_rho.extend(rho.iter().map(|rho| 1.0 / rho));
+    let inverse_rho = &inverse_rho[..];
+    let arrays = [&x[..], y, z, vx, vy, vz, rho, inverse_rho, ax, ay, az];
     assert_padded(slots_used(tiles), L::LANES, &arrays);
-    let transfer = Transfer::<L, FLUIDANIMATE>::new(params, [x, y, z], [vx, vy, vz], rho);
+    let transfer =
+        Transfer::<L, FLUIDANIMATE>::new(params, [x, y, z], [vx, vy, vz], rho, inverse_rho);
     let mut recorded_groups = match candidates {
         Candidates::Close(close) if !close.groups.is_empty() => Some(close.groups.iter()),
         _ => None,
@@ -651,6 +661,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
                 p: [x[i], y[i], z[i]],
                 v: [vx[i], vy[i], vz[i]],
                 rho: rho[i],
+                inverse_rho: inverse_rho[i],
             };
             let mut sum = [L::ZERO_SUM; 3];
             for tile in cell_tiles {
