@@ -8,20 +8,21 @@
 //! register (half an AVX2 one) without gathering. The positions are packed in that order
 //! once per placement ([`Clusters::positions`]).
 //!
-//! Each cluster has a list of the clusters its particles are compared with
-//! ([`Clusters::pairs`], GROMACS' cluster pair list): those of its own row after it and
-//! of its 4 forward rows (y + 1 at its z; y - 1, y, y + 1 at z + 1) whose bounding box
-//! comes within the reach of its own. With the reach at the cut-off, every pair closer
-//! than it is in exactly one cluster pair or within one cluster.
+//! Each cluster is compared with the clusters of 5 *windows* ([`Clusters::windows`], a
+//! cluster pair list in the manner of GROMACS' kept as ranges): those of its own row
+//! after it, and of its 4 forward rows (y + 1 at its z; y - 1, y, y + 1 at z + 1), whose
+//! x range comes within the reach of its own. With the reach at the cut-off, every pair
+//! closer than it is in exactly one cluster pair or within one cluster. (Pruning the
+//! windows by bounding boxes as well was measured: it cut a third of the candidates and
+//! cost more than the density pass saved, which is as fast on either.)
 //!
 //! Where the cell order is kept over steps with a skin, the clusters are too, with the
-//! lists built at the cut-off plus the skin: until a particle has moved half the skin,
+//! windows found at the cut-off plus the skin: until a particle has moved half the skin,
 //! every pair closer than the cut-off is in them, and a step only packs the new positions
 //! ([`Clusters::repack`]).
 
 use crate::sim::cells::CellLayout;
 use crate::sim::particles::{AxisArrays, Particles};
-use wide::f64x4;
 
 /// The neighbour structure the SIMD pair loops run on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
@@ -48,28 +49,8 @@ fn far(place: usize) -> f64 {
     1e100 * (place + 1) as f64
 }
 
-/// A bit per cluster of `from..from + 4` (lanes from `to` on clear) whose bounding box
-/// (`low` and `high` by cluster, 4 boxes more after the last) comes within the squared
-/// distance `reach2` of cluster `own`'s; 4 at a time, as the candidates of a window are
-/// consecutive clusters.
-fn near_boxes(
-    [low, high]: [&AxisArrays; 2],
-    own: usize,
-    from: usize,
-    to: usize,
-    reach2: f64,
-) -> u32 {
-    let lanes = |values: &[f64]| f64x4::new(std::array::from_fn(|lane| values[from + lane]));
-    let mut distance2 = f64x4::ZERO;
-    for axis in 0..3 {
-        let above = lanes(&low[axis]) - f64x4::splat(high[axis][own]);
-        let below = f64x4::splat(low[axis][own]) - lanes(&high[axis]);
-        let gap = above.max(below).max(f64x4::ZERO);
-        distance2 += gap * gap;
-    }
-    let live = (1 << (to - from).min(4)) - 1;
-    distance2.simd_lt(f64x4::splat(reach2)).to_bitmask() & live
-}
+/// The windows of each cluster: its own row's, then its forward rows'.
+pub const WINDOWS: usize = 5;
 
 /// A row of cells: its y and z offsets in the cell layout, its clusters and its forward
 /// rows.
@@ -92,19 +73,16 @@ const NO_ROW: u32 = u32::MAX;
 pub struct Clusters {
     /// The slot at each place, or [`EMPTY`].
     places: Vec<u32>,
-    /// Each cluster's bounding box at the build, its lowest and highest coordinates
-    /// (along x, its first and last particle's), then 4 boxes more (never near).
-    low: AxisArrays,
-    high: AxisArrays,
+    /// Each cluster's first and last particle's x at the build.
+    first_x: Vec<f64>,
+    last_x: Vec<f64>,
     rows: Vec<Row>,
     /// Positions by place, then an empty cluster ([`Clusters::empty_cluster`]).
     positions: AxisArrays,
     /// A row's (x, slot) pairs while it is sorted.
     order: Vec<(f64, u32)>,
-    /// For each cluster, the clusters it is compared with.
-    pairs: Vec<u32>,
-    /// Where each cluster's entries start in `pairs`, then their end.
-    pair_starts: Vec<u32>,
+    /// For each cluster, its [`WINDOWS`] ranges of clusters it is compared with.
+    windows: Vec<[u32; 2]>,
 }
 
 impl Clusters {
@@ -114,12 +92,11 @@ impl Clusters {
     /// kept over steps; no more than the cells' side).
     pub fn build(&mut self, keys: &[u64], layout: &CellLayout, particles: &Particles, reach: f64) {
         self.places.clear();
-        for bounds in self.low.iter_mut().chain(&mut self.high) {
-            bounds.clear();
-        }
+        self.first_x.clear();
+        self.last_x.clear();
         self.rows.clear();
         let shift = layout.shift()[1];
-        let p = &particles.p;
+        let x = &particles.p[0];
         let mut start = 0;
         while start < keys.len() {
             let row_key = keys[start] >> shift;
@@ -127,7 +104,7 @@ impl Clusters {
             // Sorted by x: insertion sort from the back, as a row arrives sorted cell by
             // cell and only a cell's few particles are out of order.
             self.order.clear();
-            for (slot, &x) in p[0].iter().enumerate().take(end).skip(start) {
+            for (slot, &x) in x.iter().enumerate().take(end).skip(start) {
                 self.order.push((x, slot as u32));
                 let mut at = self.order.len() - 1;
                 while at > 0 && self.order[at - 1].0 > x {
@@ -140,15 +117,8 @@ impl Clusters {
                 self.places.extend(chunk.iter().map(|&(_, slot)| slot));
                 self.places
                     .extend(std::iter::repeat_n(EMPTY, CLUSTER - chunk.len()));
-                for (axis, coordinates) in p.iter().enumerate() {
-                    let along = chunk.iter().map(|&(_, slot)| coordinates[slot as usize]);
-                    let (low, high) = along
-                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), c| {
-                            (l.min(c), h.max(c))
-                        });
-                    self.low[axis].push(low);
-                    self.high[axis].push(high);
-                }
+                self.first_x.push(chunk[0].0);
+                self.last_x.push(chunk[chunk.len() - 1].0);
             }
             let [_, y, z] = layout.unpack(keys[start]);
             self.rows.push(Row {
@@ -158,12 +128,9 @@ impl Clusters {
             });
             start = end;
         }
-        for bounds in self.low.iter_mut().chain(&mut self.high) {
-            bounds.extend([f64::INFINITY; 4]);
-        }
         self.link_rows();
         self.repack(particles);
-        self.build_pairs(reach);
+        self.find_windows(reach);
     }
 
     /// Packs the positions of `particles` by place (the clusters' particles in the same
@@ -198,73 +165,58 @@ impl Clusters {
         packed.extend(std::iter::repeat_n(empty, CLUSTER));
     }
 
-    /// For each cluster, the clusters of its own row after it and of its forward rows
-    /// whose bounding box comes within `reach` of its own. The candidates of each row
-    /// are a window of its clusters by x, found by cursors: a row's clusters ascend by
-    /// their low and their high x alike, so each window's ends only advance along a row.
-    fn build_pairs(&mut self, reach: f64) {
+    /// For each cluster, the windows of its own row after it and of its forward rows:
+    /// the clusters whose x range comes within `reach` of its own. A row's clusters
+    /// ascend by their first and their last x alike, so each window's ends only advance
+    /// along a row: they are found by cursors.
+    fn find_windows(&mut self, reach: f64) {
         let Clusters {
-            low,
-            high,
+            first_x,
+            last_x,
             rows,
-            pairs,
-            pair_starts,
+            windows,
             ..
         } = self;
-        pairs.clear();
-        pair_starts.clear();
-        let reach2 = reach * reach;
-        // The entries are written without a branch on the box test (a third fail it,
-        // unpredictably): each candidate is written at the end, which advances only
-        // past those that pass.
-        let mut listed = 0;
+        windows.clear();
         for row in rows.iter() {
             let [first, last] = row.clusters.map(|k| k as usize);
             // For the row itself and each forward row: the window's start and end, and
             // the row's end.
-            let mut windows = [row.clusters, [0; 2], [0; 2], [0; 2], [0; 2]];
-            for (window, &forward) in windows[1..].iter_mut().zip(&row.forward) {
+            let mut rows_of = [row.clusters, [0; 2], [0; 2], [0; 2], [0; 2]];
+            for (clusters, &forward) in rows_of[1..].iter_mut().zip(&row.forward) {
                 if forward != NO_ROW {
-                    *window = rows[forward as usize].clusters;
+                    *clusters = rows[forward as usize].clusters;
                 }
             }
-            let mut cursors =
-                windows.map(|[start, end]| [start as usize, start as usize, end as usize]);
+            let mut cursors = rows_of.map(|[start, end]| [start, start, end]);
             for own in first..last {
-                pair_starts.push(listed as u32);
-                let (from_x, to_x) = (low[0][own] - reach, high[0][own] + reach);
+                let (from_x, to_x) = (first_x[own] - reach, last_x[own] + reach);
                 // In its own row, the clusters after it (none before it ends below
                 // `from_x`).
-                cursors[0][0] = own + 1;
+                cursors[0][0] = own as u32 + 1;
                 for [begin, end, row_end] in cursors.iter_mut() {
-                    while *begin < *row_end && high[0][*begin] <= from_x {
+                    while *begin < *row_end && last_x[*begin as usize] <= from_x {
                         *begin += 1;
                     }
                     *end = (*end).max(*begin);
-                    while *end < *row_end && low[0][*end] < to_x {
+                    while *end < *row_end && first_x[*end as usize] < to_x {
                         *end += 1;
                     }
-                    if pairs.len() < listed + (*end - *begin) + 4 {
-                        pairs.resize(2 * (listed + *end - *begin + 4), 0);
-                    }
-                    for from in (*begin..*end).step_by(4) {
-                        let near = near_boxes([low, high], own, from, *end, reach2);
-                        for lane in 0..4 {
-                            pairs[listed] = (from + lane) as u32;
-                            listed += (near >> lane & 1) as usize;
-                        }
-                    }
+                    windows.push([*begin, *end]);
                 }
             }
         }
-        pairs.truncate(listed);
-        pair_starts.push(listed as u32);
     }
 
-    /// Each cluster's list of the clusters it is compared with: the entries, and where
-    /// each cluster's start in them (then their end).
-    pub fn pairs(&self) -> (&[u32], &[u32]) {
-        (&self.pairs, &self.pair_starts)
+    /// The [`WINDOWS`] ranges of clusters that cluster `own` is compared with.
+    pub fn windows(&self, own: usize) -> &[[u32; 2]] {
+        &self.windows[own * WINDOWS..(own + 1) * WINDOWS]
+    }
+
+    /// The clusters that cluster `own` is compared with, window by window.
+    pub fn candidates(&self, own: usize) -> impl Iterator<Item = usize> + '_ {
+        let windows = self.windows(own).iter();
+        windows.flat_map(|&[begin, end]| begin as usize..end as usize)
     }
 
     /// Finds each row's forward rows (rows ascend by z, then y).
@@ -303,15 +255,19 @@ impl Clusters {
         &self.positions
     }
 
-    /// The pair lanes a pass over every listed cluster pair evaluates on `lanes` lanes
-    /// (each particle of a cluster against a register of `lanes / CLUSTER` clusters, its
-    /// own cluster in a register of its own; masked lanes included).
+    /// The pair lanes a pass over every cluster pair evaluates on `lanes` lanes (each
+    /// particle of a cluster against a register of `lanes / CLUSTER` consecutive
+    /// clusters of a window, its own cluster in a register of its own; masked lanes
+    /// included).
     pub fn candidate_lanes(&self, lanes: usize) -> u64 {
         let per_register = (lanes / CLUSTER).max(1);
         let registers: usize = self
-            .pair_starts
-            .windows(2)
-            .map(|entries| 1 + ((entries[1] - entries[0]) as usize).div_ceil(per_register))
+            .windows
+            .chunks(WINDOWS)
+            .map(|windows| {
+                let lengths = windows.iter().map(|&[begin, end]| (end - begin) as usize);
+                1 + lengths.map(|n| n.div_ceil(per_register)).sum::<usize>()
+            })
             .sum();
         (registers * CLUSTER * lanes) as u64
     }
@@ -320,12 +276,12 @@ impl Clusters {
     pub fn heap_bytes(&self) -> usize {
         use crate::sim::heap_bytes as bytes;
         bytes(&self.places)
-            + self.low.iter().chain(&self.high).map(bytes).sum::<usize>()
+            + bytes(&self.first_x)
+            + bytes(&self.last_x)
             + bytes(&self.rows)
             + self.positions.iter().map(bytes).sum::<usize>()
             + bytes(&self.order)
-            + bytes(&self.pairs)
-            + bytes(&self.pair_starts)
+            + bytes(&self.windows)
     }
 }
 
@@ -380,7 +336,6 @@ mod tests {
             }
         }
         let at = |place: usize| particles.position(places[place] as usize);
-        let (pairs, starts) = clusters.pairs();
         let mut found = Vec::new();
         let mut close_pair = |i: usize, j: usize| {
             if places[i] != EMPTY && places[j] != EMPTY && at(i).distance_squared(at(j)) < h * h {
@@ -395,9 +350,9 @@ mod tests {
                     close_pair(i, j);
                 }
             }
-            for &k in &pairs[starts[own] as usize..starts[own + 1] as usize] {
-                assert!(k as usize != own);
-                let other = k as usize * CLUSTER;
+            for k in clusters.candidates(own) {
+                assert!(k != own);
+                let other = k * CLUSTER;
                 for i in base..base + CLUSTER {
                     for j in other..other + CLUSTER {
                         close_pair(i, j);
@@ -422,46 +377,14 @@ mod tests {
         found.dedup();
         assert_eq!(found.len(), found_count, "a pair twice");
         assert_eq!(found, every);
-        // The useful fraction of the lanes of a pass over every cluster pair: 16.9% on 4
-        // lanes here, 15.0% on 8 (each particle against two clusters at a time; its own
+        // The useful fraction of the lanes of a pass over every cluster pair: 16.0% on 4
+        // lanes here, 12.6% on 8 (each particle against two clusters at a time; its own
         // cluster alone), a sixth of the particles on the block's faces. Whole
         // neighbour cells: 15.5% of their pairs, fewer of their lanes.
-        for (lanes, expected) in [(4, 0.16), (8, 0.14)] {
+        for (lanes, expected) in [(4, 0.15), (8, 0.12)] {
             let useful = every.len() as f64 / clusters.candidate_lanes(lanes) as f64;
             println!("{lanes} lanes: {useful:.3} of the candidate lanes are pairs within h");
             assert!(useful > expected, "{lanes} lanes: {useful}");
         }
-    }
-
-    #[test]
-    fn boxes_are_near_within_the_reach_of_their_gap() {
-        // Cluster 0 the unit box; clusters 1..5 boxes at squared gaps 10, 0.5, 0, 4.
-        let boxes = [
-            ([0.0; 3], [1.0; 3]),
-            ([2.0, 0.5, 4.0], [3.0, 0.7, 5.0]),
-            ([-1.0, 0.0, 1.5], [-0.5, 0.2, 1.6]),
-            ([0.5; 3], [0.6; 3]),
-            ([0.0, 3.0, 0.0], [1.0, 4.0, 1.0]),
-        ];
-        let mut bounds: [AxisArrays; 2] = Default::default();
-        for (low, high) in boxes
-            .iter()
-            .chain([&([f64::INFINITY; 3], [f64::INFINITY; 3]); 4])
-        {
-            for axis in 0..3 {
-                bounds[0][axis].push(low[axis]);
-                bounds[1][axis].push(high[axis]);
-            }
-        }
-        let near = |from, to, reach2| near_boxes([&bounds[0], &bounds[1]], 0, from, to, reach2);
-        assert_eq!(near(1, 5, 4.5), 0b1110);
-        assert_eq!(near(1, 5, 4.0), 0b0110, "a gap of the reach is not near");
-        assert_eq!(near(1, 5, 10.5), 0b1111);
-        assert_eq!(
-            near(1, 3, 10.5),
-            0b0011,
-            "lanes from the window's end are clear"
-        );
-        assert_eq!(near(3, 5, 0.1), 0b01);
     }
 }

@@ -676,7 +676,7 @@ mod tests {
 
     /// The candidate pairs of slots of `sim`'s clusters where its pair passes run on
     /// them (each cluster's pairs among its particles and with the clusters of its
-    /// list), else of its tiles.
+    /// windows), else of its tiles.
     fn candidate_pairs(sim: &Simulation) -> Vec<(usize, usize)> {
         use crate::sim::clusters::{CLUSTER, EMPTY};
         if !sim.clusters_built {
@@ -691,15 +691,14 @@ mod tests {
                 .map(|&slot| slot as usize)
                 .collect()
         };
-        let (pairs, starts) = clusters.pairs();
         let mut candidates = Vec::new();
         for own in 0..clusters.empty_cluster() {
             let mine = slots(own);
             for (at, &i) in mine.iter().enumerate() {
                 candidates.extend(mine[at + 1..].iter().map(|&j| (i, j)));
             }
-            for &k in &pairs[starts[own] as usize..starts[own + 1] as usize] {
-                let theirs = slots(k as usize);
+            for k in clusters.candidates(own) {
+                let theirs = slots(k);
                 for &i in &mine {
                     candidates.extend(theirs.iter().map(|&j| (i, j)));
                 }

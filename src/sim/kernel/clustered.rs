@@ -7,7 +7,7 @@
 //! pairs among its own particles run in a register of their own, lanes masked to the
 //! partners after each particle.
 //!
-//! The density pass records, per cluster, the clusters of its list that hold a partner
+//! The density pass records, per cluster, the clusters of its windows that hold a partner
 //! closer than h (`ClosePairs::clusters`), which the acceleration pass of the same
 //! positions then visits alone, skipping the particles without such a partner in a
 //! register. Both sum into copies by place ([`Packed`]), added to the particles' slots
@@ -107,8 +107,8 @@ unsafe fn density_block<L: Lanes, const OWN: bool>(
     found
 }
 
-/// Stage 3 on `L` lanes, over `clusters`: records, per cluster, the clusters of its list
-/// holding a partner closer than h in `close`.
+/// Stage 3 on `L` lanes, over `clusters`: records, per cluster, the clusters of its
+/// windows holding a partner closer than h in `close`.
 pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters) {
     let Densities {
         params,
@@ -126,11 +126,9 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     let h2 = L::splat(params.h2);
     let per_register = L::LANES / CLUSTER;
     assert!(empty < 1 << ROWS_SHIFT, "too many clusters to record");
-    let (pairs, starts) = clusters.pairs();
     // The recorded clusters are written without a branch on whether a cluster holds a
     // close pair (about half do, unpredictably): each is written at the end, which
     // advances only past those that do.
-    close.clusters.resize(pairs.len(), 0);
     close.starts.reserve(empty + 1);
     let mut recorded = 0;
     for own in 0..empty {
@@ -145,17 +143,33 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
             let at = own_places(base / CLUSTER, empty);
             density_block::<L, true>(p, sums, &rows, h2, at, &mut row_sums);
         }
-        let listed = &pairs[starts[own] as usize..starts[own + 1] as usize];
-        for chunk in listed.chunks(per_register) {
-            let at = places_of(chunk, empty);
-            let found = unsafe { density_block::<L, false>(p, sums, &rows, h2, at, &mut row_sums) };
-            for (quarter, &k) in chunk.iter().enumerate() {
-                let rows = found.iter().enumerate().fold(0, |rows, (row, &lanes)| {
-                    let quarter_lanes = lanes >> (CLUSTER * quarter) & ALL_ROWS;
-                    rows | u32::from(quarter_lanes != 0) << row
-                });
-                close.clusters[recorded] = k | rows << ROWS_SHIFT;
-                recorded += usize::from(rows != 0);
+        let windows = clusters.windows(own);
+        let most: u32 = windows.iter().map(|&[begin, end]| end - begin).sum();
+        if close.clusters.len() < recorded + most as usize + 1 {
+            close.clusters.resize(2 * (recorded + most as usize + 1), 0);
+        }
+        for &[begin, end] in windows {
+            // A register of `per_register` consecutive clusters of the window, the empty
+            // one past its end.
+            for first in (begin..end).step_by(per_register) {
+                let second = if first + 1 < end {
+                    first + 1
+                } else {
+                    empty as u32
+                };
+                let registered = [first, second];
+                let at = Places::quarters(first as usize * CLUSTER, second as usize * CLUSTER);
+                let found =
+                    unsafe { density_block::<L, false>(p, sums, &rows, h2, at, &mut row_sums) };
+                for (quarter, &k) in registered.iter().enumerate().take(per_register) {
+                    let rows = found.iter().enumerate().fold(0, |rows, (row, &lanes)| {
+                        let quarter_lanes = lanes >> (CLUSTER * quarter) & ALL_ROWS;
+                        rows | u32::from(quarter_lanes != 0) << row
+                    });
+                    // The empty cluster has no close partner: never recorded.
+                    close.clusters[recorded] = k | rows << ROWS_SHIFT;
+                    recorded += usize::from(rows != 0);
+                }
             }
         }
         for (row, sum) in row_sums.into_iter().enumerate() {
@@ -221,14 +235,21 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     } = pass;
     let places = clusters.places();
     let empty = clusters.empty_cluster();
-    // Recorded entries name their particles with a close partner; others stand for all.
-    let (list, starts, unrecorded_rows) = match candidates {
+    // Without a density pass over the same clusters, every cluster of the windows with
+    // every particle (a pass run alone).
+    let (mut every, mut every_start) = (Vec::new(), Vec::new());
+    let (list, starts) = match candidates {
         Candidates::Close(close) if close.starts.len() == empty + 1 => {
-            (&close.clusters[..], &close.starts[..], 0)
+            (&close.clusters[..], &close.starts[..])
         }
         _ => {
-            let (pairs, starts) = clusters.pairs();
-            (pairs, starts, ALL_ROWS)
+            for own in 0..empty {
+                every_start.push(every.len() as u32);
+                let all = clusters.candidates(own);
+                every.extend(all.map(|k| k as u32 | ALL_ROWS << ROWS_SHIFT));
+            }
+            every_start.push(every.len() as u32);
+            (&every[..], &every_start[..])
         }
     };
     let Packed {
@@ -301,7 +322,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
             let at = places_of(chunk, empty);
             let wanted = chunk
                 .iter()
-                .fold(unrecorded_rows, |rows, &entry| rows | entry >> ROWS_SHIFT);
+                .fold(0, |rows, &entry| rows | entry >> ROWS_SHIFT);
             unsafe {
                 transfer_block::<L, FLUIDANIMATE, false>(
                     &transfer,
