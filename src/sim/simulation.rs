@@ -204,13 +204,13 @@ impl Simulation {
 
     /// The pair lanes a pass over every candidate of the current placement evaluates on
     /// the run's kernel and structure (a SIMD kernel's masked lanes included): on the
-    /// clusters, each particle against a register of clusters per entry of its cluster's
-    /// list (and its own cluster); on the tiles, each first slot's partner
-    /// range rounded up to whole groups of the kernel's lanes (1 per pair on the scalar
-    /// and reference kernels). The density pass of the course models is such a pass.
+    /// clusters, 16 per cluster pair (each cluster with itself and with each cluster of
+    /// its windows); on the tiles, each first slot's partner range rounded up to whole
+    /// groups of the kernel's lanes (1 per pair on the scalar and reference kernels).
+    /// The density pass of the course models is such a pass.
     pub fn pair_lanes(&self) -> u64 {
         if self.clusters_built {
-            return self.clusters.candidate_lanes(self.method.kernel.lanes());
+            return self.clusters.candidate_lanes();
         }
         let lanes = self.method.kernel.lanes();
         let groups: usize = self

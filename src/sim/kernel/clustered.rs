@@ -1,19 +1,22 @@
 //! The course models' SIMD pair loops on [`Clusters`]: the 4 particles of a cluster
-//! against a register of partner clusters (one on 4 lanes, two on 8) from its cluster
-//! pair list, GROMACS' cluster pairs. The partners are loaded once for the 4 particles,
-//! without a gather (a cluster's places are contiguous); each particle's sums stay in
-//! registers over the whole list, the partners' in a register over the 4 particles,
-//! added to memory once per register (Newton's third law in registers). A cluster's
-//! pairs among its own particles run in a register of their own, lanes masked to the
-//! partners after each particle.
+//! against each cluster of its windows, GROMACS' cluster pairs. On 4 lanes a register
+//! holds a partner cluster and each particle is a row of its own (4 x 4); on 8 lanes the
+//! partner cluster fills both halves and a row holds two particles, one per half (GROMACS'
+//! 2 x 4 + 4 layout on AVX-512), so every layout evaluates the same 16 pairs per cluster
+//! pair. The partners are loaded once for the 4 particles, without a gather (a cluster's
+//! places are contiguous); each particle's sums stay in registers over all its
+//! windows, the partners' in a register over the 4 particles, added to memory once per
+//! cluster pair (Newton's third law in registers). A cluster's pairs among its own
+//! particles run as a pair of their own, lanes masked to the partners after each
+//! particle.
 //!
 //! The density pass records, per cluster, the clusters of its windows that hold a partner
-//! closer than h (`ClosePairs::clusters`), which the acceleration pass of the same
-//! positions then visits alone, skipping the particles without such a partner in a
-//! register. Both sum into copies by place ([`Packed`]), added to the particles' slots
+//! closer than h, each with the particles that have one (`ClosePairs::clusters`), which
+//! the acceleration pass of the same positions then visits alone, and only with those
+//! particles. Both sum into copies by place ([`Packed`]), added to the particles' slots
 //! at the end.
 
-use super::simd::{First, Lanes, Places, Transfer};
+use super::simd::{First, Halves, Lanes, Places, Transfer};
 use super::{Accelerations, Candidates, Densities, Packed};
 use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
 use crate::sim::particles::AxisArrays;
@@ -25,35 +28,99 @@ const ROWS_SHIFT: u32 = 28;
 /// Every particle of a cluster, a bit each.
 const ALL_ROWS: u32 = (1 << CLUSTER) - 1;
 
-/// The cluster of a list entry (recorded or not).
+/// The cluster of a list entry.
 #[inline(always)]
 fn cluster_of(entry: u32) -> usize {
     (entry & ((1 << ROWS_SHIFT) - 1)) as usize
 }
 
-/// The places of a register holding the clusters of the entries `chunk` (one per
-/// quarter of 4 lanes), its spare quarter the `empty` cluster.
-#[inline(always)]
-fn places_of(chunk: &[u32], empty: usize) -> Places {
-    let second = chunk.get(1).map_or(empty, |&entry| cluster_of(entry));
-    Places::quarters(cluster_of(chunk[0]) * CLUSTER, second * CLUSTER)
+/// The particles of a cluster per row of `L` lanes: 1 on 4 lanes, 2 (a half each) on 8.
+const fn per_row<L: Lanes>() -> usize {
+    L::LANES / CLUSTER
 }
 
-/// The places of the register of cluster `own`'s pairs among its particles: its own,
-/// then (on 8 lanes) the `empty` cluster.
-#[inline(always)]
-fn own_places(own: usize, empty: usize) -> Places {
-    Places::quarters(own * CLUSTER, empty * CLUSTER)
+/// The rows of a cluster's particles on `L` lanes.
+const fn row_count<L: Lanes>() -> usize {
+    CLUSTER / per_row::<L>()
 }
 
-/// The lanes particle `row` of a cluster is compared with: with `OWN` (its own
-/// cluster's register), the particles after it; else every lane.
+/// The places of partner cluster `k` in a register of `L` lanes: in every quarter of 4
+/// lanes.
+#[inline(always)]
+fn partners_at<L: Lanes>(k: usize) -> Places {
+    Places::quarters(k * CLUSTER, k * CLUSTER)
+}
+
+/// Where a cluster pair's partner sums are added: cluster `k`'s places (first half),
+/// then the `empty` cluster's (second half, on 8 lanes: zeros).
+#[inline(always)]
+fn sums_at(k: usize, empty: usize) -> Places {
+    Places::quarters(k * CLUSTER, empty * CLUSTER)
+}
+
+/// The partner sums of a register to add at [`sums_at`]: on 8 lanes, both halves (the
+/// same partners) folded into the first.
+#[inline(always)]
+fn folded<L: Lanes>(partners: L::V) -> L::V {
+    if per_row::<L>() == 2 {
+        L::fold_halves(partners)
+    } else {
+        partners
+    }
+}
+
+/// The lanes row `row` of a cluster is compared with: with `OWN` (its pairs among its
+/// own particles), the particles after each of the row's; else every lane.
 #[inline(always)]
 fn lanes_of<L: Lanes, const OWN: bool>(row: usize) -> L::V {
-    if OWN {
-        L::lanes_between(row + 1, CLUSTER)
+    match (OWN, per_row::<L>()) {
+        (false, _) => L::all(),
+        (true, 1) => L::lanes_between(row + 1, CLUSTER),
+        (true, _) => L::after_in_halves([2 * row, 2 * row + 1]),
+    }
+}
+
+/// The value of `values` for row `row` of the cluster at `base`: its particle's, or its
+/// two particles' (one per half).
+#[inline(always)]
+fn row_value<L: Lanes>(values: &[f64], base: usize, row: usize) -> Halves {
+    let first = base + row * per_row::<L>();
+    Halves([values[first], values[first + per_row::<L>() - 1]])
+}
+
+/// Adds the totals of `sum`, row `row`'s, to its particles in `target` (by place) from
+/// `base`.
+#[inline(always)]
+fn add_row_total<L: Lanes>(sum: L::Sum, target: &mut [f64], base: usize, row: usize) {
+    if per_row::<L>() == 2 {
+        let [a, b] = L::half_totals(sum);
+        target[base + 2 * row] += a;
+        target[base + 2 * row + 1] += b;
     } else {
-        L::all()
+        target[base + row] += L::total(sum);
+    }
+}
+
+/// The particles (a bit each) with a partner in a register, from each row's bit per
+/// lane closer than h.
+#[inline(always)]
+fn particles_found<L: Lanes>(found: &[u32; CLUSTER]) -> u32 {
+    (0..CLUSTER).fold(0, |particles, i| {
+        let (row, half) = (i / per_row::<L>(), i % per_row::<L>());
+        let lanes = found[row] >> (CLUSTER * half) & ALL_ROWS;
+        particles | u32::from(lanes != 0) << i
+    })
+}
+
+/// The rows holding one of the particles `wanted` (a bit each).
+#[inline(always)]
+fn rows_of<L: Lanes>(wanted: u32) -> u32 {
+    if per_row::<L>() == 2 {
+        (0..CLUSTER / 2).fold(0, |rows, row| {
+            rows | u32::from(wanted >> (2 * row) & 3 != 0) << row
+        })
+    } else {
+        wanted
     }
 }
 
@@ -72,25 +139,26 @@ fn assert_loadable(clusters: &Clusters, arrays: &[&[f64]]) {
     assert!(arrays.iter().all(|a| a.len() >= needed));
 }
 
-/// The density terms (h^2 - r^2)^3 of the 4 particles at `rows` with the partners at
-/// `at` (with `OWN`, only those after each): each particle's added to its `row_sums`,
-/// the partners' to `sums` at `at`. Returns, for each of the 4, a bit per lane holding
-/// a partner closer than h.
+/// The density terms (h^2 - r^2)^3 of the rows `rows` of a cluster with partner cluster
+/// `k` (with `OWN`, `k` is theirs, and only the partners after each particle count):
+/// each row's added to its `row_sums`, the partners' to `sums` (with the `empty`
+/// cluster's). Returns each row's bit per lane holding a partner closer than h.
 ///
 /// # Safety
-/// Every place `at` names is within `sums` and every array of `p`.
+/// Every place of clusters `k` and `empty` is within `sums` and every array of `p`.
 #[inline(always)]
 unsafe fn density_block<L: Lanes, const OWN: bool>(
     p: &AxisArrays,
     sums: &mut [f64],
-    rows: &[[f64; 3]; CLUSTER],
+    rows: &[[Halves; 3]; CLUSTER],
     h2: L::V,
-    at: Places,
+    [k, empty]: [usize; 2],
     row_sums: &mut [L::Sum; CLUSTER],
 ) -> [u32; CLUSTER] {
+    let at = partners_at::<L>(k);
     let mut partners = L::splat(0.0);
     let mut found = [0; CLUSTER];
-    for (row, first) in rows.iter().enumerate() {
+    for (row, first) in rows.iter().enumerate().take(row_count::<L>()) {
         // SAFETY: guaranteed by the caller.
         let offset = |axis: usize| unsafe { L::offsets(&p[axis], at, first[axis]) };
         let (dx, dy, dz) = (offset(0), offset(1), offset(2));
@@ -103,12 +171,13 @@ unsafe fn density_block<L: Lanes, const OWN: bool>(
         found[row] = L::bitmask(close);
     }
     // SAFETY: guaranteed by the caller.
-    unsafe { L::add_to(sums, at, partners) };
+    unsafe { L::add_to(sums, sums_at(k, empty), folded::<L>(partners)) };
     found
 }
 
 /// Stage 3 on `L` lanes, over `clusters`: records, per cluster, the clusters of its
-/// windows holding a partner closer than h in `close`.
+/// windows holding a partner closer than h, with the particles that have one, in
+/// `close`.
 pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters) {
     let Densities {
         params,
@@ -124,7 +193,6 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     sums.resize((empty + 1) * CLUSTER, 0.0);
     assert_loadable(clusters, &[&p[0], &p[1], &p[2], sums]);
     let h2 = L::splat(params.h2);
-    let per_register = L::LANES / CLUSTER;
     assert!(empty < 1 << ROWS_SHIFT, "too many clusters to record");
     // The recorded clusters are written without a branch on whether a cluster holds a
     // close pair (about half do, unpredictably): each is written at the end, which
@@ -134,46 +202,30 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     for own in 0..empty {
         close.starts.push(recorded as u32);
         let base = own * CLUSTER;
-        let rows =
-            std::array::from_fn(|row| [p[0][base + row], p[1][base + row], p[2][base + row]]);
+        let rows = std::array::from_fn(|row| {
+            [0, 1, 2].map(|axis| row_value::<L>(&p[axis], base, row % row_count::<L>()))
+        });
         let mut row_sums = [L::ZERO_SUM; CLUSTER];
         // SAFETY (both blocks): every place of a cluster or of the empty cluster is
         // within every array (assert_loadable).
-        unsafe {
-            let at = own_places(base / CLUSTER, empty);
-            density_block::<L, true>(p, sums, &rows, h2, at, &mut row_sums);
-        }
+        unsafe { density_block::<L, true>(p, sums, &rows, h2, [own, empty], &mut row_sums) };
         let windows = clusters.windows(own);
         let most: u32 = windows.iter().map(|&[begin, end]| end - begin).sum();
-        if close.clusters.len() < recorded + most as usize + 1 {
-            close.clusters.resize(2 * (recorded + most as usize + 1), 0);
+        if close.clusters.len() < recorded + most as usize {
+            close.clusters.resize(2 * (recorded + most as usize), 0);
         }
         for &[begin, end] in windows {
-            // A register of `per_register` consecutive clusters of the window, the empty
-            // one past its end.
-            for first in (begin..end).step_by(per_register) {
-                let second = if first + 1 < end {
-                    first + 1
-                } else {
-                    empty as u32
-                };
-                let registered = [first, second];
-                let at = Places::quarters(first as usize * CLUSTER, second as usize * CLUSTER);
+            for k in begin..end {
+                let at = [k as usize, empty];
                 let found =
                     unsafe { density_block::<L, false>(p, sums, &rows, h2, at, &mut row_sums) };
-                for (quarter, &k) in registered.iter().enumerate().take(per_register) {
-                    let rows = found.iter().enumerate().fold(0, |rows, (row, &lanes)| {
-                        let quarter_lanes = lanes >> (CLUSTER * quarter) & ALL_ROWS;
-                        rows | u32::from(quarter_lanes != 0) << row
-                    });
-                    // The empty cluster has no close partner: never recorded.
-                    close.clusters[recorded] = k | rows << ROWS_SHIFT;
-                    recorded += usize::from(rows != 0);
-                }
+                let particles = particles_found::<L>(&found);
+                close.clusters[recorded] = k | particles << ROWS_SHIFT;
+                recorded += usize::from(particles != 0);
             }
         }
-        for (row, sum) in row_sums.into_iter().enumerate() {
-            sums[base + row] += L::total(sum);
+        for (row, sum) in row_sums.into_iter().enumerate().take(row_count::<L>()) {
+            add_row_total::<L>(sum, sums, base, row);
         }
     }
     close.clusters.truncate(recorded);
@@ -181,23 +233,24 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     unpack_add(places, sums, rho);
 }
 
-/// The acceleration terms of the particles `rows` of a cluster named in `wanted` (a bit
-/// each) with the partners at `at` (with `OWN`, only those after each): each
-/// particle's added to its `row_sums`, the partners' subtracted from `a` at `at`. A
-/// particle without a partner closer than h in the register is skipped after its
+/// The acceleration terms of the rows `wanted` (a bit each) of `rows` with partner
+/// cluster `k` (with `OWN`, `k` is theirs, and only the partners after each particle
+/// count): each row's added to its `row_sums`, the partners' subtracted from `a` (with
+/// the `empty` cluster's). A row without a partner closer than h is skipped after its
 /// distances.
 ///
 /// # Safety
-/// Every place `at` names is within every array of `transfer` and `a`.
+/// Every place of clusters `k` and `empty` is within every array of `transfer` and `a`.
 #[inline(always)]
 unsafe fn transfer_block<L: Lanes, const FLUIDANIMATE: bool, const OWN: bool>(
     transfer: &Transfer<L, FLUIDANIMATE>,
     rows: &[First; CLUSTER],
-    at: Places,
+    [k, empty]: [usize; 2],
     a: &mut [&mut Vec<f64>; 3],
     row_sums: &mut [[L::Sum; 3]; CLUSTER],
     wanted: u32,
 ) {
+    let at = partners_at::<L>(k);
     let mut partners = [L::splat(0.0); 3];
     let mut left = wanted;
     while left != 0 {
@@ -213,8 +266,9 @@ unsafe fn transfer_block<L: Lanes, const FLUIDANIMATE: bool, const OWN: bool>(
         }
     }
     for axis in 0..3 {
+        let terms = folded::<L>(partners[axis]);
         // SAFETY: guaranteed by the caller.
-        unsafe { L::subtract_from(a[axis], at, partners[axis]) };
+        unsafe { L::subtract_from(a[axis], sums_at(k, empty), terms) };
     }
 }
 
@@ -291,52 +345,52 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         inverse_rho,
     );
     let mut sums_to = [ax, ay, az];
-    let per_register = L::LANES / CLUSTER;
+    let all_rows = (1 << row_count::<L>()) - 1;
     for own in 0..empty {
         let base = own * CLUSTER;
         let rows: [First; CLUSTER] = std::array::from_fn(|row| {
-            let i = base + row;
+            let row = row % row_count::<L>();
+            let value = |values: &[f64]| row_value::<L>(values, base, row);
             First {
-                p: [p[0][i], p[1][i], p[2][i]],
-                v: [vx[i], vy[i], vz[i]],
-                rho: packed_rho[i],
-                inverse_rho: inverse_rho[i],
+                p: [value(&p[0]), value(&p[1]), value(&p[2])],
+                v: [value(vx), value(vy), value(vz)],
+                rho: value(packed_rho),
+                inverse_rho: value(inverse_rho),
             }
         });
         let mut row_sums = [[L::ZERO_SUM; 3]; CLUSTER];
         // SAFETY (both blocks): every place of a cluster or of the empty cluster is
         // within every array (assert_loadable).
         unsafe {
-            let at = own_places(own, empty);
+            let at = [own, empty];
+            let (transfer, sums_to) = (&transfer, &mut sums_to);
             transfer_block::<L, FLUIDANIMATE, true>(
-                &transfer,
+                transfer,
                 &rows,
                 at,
-                &mut sums_to,
+                sums_to,
                 &mut row_sums,
-                ALL_ROWS,
+                all_rows,
             );
         }
-        let listed = &list[starts[own] as usize..starts[own + 1] as usize];
-        for chunk in listed.chunks(per_register) {
-            let at = places_of(chunk, empty);
-            let wanted = chunk
-                .iter()
-                .fold(0, |rows, &entry| rows | entry >> ROWS_SHIFT);
+        for &entry in &list[starts[own] as usize..starts[own + 1] as usize] {
+            let at = [cluster_of(entry), empty];
+            let wanted = rows_of::<L>(entry >> ROWS_SHIFT);
+            let (transfer, sums_to) = (&transfer, &mut sums_to);
             unsafe {
                 transfer_block::<L, FLUIDANIMATE, false>(
-                    &transfer,
+                    transfer,
                     &rows,
                     at,
-                    &mut sums_to,
+                    sums_to,
                     &mut row_sums,
                     wanted,
                 )
             };
         }
-        for (row, sums) in row_sums.into_iter().enumerate() {
+        for (row, sums) in row_sums.into_iter().enumerate().take(row_count::<L>()) {
             for (axis, sum) in sums.into_iter().enumerate() {
-                sums_to[axis][base + row] += L::total(sum);
+                add_row_total::<L>(sum, sums_to[axis], base, row);
             }
         }
     }

@@ -15,6 +15,7 @@ use super::{Accelerations, Candidates, Densities, OVERFLOW_GROUP};
 
 /// The group bit that stands for every group from [`OVERFLOW_GROUP`] on.
 const OVERFLOW_BIT: u64 = 1 << OVERFLOW_GROUP;
+use crate::sim::clusters::CLUSTER;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::{AxisArrays, PADDING};
@@ -63,21 +64,39 @@ pub(crate) trait Lanes {
     /// # Safety
     /// Every place `at` names for the lanes is within `values`.
     unsafe fn load(values: &[f64], at: impl Into<Places>) -> Self::V;
-    /// `center - ` the lanes of `values` at `at`, subtracted in f64.
+    /// The first half of the lanes `halves.0[0]`, the second `halves.0[1]`.
+    fn halves(halves: Halves) -> Self::V;
+    /// The lanes of each half before the cluster of [`CLUSTER`] at its start: those after
+    /// the place `after[h]` of it in half `h`.
+    fn after_in_halves(after: [usize; 2]) -> Self::V;
+    /// The sum of the two halves in the first half, zeros in the second.
+    fn fold_halves(v: Self::V) -> Self::V;
+    /// The totals of a sum's two halves.
+    fn half_totals(sum: Self::Sum) -> [f64; 2];
+    /// `center - ` the lanes of `values` at `at`, subtracted in f64 (a center per half).
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: f64) -> Self::V;
-    /// The lanes of `values` at `at` `- center`, subtracted in f64.
+    unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: impl Into<Halves>) -> Self::V;
+    /// The lanes of `values` at `at` `- center`, subtracted in f64 (a center per half).
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn differences(values: &[f64], at: impl Into<Places>, center: f64) -> Self::V;
-    /// `(rho + ` the lanes of `values` at `at` `) - 2 * FLUID_DENSITY`, computed in f64.
+    unsafe fn differences(
+        values: &[f64],
+        at: impl Into<Places>,
+        center: impl Into<Halves>,
+    ) -> Self::V;
+    /// `(rho + ` the lanes of `values` at `at` `) - 2 * FLUID_DENSITY`, computed in f64 (a
+    /// `rho` per half).
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn excess_density(rho: f64, values: &[f64], at: impl Into<Places>) -> Self::V;
+    unsafe fn excess_density(
+        rho: impl Into<Halves>,
+        values: &[f64],
+        at: impl Into<Places>,
+    ) -> Self::V;
     /// The lanes of `values` at `at` `+= terms`, in f64.
     ///
     /// # Safety
@@ -111,6 +130,23 @@ impl From<usize> for Places {
     fn from(at: usize) -> Self {
         Places([at, at + 4])
     }
+}
+
+/// A value for each half of a register's lanes: one particle's in both (from an `f64`),
+/// or two particles' (the clusters' paired layout on 8 lanes).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Halves(pub(crate) [f64; 2]);
+
+impl From<f64> for Halves {
+    fn from(value: f64) -> Self {
+        Halves([value; 2])
+    }
+}
+
+/// The lanes of `N` with a value per half.
+#[inline(always)]
+fn by_halves<const N: usize>(Halves(values): Halves) -> [f64; N] {
+    std::array::from_fn(|lane| values[lane * 2 / N])
 }
 
 /// The `N` lanes of `values` at `at`.
@@ -211,22 +247,72 @@ macro_rules! f64_lanes {
             }
 
             #[inline(always)]
-            unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: f64) -> $type {
-                // SAFETY: guaranteed by the caller.
-                unsafe { <$type>::splat(center) - Self::load(values, at) }
+            fn halves(halves: Halves) -> $type {
+                <$type>::new(by_halves(halves))
             }
 
             #[inline(always)]
-            unsafe fn differences(values: &[f64], at: impl Into<Places>, center: f64) -> $type {
-                // SAFETY: guaranteed by the caller.
-                unsafe { Self::load(values, at) - <$type>::splat(center) }
+            fn after_in_halves(after: [usize; 2]) -> $type {
+                let half = $lanes / 2;
+                <$type>::new(std::array::from_fn(|lane| {
+                    let place = lane % half;
+                    if place > after[lane / half] && place < CLUSTER {
+                        f64::from_bits(u64::MAX)
+                    } else {
+                        0.0
+                    }
+                }))
             }
 
             #[inline(always)]
-            unsafe fn excess_density(rho: f64, values: &[f64], at: impl Into<Places>) -> $type {
+            fn fold_halves(v: $type) -> $type {
+                let lanes = v.to_array();
+                let half = $lanes / 2;
+                <$type>::new(std::array::from_fn(|lane| {
+                    if lane < half {
+                        lanes[lane] + lanes[lane + half]
+                    } else {
+                        0.0
+                    }
+                }))
+            }
+
+            #[inline(always)]
+            fn half_totals(sum: $type) -> [f64; 2] {
+                let lanes = sum.to_array();
+                let half = $lanes / 2;
+                [lanes[..half].iter().sum(), lanes[half..].iter().sum()]
+            }
+
+            #[inline(always)]
+            unsafe fn offsets(
+                values: &[f64],
+                at: impl Into<Places>,
+                center: impl Into<Halves>,
+            ) -> $type {
+                // SAFETY: guaranteed by the caller.
+                unsafe { Self::halves(center.into()) - Self::load(values, at) }
+            }
+
+            #[inline(always)]
+            unsafe fn differences(
+                values: &[f64],
+                at: impl Into<Places>,
+                center: impl Into<Halves>,
+            ) -> $type {
+                // SAFETY: guaranteed by the caller.
+                unsafe { Self::load(values, at) - Self::halves(center.into()) }
+            }
+
+            #[inline(always)]
+            unsafe fn excess_density(
+                rho: impl Into<Halves>,
+                values: &[f64],
+                at: impl Into<Places>,
+            ) -> $type {
                 let twice_rest_density = <$type>::splat(2.0 * FLUID_DENSITY);
                 // SAFETY: guaranteed by the caller.
-                <$type>::splat(rho) + unsafe { Self::load(values, at) } - twice_rest_density
+                Self::halves(rho.into()) + unsafe { Self::load(values, at) } - twice_rest_density
             }
 
             #[inline(always)]
@@ -329,30 +415,77 @@ impl Lanes for MixedF32x8 {
     }
 
     #[inline(always)]
+    fn halves(halves: Halves) -> f32x8 {
+        narrow(by_halves(halves))
+    }
+
+    #[inline(always)]
+    fn after_in_halves(after: [usize; 2]) -> f32x8 {
+        f32x8::new(std::array::from_fn(|lane| {
+            let place = lane % 4;
+            if place > after[lane / 4] && place < CLUSTER {
+                f32::from_bits(u32::MAX)
+            } else {
+                0.0
+            }
+        }))
+    }
+
+    #[inline(always)]
+    fn fold_halves(v: f32x8) -> f32x8 {
+        let lanes = v.to_array();
+        f32x8::new(std::array::from_fn(|lane| {
+            if lane < 4 {
+                lanes[lane] + lanes[lane + 4]
+            } else {
+                0.0
+            }
+        }))
+    }
+
+    #[inline(always)]
+    fn half_totals(sum: [f64x4; 2]) -> [f64; 2] {
+        sum.map(f64x4::reduce_add)
+    }
+
+    #[inline(always)]
     unsafe fn load(values: &[f64], at: impl Into<Places>) -> f32x8 {
         // SAFETY: guaranteed by the caller.
         narrow(unsafe { read::<8>(values, at.into()) })
     }
 
     #[inline(always)]
-    unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: f64) -> f32x8 {
+    unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: impl Into<Halves>) -> f32x8 {
+        let center = by_halves::<8>(center.into());
         // SAFETY: guaranteed by the caller.
         let values = unsafe { read::<8>(values, at.into()) };
-        narrow(values.map(|v| center - v))
+        narrow(std::array::from_fn(|lane| center[lane] - values[lane]))
     }
 
     #[inline(always)]
-    unsafe fn differences(values: &[f64], at: impl Into<Places>, center: f64) -> f32x8 {
+    unsafe fn differences(
+        values: &[f64],
+        at: impl Into<Places>,
+        center: impl Into<Halves>,
+    ) -> f32x8 {
+        let center = by_halves::<8>(center.into());
         // SAFETY: guaranteed by the caller.
         let values = unsafe { read::<8>(values, at.into()) };
-        narrow(values.map(|v| v - center))
+        narrow(std::array::from_fn(|lane| values[lane] - center[lane]))
     }
 
     #[inline(always)]
-    unsafe fn excess_density(rho: f64, values: &[f64], at: impl Into<Places>) -> f32x8 {
+    unsafe fn excess_density(
+        rho: impl Into<Halves>,
+        values: &[f64],
+        at: impl Into<Places>,
+    ) -> f32x8 {
+        let rho = by_halves::<8>(rho.into());
         // SAFETY: guaranteed by the caller.
         let values = unsafe { read::<8>(values, at.into()) };
-        narrow(values.map(|v| rho + v - 2.0 * FLUID_DENSITY))
+        narrow(std::array::from_fn(|lane| {
+            rho[lane] + values[lane] - 2.0 * FLUID_DENSITY
+        }))
     }
 
     #[inline(always)]
@@ -503,10 +636,10 @@ pub(super) unsafe fn density_group<L: Lanes>(
 
 /// The particle whose partners a group loop visits.
 pub(super) struct First {
-    pub(super) p: [f64; 3],
-    pub(super) v: [f64; 3],
-    pub(super) rho: f64,
-    pub(super) inverse_rho: f64,
+    pub(super) p: [Halves; 3],
+    pub(super) v: [Halves; 3],
+    pub(super) rho: Halves,
+    pub(super) inverse_rho: Halves,
 }
 
 /// The arrays and constants of the acceleration transfer.
@@ -577,7 +710,7 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
         // The divider, not the lanes, bounds this loop: the densities' reciprocals are
         // taken once per particle, not per pair and axis (a square root and a division
         // per group, not three divisions more).
-        let per_density_product = L::splat(first.inverse_rho) * inverse_rho_j;
+        let per_density_product = L::halves(first.inverse_rho) * inverse_rho_j;
         let term = |axis: usize| {
             // SAFETY: guaranteed by the caller.
             let dv = unsafe { L::differences(self.v[axis], at, first.v[axis]) };
@@ -658,10 +791,10 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
         for i in cell_tiles[0].firsts() {
             let first = First {
-                p: [x[i], y[i], z[i]],
-                v: [vx[i], vy[i], vz[i]],
-                rho: rho[i],
-                inverse_rho: inverse_rho[i],
+                p: [x[i], y[i], z[i]].map(Halves::from),
+                v: [vx[i], vy[i], vz[i]].map(Halves::from),
+                rho: rho[i].into(),
+                inverse_rho: inverse_rho[i].into(),
             };
             let mut sum = [L::ZERO_SUM; 3];
             for tile in cell_tiles {
