@@ -11,10 +11,12 @@
 //! particle.
 //!
 //! The density pass records, per cluster, the clusters of its windows that hold a partner
-//! closer than h, each with the particles that have one (`ClosePairs::clusters`), which
-//! the acceleration pass of the same positions then visits alone, and only with those
-//! particles. Both sum into copies by place ([`Packed`]), added to the particles' slots
-//! at the end.
+//! closer than h, each with the particles that have one (`ClosePairs::clusters`). The
+//! acceleration pass of the same positions, bound by its square root and division per
+//! lane, then runs each particle against only the clusters recorded for it, as many per
+//! register as it holds (1 on 4 lanes, 2 on 8), so that no lane serves a particle
+//! without a partner there. Both sum into copies by place ([`Packed`]), added to the
+//! particles' slots at the end.
 
 use super::simd::{First, Halves, Lanes, Places, Transfer};
 use super::{Accelerations, Candidates, Densities, Packed};
@@ -36,6 +38,12 @@ fn cluster_of(entry: u32) -> usize {
 
 /// The particles of a cluster per row of `L` lanes: 1 on 4 lanes, 2 (a half each) on 8.
 const fn per_row<L: Lanes>() -> usize {
+    L::LANES / CLUSTER
+}
+
+/// The partner clusters of one particle a register of `L` lanes holds: 1 on 4 lanes, 2
+/// on 8.
+const fn per_register<L: Lanes>() -> usize {
     L::LANES / CLUSTER
 }
 
@@ -110,18 +118,6 @@ fn particles_found<L: Lanes>(found: &[u32; CLUSTER]) -> u32 {
         let lanes = found[row] >> (CLUSTER * half) & ALL_ROWS;
         particles | u32::from(lanes != 0) << i
     })
-}
-
-/// The rows holding one of the particles `wanted` (a bit each).
-#[inline(always)]
-fn rows_of<L: Lanes>(wanted: u32) -> u32 {
-    if per_row::<L>() == 2 {
-        (0..CLUSTER / 2).fold(0, |rows, row| {
-            rows | u32::from(wanted >> (2 * row) & 3 != 0) << row
-        })
-    } else {
-        wanted
-    }
 }
 
 /// Adds `packed` (by place) to `target` (by slot).
@@ -233,30 +229,26 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     unpack_add(places, sums, rho);
 }
 
-/// The acceleration terms of the rows `wanted` (a bit each) of `rows` with partner
-/// cluster `k` (with `OWN`, `k` is theirs, and only the partners after each particle
-/// count): each row's added to its `row_sums`, the partners' subtracted from `a` (with
-/// the `empty` cluster's). A row without a partner closer than h is skipped after its
-/// distances.
+/// The acceleration terms of the rows `rows` of cluster `own` among its own particles
+/// (each with the particles after it): each row's added to its `row_sums`, the
+/// partners' subtracted from `a` (with the `empty` cluster's). A row without a partner
+/// closer than h is skipped after its distances.
 ///
 /// # Safety
-/// Every place of clusters `k` and `empty` is within every array of `transfer` and `a`.
+/// Every place of clusters `own` and `empty` is within every array of `transfer` and
+/// `a`.
 #[inline(always)]
-unsafe fn transfer_block<L: Lanes, const FLUIDANIMATE: bool, const OWN: bool>(
+unsafe fn own_transfer<L: Lanes, const FLUIDANIMATE: bool>(
     transfer: &Transfer<L, FLUIDANIMATE>,
     rows: &[First; CLUSTER],
-    [k, empty]: [usize; 2],
+    [own, empty]: [usize; 2],
     a: &mut [&mut Vec<f64>; 3],
     row_sums: &mut [[L::Sum; 3]; CLUSTER],
-    wanted: u32,
 ) {
-    let at = partners_at::<L>(k);
+    let at = partners_at::<L>(own);
     let mut partners = [L::splat(0.0); 3];
-    let mut left = wanted;
-    while left != 0 {
-        let row = left.trailing_zeros() as usize;
-        left &= left - 1;
-        let lanes = lanes_of::<L, OWN>(row);
+    for row in 0..row_count::<L>() {
+        let lanes = lanes_of::<L, true>(row);
         // SAFETY: guaranteed by the caller.
         if let Some(terms) = unsafe { transfer.group(&rows[row], at, lanes) } {
             for axis in 0..3 {
@@ -268,7 +260,7 @@ unsafe fn transfer_block<L: Lanes, const FLUIDANIMATE: bool, const OWN: bool>(
     for axis in 0..3 {
         let terms = folded::<L>(partners[axis]);
         // SAFETY: guaranteed by the caller.
-        unsafe { L::subtract_from(a[axis], sums_at(k, empty), terms) };
+        unsafe { L::subtract_from(a[axis], sums_at(own, empty), terms) };
     }
 }
 
@@ -345,7 +337,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         inverse_rho,
     );
     let mut sums_to = [ax, ay, az];
-    let all_rows = (1 << row_count::<L>()) - 1;
+    let mut per_particle = Vec::new();
     for own in 0..empty {
         let base = own * CLUSTER;
         let rows: [First; CLUSTER] = std::array::from_fn(|row| {
@@ -359,34 +351,53 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
             }
         });
         let mut row_sums = [[L::ZERO_SUM; 3]; CLUSTER];
-        // SAFETY (both blocks): every place of a cluster or of the empty cluster is
-        // within every array (assert_loadable).
-        unsafe {
-            let at = [own, empty];
-            let (transfer, sums_to) = (&transfer, &mut sums_to);
-            transfer_block::<L, FLUIDANIMATE, true>(
-                transfer,
-                &rows,
-                at,
-                sums_to,
-                &mut row_sums,
-                all_rows,
-            );
+        // SAFETY: every place of a cluster or of the empty cluster is within every array
+        // (assert_loadable).
+        unsafe { own_transfer(&transfer, &rows, [own, empty], &mut sums_to, &mut row_sums) };
+        // Each particle against the clusters where it has a close partner, as many per
+        // register as it holds (1 on 4 lanes, 2 on 8): every lane of a register then
+        // serves one particle, and no row is evaluated for a particle without one. The
+        // lists are written without a branch, as the density pass recorded them.
+        let entries = &list[starts[own] as usize..starts[own + 1] as usize];
+        let stride = entries.len() + 1;
+        per_particle.clear();
+        per_particle.resize(CLUSTER * stride, empty as u32);
+        let mut counts = [0; CLUSTER];
+        for &entry in entries {
+            for (i, count) in counts.iter_mut().enumerate() {
+                per_particle[i * stride + *count] = cluster_of(entry) as u32;
+                *count += (entry >> (ROWS_SHIFT + i as u32) & 1) as usize;
+            }
         }
-        for &entry in &list[starts[own] as usize..starts[own + 1] as usize] {
-            let at = [cluster_of(entry), empty];
-            let wanted = rows_of::<L>(entry >> ROWS_SHIFT);
-            let (transfer, sums_to) = (&transfer, &mut sums_to);
-            unsafe {
-                transfer_block::<L, FLUIDANIMATE, false>(
-                    transfer,
-                    &rows,
-                    at,
-                    sums_to,
-                    &mut row_sums,
-                    wanted,
-                )
+        for (i, &count) in counts.iter().enumerate() {
+            let first = First {
+                p: [0, 1, 2].map(|axis| p[axis][base + i].into()),
+                v: [
+                    vx[base + i].into(),
+                    vy[base + i].into(),
+                    vz[base + i].into(),
+                ],
+                rho: packed_rho[base + i].into(),
+                inverse_rho: inverse_rho[base + i].into(),
             };
+            let mut sum = [L::ZERO_SUM; 3];
+            let listed = &per_particle[i * stride..i * stride + count];
+            for chunk in listed.chunks(per_register::<L>()) {
+                let second = chunk.get(1).map_or(empty, |&k| k as usize);
+                let at = Places::quarters(chunk[0] as usize * CLUSTER, second * CLUSTER);
+                // SAFETY: every place of a cluster or of the empty cluster is within
+                // every array (assert_loadable).
+                if let Some(terms) = unsafe { transfer.group(&first, at, L::all()) } {
+                    for axis in 0..3 {
+                        L::accumulate(&mut sum[axis], terms[axis]);
+                        // SAFETY: as above.
+                        unsafe { L::subtract_from(sums_to[axis], at, terms[axis]) };
+                    }
+                }
+            }
+            for (axis, sum) in sum.into_iter().enumerate() {
+                sums_to[axis][base + i] += L::total(sum);
+            }
         }
         for (row, sums) in row_sums.into_iter().enumerate().take(row_count::<L>()) {
             for (axis, sum) in sums.into_iter().enumerate() {
