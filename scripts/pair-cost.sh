@@ -12,17 +12,17 @@
 # loops, so it is an upper bound of the pair loops' own cost.
 #
 # Usage: scripts/pair-cost.sh [--steps N] [--every K] [--model M] [--pairs S] [INPUT] [KERNEL ...]
-#        defaults: --steps 1000 --every 10 --model fluidanimate --pairs tiles
+#        defaults: --steps 1000 --every 10 --model fluidanimate --pairs clusters
 #                  data/in/large.fld simd simd8 mixed scalar
-# (--pairs clusters runs the SIMD kernels of the course models on clusters; see
-# `fluid-lab run --help`.)
+# (--pairs tiles runs the SIMD kernels of the course models on whole neighbour cells
+# instead of clusters; see `fluid-lab run --help`.)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 steps=1000
 every=10
 model=fluidanimate
-structure=tiles
+structure=clusters
 while [ $# -gt 0 ]; do
     case "$1" in
     --steps) steps="$2"; shift 2 ;;

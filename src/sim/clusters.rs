@@ -27,12 +27,14 @@ use crate::sim::particles::{AxisArrays, Particles};
 /// The neighbour structure the SIMD pair loops run on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
 pub enum PairStructure {
-    /// The tiles of whole neighbour cells (`sim::neighbours`).
-    #[default]
+    /// The tiles of whole neighbour cells (`sim::neighbours`), for comparison: what the
+    /// scalar and reference kernels, the weakly compressible model and scattered scenes
+    /// run on either way.
     Tiles,
-    /// Clusters of 4 along x-sorted rows of cells with their cluster pair lists
-    /// (`sim::clusters`), on dense scenes, for the course models on the simd, simd8 and
-    /// mixed kernels (tiles elsewhere).
+    /// Clusters of 4 along x-sorted rows of cells and their windows (`sim::clusters`),
+    /// on dense scenes, for the course models on the simd, simd8 and mixed kernels
+    /// (tiles elsewhere).
+    #[default]
     Clusters,
 }
 

@@ -271,6 +271,7 @@ mod tests {
 
     #[test]
     fn the_acceleration_pass_visits_only_the_close_pairs_of_its_placement() {
+        use crate::sim::clusters::PairStructure;
         use crate::sim::kernel::Kernel;
         use crate::sim::method::Method;
         use crate::sim::model::Model;
@@ -286,8 +287,12 @@ mod tests {
         particles.p[0] = xs;
         for kernel in Kernel::ALL {
             let model = Model::Course;
-            let sim = Simulation::with_method(204.0, particles.clone(), Method { model, kernel })
-                .unwrap();
+            let mut sim =
+                Simulation::with_method(204.0, particles.clone(), Method { model, kernel })
+                    .unwrap();
+            // On the tiles (the passes on clusters are tested in `Simulation`'s tests).
+            sim.set_pair_structure(PairStructure::Tiles);
+            sim.run_stage(Stage::Reposition);
             let (mut close, mut every) = (sim.particles().clone(), sim.particles().clone());
             let mut course = Spec::default();
             let mut run = |stage, placement, particles: &mut Particles| {
