@@ -775,12 +775,16 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     let tiles = candidates.tiles();
     let ([x, y, z], [vx, vy, vz]) = (p, v);
     let [ax, ay, az] = a;
+    // Only as far as the tiles reach: on scattered scenes the lone particles, most of
+    // them, come after.
+    let used = slots_used(tiles);
     let inverse_rho = &mut packed.inverse_rho;
     inverse_rho.clear();
-    inverse_rho.extend(rho.iter().map(|rho| 1.0 / rho));
+    let reached = rho.get(..used + PADDING).unwrap_or(rho);
+    inverse_rho.extend(reached.iter().map(|rho| 1.0 / rho));
     let inverse_rho = &inverse_rho[..];
     let arrays = [&x[..], y, z, vx, vy, vz, rho, inverse_rho, ax, ay, az];
-    assert_padded(slots_used(tiles), L::LANES, &arrays);
+    assert_padded(used, L::LANES, &arrays);
     let transfer =
         Transfer::<L, FLUIDANIMATE>::new(params, [x, y, z], [vx, vy, vz], rho, inverse_rho);
     let mut recorded_groups = match candidates {
