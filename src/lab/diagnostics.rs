@@ -169,7 +169,9 @@ fn csv_number(x: f64) -> String {
 /// The candidate pairs a simulation's tiles hold, and how many of them are closer than h.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct PairCounts {
-    /// Pairs the pair loops test (every partner of every first slot of every tile).
+    /// Pairs the tiles hold as candidates (every partner of every first slot of every
+    /// tile: what the scalar kernel tests; the SIMD kernels' lanes on clusters are
+    /// `Simulation::pair_lanes`).
     pub tested: u64,
     /// Those closer than h at the current positions.
     pub within_h: u64,

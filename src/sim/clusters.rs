@@ -4,8 +4,8 @@
 //! slots in cell order) are sorted by x and cut into clusters of [`CLUSTER`] places, the
 //! last of a row padded with empty places far from everything. A cluster is then
 //! compact (a cell's cross-section, about 1.4 spacings along x at rest density), and its
-//! places are contiguous, so a kernel loads a whole cluster into a quarter of an AVX-512
-//! register (half an AVX2 one) without gathering. The positions are packed in that order
+//! places are contiguous, so a kernel loads a whole cluster into an AVX2 register (half
+//! an AVX-512 one) without gathering. The positions are packed in that order
 //! once per placement ([`Clusters::positions`]).
 //!
 //! Each cluster is compared with the clusters of 5 *windows* ([`Clusters::windows`], a
@@ -38,7 +38,7 @@ pub enum PairStructure {
     Clusters,
 }
 
-/// Places per cluster: a quarter of an `f64x8` register.
+/// Places per cluster: an `f64x4` register, half an `f64x8` one.
 pub const CLUSTER: usize = 4;
 
 /// The slot of a place that holds no particle.
@@ -90,7 +90,7 @@ pub struct Clusters {
 impl Clusters {
     /// Clusters of the slots `keys` covers (their cell keys in `layout`, ascending; the
     /// slots after them are lone and have no pair), at the positions of `particles`,
-    /// with the lists of the clusters within `reach` of each (the cut-off, plus a skin if
+    /// with the windows of the clusters within `reach` of each (the cut-off, plus a skin if
     /// kept over steps; no more than the cells' side).
     pub fn build(&mut self, keys: &[u64], layout: &CellLayout, particles: &Particles, reach: f64) {
         self.places.clear();
@@ -242,7 +242,7 @@ impl Clusters {
     }
 
     /// The number of clusters; also the index of the empty cluster after the last, whose
-    /// places hold no particle (the kernels fill a register's spare quarters with it).
+    /// places hold no particle (the kernels fill a register's spare half with it).
     pub fn empty_cluster(&self) -> usize {
         self.places.len() / CLUSTER
     }

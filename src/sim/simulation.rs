@@ -196,8 +196,9 @@ impl Simulation {
             + self.skin.as_ref().map_or(0, Skin::heap_bytes)
     }
 
-    /// The tiles of candidate pairs of the current step (not found where the step's pair
-    /// passes run on clusters, but in [`Self::with_fresh_densities`]'s copies).
+    /// The tiles of candidate pairs of the current step (not searched for where the
+    /// step's pair passes run on clusters: empty or of an earlier placement then, but in
+    /// [`Self::with_fresh_densities`]'s copies).
     pub fn tiles(&self) -> &[Tile] {
         self.search.tiles()
     }
@@ -250,7 +251,12 @@ impl Simulation {
         }
         copy.method = method;
         copy.placement += 1;
-        copy.clusters_built = false;
+        if copy.clusters_built {
+            // Until the next build (with a skin, when it goes stale), the copy's passes
+            // run on the tiles of the same cell order.
+            copy.clusters_built = false;
+            copy.find_tiles();
+        }
         Ok(copy)
     }
 
@@ -296,8 +302,8 @@ impl Simulation {
         self.time_step = time_step;
     }
 
-    /// Reuses the cell order and tiles from step to step with a skin `width` metres wide
-    /// ([`crate::sim::skin`]), or (`None`) rebuilds them every step. Takes effect at the
+    /// Reuses the cell order and tiles or clusters from step to step with a skin `width`
+    /// metres wide ([`crate::sim::skin`]), or (`None`) rebuilds them every step. Takes effect at the
     /// next step, which builds them.
     pub fn set_skin(&mut self, width: Option<f64>) -> Result<(), GridSizeError> {
         self.skin = width.map(|w| Skin::new(self.params.h, w)).transpose()?;
@@ -720,6 +726,7 @@ mod tests {
         let mut sim = Simulation::with_method(150.0, particles, method).unwrap();
         let h = sim.params().h;
         let mut rebuilt = sim.clone();
+        rebuilt.set_pair_structure(PairStructure::Tiles);
         sim.set_skin(Some(0.3 * h)).unwrap();
         sim.set_pair_structure(structure);
         for _ in 0..60 {
@@ -741,6 +748,15 @@ mod tests {
                 &missed[..missed.len().min(5)]
             );
         }
+        let largest = largest_distance(&sim, &rebuilt);
+        assert!(sim.heap_bytes() > rebuilt.heap_bytes());
+        let on_clusters = structure == PairStructure::Clusters && !sim.cells.is_sparse();
+        assert_eq!(sim.clusters_built, on_clusters);
+        (sim.skin().unwrap().builds(), largest)
+    }
+
+    /// The largest distance between the same particle in `a` and in `b`.
+    fn largest_distance(a: &Simulation, b: &Simulation) -> f64 {
         let by_id = |sim: &Simulation| {
             let particles = sim.particles();
             let mut positions = vec![glam::DVec3::ZERO; particles.len()];
@@ -749,22 +765,16 @@ mod tests {
             }
             positions
         };
-        let (a, b) = (by_id(&sim), by_id(&rebuilt));
-        let largest = a
-            .iter()
+        let (a, b) = (by_id(a), by_id(b));
+        a.iter()
             .zip(&b)
             .map(|(x, y)| x.distance(*y))
-            .fold(0.0, f64::max);
-        assert!(sim.heap_bytes() > rebuilt.heap_bytes());
-        let on_clusters = structure == PairStructure::Clusters && !sim.cells.is_sparse();
-        assert_eq!(sim.clusters_built, on_clusters);
-        (sim.skin().unwrap().builds(), largest)
+            .fold(0.0, f64::max)
     }
 
-    #[test]
-    fn lists_kept_with_a_skin_hold_every_pair_closer_than_h() {
-        // A falling, splashing block whose particles also move apart at up to 0.4 m/s
-        // (so that pairs change): the lists go stale now and then, not every step.
+    /// A falling, splashing block of 9^3 particles 1/150 m apart whose particles also
+    /// move apart at up to 0.4 m/s (so that pairs change).
+    fn splashing_block() -> Particles {
         let spacing = 1.0 / 150.0;
         let mut block = Particles::zeroed(9 * 9 * 9);
         for slot in 0..block.len() {
@@ -777,6 +787,37 @@ mod tests {
                 block.hv[axis][slot] = speed;
             }
         }
+        block
+    }
+
+    #[test]
+    fn a_copy_for_another_kernel_keeps_every_pair_of_kept_clusters() {
+        // On clusters with a skin, then copied for the scalar kernel (tiles only) while
+        // the skin is fresh: the copy's next steps find the same pairs on the tiles of
+        // the same cell order.
+        let method = |kernel| Method {
+            model: Model::Fluidanimate,
+            kernel,
+        };
+        let mut sim =
+            Simulation::with_method(150.0, splashing_block(), method(Kernel::Simd)).unwrap();
+        sim.set_skin(Some(0.3 * sim.params().h)).unwrap();
+        sim.step();
+        assert!(sim.clusters_built);
+        let mut copy = sim.clone_with_method(method(Kernel::Scalar)).unwrap();
+        for _ in 0..2 {
+            sim.step();
+            copy.step();
+        }
+        assert_eq!(copy.skin().unwrap().builds(), 1, "the skin still fresh");
+        let largest = largest_distance(&sim, &copy);
+        assert!(largest < 1e-12, "{largest}");
+    }
+
+    #[test]
+    fn lists_kept_with_a_skin_hold_every_pair_closer_than_h() {
+        // The lists go stale now and then, not every step.
+        let block = splashing_block();
         // The same pairs, the same physics: only the order of the sums differs, on the
         // tiles and on clusters with their lists kept.
         for structure in [PairStructure::Tiles, PairStructure::Clusters] {

@@ -25,25 +25,19 @@ use crate::sim::particles::AxisArrays;
 
 /// Where a recorded cluster's entry holds the particles of the recording cluster that
 /// have a partner closer than h in it (a bit per particle; the cluster's index below).
-const ROWS_SHIFT: u32 = 28;
+const PARTICLES_SHIFT: u32 = 28;
 
 /// Every particle of a cluster, a bit each.
-const ALL_ROWS: u32 = (1 << CLUSTER) - 1;
+const ALL_PARTICLES: u32 = (1 << CLUSTER) - 1;
 
 /// The cluster of a list entry.
 #[inline(always)]
 fn cluster_of(entry: u32) -> usize {
-    (entry & ((1 << ROWS_SHIFT) - 1)) as usize
+    (entry & ((1 << PARTICLES_SHIFT) - 1)) as usize
 }
 
 /// The particles of a cluster per row of `L` lanes: 1 on 4 lanes, 2 (a half each) on 8.
 const fn per_row<L: Lanes>() -> usize {
-    L::LANES / CLUSTER
-}
-
-/// The partner clusters of one particle a register of `L` lanes holds: 1 on 4 lanes, 2
-/// on 8.
-const fn per_register<L: Lanes>() -> usize {
     L::LANES / CLUSTER
 }
 
@@ -52,18 +46,18 @@ const fn row_count<L: Lanes>() -> usize {
     CLUSTER / per_row::<L>()
 }
 
-/// The places of partner cluster `k` in a register of `L` lanes: in every quarter of 4
-/// lanes.
+/// The places of partner cluster `k` in a register: in each run of 4 lanes (both halves
+/// of 8).
 #[inline(always)]
-fn partners_at<L: Lanes>(k: usize) -> Places {
-    Places::quarters(k * CLUSTER, k * CLUSTER)
+fn partners_at(k: usize) -> Places {
+    Places::fours(k * CLUSTER, k * CLUSTER)
 }
 
 /// Where a cluster pair's partner sums are added: cluster `k`'s places (first half),
 /// then the `empty` cluster's (second half, on 8 lanes: zeros).
 #[inline(always)]
 fn sums_at(k: usize, empty: usize) -> Places {
-    Places::quarters(k * CLUSTER, empty * CLUSTER)
+    Places::fours(k * CLUSTER, empty * CLUSTER)
 }
 
 /// The partner sums of a register to add at [`sums_at`]: on 8 lanes, both halves (the
@@ -115,7 +109,7 @@ fn add_row_total<L: Lanes>(sum: L::Sum, target: &mut [f64], base: usize, row: us
 fn particles_found<L: Lanes>(found: &[u32; CLUSTER]) -> u32 {
     (0..CLUSTER).fold(0, |particles, i| {
         let (row, half) = (i / per_row::<L>(), i % per_row::<L>());
-        let lanes = found[row] >> (CLUSTER * half) & ALL_ROWS;
+        let lanes = found[row] >> (CLUSTER * half) & ALL_PARTICLES;
         particles | u32::from(lanes != 0) << i
     })
 }
@@ -151,7 +145,7 @@ unsafe fn density_block<L: Lanes, const OWN: bool>(
     [k, empty]: [usize; 2],
     row_sums: &mut [L::Sum; CLUSTER],
 ) -> [u32; CLUSTER] {
-    let at = partners_at::<L>(k);
+    let at = partners_at(k);
     let mut partners = L::splat(0.0);
     let mut found = [0; CLUSTER];
     for (row, first) in rows.iter().enumerate().take(row_count::<L>()) {
@@ -189,7 +183,7 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
     sums.resize((empty + 1) * CLUSTER, 0.0);
     assert_loadable(clusters, &[&p[0], &p[1], &p[2], sums]);
     let h2 = L::splat(params.h2);
-    assert!(empty < 1 << ROWS_SHIFT, "too many clusters to record");
+    assert!(empty < 1 << PARTICLES_SHIFT, "too many clusters to record");
     // The recorded clusters are written without a branch on whether a cluster holds a
     // close pair (about half do, unpredictably): each is written at the end, which
     // advances only past those that do.
@@ -216,7 +210,7 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
                 let found =
                     unsafe { density_block::<L, false>(p, sums, &rows, h2, at, &mut row_sums) };
                 let particles = particles_found::<L>(&found);
-                close.clusters[recorded] = k | particles << ROWS_SHIFT;
+                close.clusters[recorded] = k | particles << PARTICLES_SHIFT;
                 recorded += usize::from(particles != 0);
             }
         }
@@ -245,7 +239,7 @@ unsafe fn own_transfer<L: Lanes, const FLUIDANIMATE: bool>(
     a: &mut [&mut Vec<f64>; 3],
     row_sums: &mut [[L::Sum; 3]; CLUSTER],
 ) {
-    let at = partners_at::<L>(own);
+    let at = partners_at(own);
     let mut partners = [L::splat(0.0); 3];
     for row in 0..row_count::<L>() {
         let lanes = lanes_of::<L, true>(row);
@@ -265,7 +259,7 @@ unsafe fn own_transfer<L: Lanes, const FLUIDANIMATE: bool>(
 }
 
 /// Stage 5 on `L` lanes, over `clusters`; with [`Candidates::Close`] recorded on them,
-/// only the clusters recorded there, else every cluster of each list.
+/// only the clusters recorded there, else every cluster of its windows.
 pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     pass: Accelerations<FLUIDANIMATE>,
     clusters: &Clusters,
@@ -289,10 +283,11 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
             (&close.clusters[..], &close.starts[..])
         }
         _ => {
+            assert!(empty < 1 << PARTICLES_SHIFT, "too many clusters to record");
             for own in 0..empty {
                 every_start.push(every.len() as u32);
                 let all = clusters.candidates(own);
-                every.extend(all.map(|k| k as u32 | ALL_ROWS << ROWS_SHIFT));
+                every.extend(all.map(|k| k as u32 | ALL_PARTICLES << PARTICLES_SHIFT));
             }
             every_start.push(every.len() as u32);
             (&every[..], &every_start[..])
@@ -303,6 +298,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         rho: packed_rho,
         inverse_rho,
         a: packed_a,
+        per_particle,
     } = packed;
     for axis in 0..3 {
         clusters.pack(&v[axis], 0.0, &mut packed_v[axis]);
@@ -337,7 +333,6 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         inverse_rho,
     );
     let mut sums_to = [ax, ay, az];
-    let mut per_particle = Vec::new();
     for own in 0..empty {
         let base = own * CLUSTER;
         let rows: [First; CLUSTER] = std::array::from_fn(|row| {
@@ -366,7 +361,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         for &entry in entries {
             for (i, count) in counts.iter_mut().enumerate() {
                 per_particle[i * stride + *count] = cluster_of(entry) as u32;
-                *count += (entry >> (ROWS_SHIFT + i as u32) & 1) as usize;
+                *count += (entry >> (PARTICLES_SHIFT + i as u32) & 1) as usize;
             }
         }
         for (i, &count) in counts.iter().enumerate() {
@@ -382,9 +377,10 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
             };
             let mut sum = [L::ZERO_SUM; 3];
             let listed = &per_particle[i * stride..i * stride + count];
-            for chunk in listed.chunks(per_register::<L>()) {
+            // As many clusters per register as a row holds particles.
+            for chunk in listed.chunks(per_row::<L>()) {
                 let second = chunk.get(1).map_or(empty, |&k| k as usize);
-                let at = Places::quarters(chunk[0] as usize * CLUSTER, second * CLUSTER);
+                let at = Places::fours(chunk[0] as usize * CLUSTER, second * CLUSTER);
                 // SAFETY: every place of a cluster or of the empty cluster is within
                 // every array (assert_loadable).
                 if let Some(terms) = unsafe { transfer.group(&first, at, L::all()) } {

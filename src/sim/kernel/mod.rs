@@ -1,11 +1,14 @@
-//! The pair loops, the hot part of a time step, over the tiles of the neighbour search:
+//! The pair loops, the hot part of a time step, over the neighbour structures (the tiles
+//! of the neighbour search; on dense scenes, the course models' SIMD loops on clusters):
 //! each model's pair terms are passes ([`PairPass`]: the course models' density and
 //! acceleration stages 3-5, [`Densities`] and [`Accelerations`], and the weakly
 //! compressible model's [`WeaklyCompressible`]), and [`Kernel::run`] maps a kernel to its
 //! loop. Four f64 implementations compute the same pair terms. [`Kernel::Scalar`] (one
-//! pair at a time, the plain path), [`Kernel::Simd`] and [`Kernel::Simd8`] (four or eight partners at a time in `f64x4` or `f64x8` lanes,
-//! one generic loop) differ only in the order in which terms are summed, which the
-//! reference outputs do not depend on (SPEC.md section 5). [`Kernel::Reference`] sums each
+//! pair at a time, the plain path), [`Kernel::Simd`] and [`Kernel::Simd8`] (four or
+//! eight partners at a time in `f64x4` or `f64x8` lanes, one generic loop) differ in the
+//! order in which terms are summed and, in the SIMD acceleration loops, in multiplying
+//! by the densities' reciprocals rather than dividing by their product: the reference
+//! outputs depend on neither (SPEC.md section 5; every one holds byte for byte). [`Kernel::Reference`] sums each
 //! particle's terms in id order with compensated summation, for accuracy measurements.
 //! A fifth, [`Kernel::Mixed`], runs the SIMD loop with each pair's terms in f32 lanes
 //! (differences and sums in f64): less exact (within 5e-7 relative on a dense step), a
@@ -13,8 +16,8 @@
 //!
 //! The density loop also records where the pairs closer than h are ([`ClosePairs`]): the
 //! acceleration loop, over the same positions, visits only those tiles and, on the SIMD
-//! kernels, only those groups of partners (a lane-width each), without testing the others
-//! again.
+//! kernels, only those groups of partners (a lane-width each), or on clusters only those
+//! clusters for those particles, without testing the others again.
 
 mod clustered;
 mod reference;
@@ -190,6 +193,9 @@ pub struct Packed {
     rho: Vec<f64>,
     /// The densities' reciprocals (by place on [`Clusters`], else by slot).
     inverse_rho: Vec<f64>,
+    /// On [`Clusters`], while the acceleration pass lists them: for each particle of a
+    /// cluster, the clusters recorded with a partner closer than h to it.
+    per_particle: Vec<u32>,
     /// Accelerations by place.
     a: AxisArrays,
 }
@@ -201,6 +207,7 @@ impl Packed {
         axes(&self.v)
             + crate::sim::heap_bytes(&self.rho)
             + crate::sim::heap_bytes(&self.inverse_rho)
+            + crate::sim::heap_bytes(&self.per_particle)
             + axes(&self.a)
     }
 }
@@ -223,8 +230,9 @@ impl Candidates<'_> {
     }
 }
 
-/// Stage 3: adds (h^2 - r^2)^3 to both raw density sums of every pair of `tiles` closer
-/// than h, and records in `close` (cleared first) where such pairs are.
+/// Stage 3: adds (h^2 - r^2)^3 to both raw density sums of every candidate pair (of
+/// `tiles`, or of `clusters` where given) closer than h, and records in `close` (cleared
+/// first) where such pairs are.
 #[derive(Debug)]
 pub struct Densities<'a> {
     /// The derived parameters (h^2).
@@ -313,6 +321,7 @@ impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
 
 #[cfg(test)]
 mod tests {
+    use crate::sim::clusters::PairStructure;
     use crate::sim::kernel::Kernel;
     use crate::sim::method::Method;
     use crate::sim::model::Model;
@@ -346,12 +355,19 @@ mod tests {
     #[test]
     fn mixed_precision_stays_within_1e_5_of_the_f64_kernels_on_a_dense_step() {
         let ppm = 292.0;
-        // The weakly compressible model's kernels are compared in `wcsph`'s tests.
-        for model in [Model::Course, Model::Fluidanimate] {
+        // The weakly compressible model's kernels are compared in `wcsph`'s tests; the
+        // SIMD kernels run on both structures.
+        let structures = [PairStructure::Clusters, PairStructure::Tiles];
+        for (model, structure) in [Model::Course, Model::Fluidanimate]
+            .into_iter()
+            .flat_map(|model| structures.map(|structure| (model, structure)))
+        {
             let pair_stages = |kernel| {
                 let method = Method { model, kernel };
                 let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
+                sim.set_pair_structure(structure);
                 for stage in [
+                    Stage::Reposition,
                     Stage::IncrementDensities,
                     Stage::TransformDensities,
                     Stage::TransferAccelerations,
@@ -373,7 +389,10 @@ mod tests {
                 let acceleration_error = (0..n)
                     .map(|s| (mixed.acceleration(s) - exact.acceleration(s)).length() / largest)
                     .fold(0.0, f64::max);
-                println!("{model:?} vs {kernel:?}: {density_error:.2e} {acceleration_error:.2e}");
+                println!(
+                    "{model:?} on {structure:?} vs {kernel:?}: \
+                     {density_error:.2e} {acceleration_error:.2e}"
+                );
                 assert!(
                     density_error < 1e-5 && density_error > 0.0,
                     "{density_error}"

@@ -66,12 +66,13 @@ pub(crate) trait Lanes {
     unsafe fn load(values: &[f64], at: impl Into<Places>) -> Self::V;
     /// The first half of the lanes `halves.0[0]`, the second `halves.0[1]`.
     fn halves(halves: Halves) -> Self::V;
-    /// The lanes of each half before the cluster of [`CLUSTER`] at its start: those after
-    /// the place `after[h]` of it in half `h`.
+    /// On 8 lanes, each half holding the same cluster of [`CLUSTER`] places: a mask of the
+    /// places after place `after[h]` of it in half `h` (unused on 4 lanes).
     fn after_in_halves(after: [usize; 2]) -> Self::V;
-    /// The sum of the two halves in the first half, zeros in the second.
+    /// The sum of the two halves in the first half, zeros in the second (used on 8
+    /// lanes).
     fn fold_halves(v: Self::V) -> Self::V;
-    /// The totals of a sum's two halves.
+    /// The totals of a sum's two halves (used on 8 lanes).
     fn half_totals(sum: Self::Sum) -> [f64; 2];
     /// `center - ` the lanes of `values` at `at`, subtracted in f64 (a center per half).
     ///
@@ -113,15 +114,16 @@ pub(crate) trait Lanes {
     fn total(sum: Self::Sum) -> f64;
 }
 
-/// Where a group of lanes lives in an array: the first place of each quarter of 4 lanes
-/// (a group of 8 lanes reads two quarters, a group of 4 the first). A `usize` stands for
-/// contiguous places from it; [`Places::quarters`] for two clusters of 4 apart.
+/// Where a group of lanes lives in an array: the first place of each run of 4 lanes (a
+/// cluster's places; a group of 8 lanes reads two runs, a group of 4 the first). A
+/// `usize` stands for contiguous places from it; [`Places::fours`] for two clusters
+/// apart.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Places([usize; 2]);
 
 impl Places {
     /// The lanes 0..4 at `first..first + 4`, the lanes 4..8 at `second..second + 4`.
-    pub(super) fn quarters(first: usize, second: usize) -> Self {
+    pub(super) fn fours(first: usize, second: usize) -> Self {
         Places([first, second])
     }
 }
@@ -155,9 +157,9 @@ fn by_halves<const N: usize>(Halves(values): Halves) -> [f64; N] {
 /// Every place `at` names for the `N` lanes is within `values`.
 #[inline(always)]
 unsafe fn read<const N: usize>(values: &[f64], at: Places) -> [f64; N] {
-    let Places(quarters) = at;
+    let Places(fours) = at;
     std::array::from_fn(|lane| {
-        let place = quarters[lane / 4] + lane % 4;
+        let place = fours[lane / 4] + lane % 4;
         debug_assert!(place < values.len());
         // SAFETY: guaranteed by the caller.
         unsafe { *values.get_unchecked(place) }
@@ -170,9 +172,9 @@ unsafe fn read<const N: usize>(values: &[f64], at: Places) -> [f64; N] {
 /// As for [`read`].
 #[inline(always)]
 unsafe fn write<const N: usize>(values: &mut [f64], at: Places, lanes: [f64; N]) {
-    let Places(quarters) = at;
+    let Places(fours) = at;
     for (lane, value) in lanes.into_iter().enumerate() {
-        let place = quarters[lane / 4] + lane % 4;
+        let place = fours[lane / 4] + lane % 4;
         debug_assert!(place < values.len());
         // SAFETY: guaranteed by the caller.
         unsafe { *values.get_unchecked_mut(place) = value };

@@ -290,7 +290,8 @@ mod tests {
             let mut sim =
                 Simulation::with_method(204.0, particles.clone(), Method { model, kernel })
                     .unwrap();
-            // On the tiles (the passes on clusters are tested in `Simulation`'s tests).
+            // On the tiles (the passes on clusters are held to the reference outputs in
+            // `tests/lab.rs` and to the tiles in `Simulation`'s kept-list test).
             sim.set_pair_structure(PairStructure::Tiles);
             sim.run_stage(Stage::Reposition);
             let (mut close, mut every) = (sim.particles().clone(), sim.particles().clone());
