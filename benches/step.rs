@@ -3,7 +3,9 @@
 //! every model (single stages: the course and fluidanimate models, whose stages are
 //! SPEC.md's; the weakly compressible model has one pair pass, timed in its whole steps)
 //! and every fast kernel, plus whole steps of generated scenes of 3,000 to 100,000
-//! particles (time per particle-step).
+//! particles (time per particle-step). The course models' SIMD kernels run on clusters on
+//! the dense states, the default since round three (issue 25); their whole steps are also
+//! timed on the tiles, under the same name ending in `/tiles`.
 //!
 //! `cargo bench --bench step -- --profile-time 10 <filter>` also writes a flamegraph of
 //! each selected benchmark to `target/criterion/<benchmark>/profile/flamegraph.svg`.
@@ -12,6 +14,7 @@ use criterion::profiler::Profiler;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use fluid::io::fld;
 use fluid::lab::scene;
+use fluid::sim::clusters::PairStructure;
 use fluid::sim::stages::Stage;
 use fluid::Simulation;
 use fluid::{Kernel, Method, Model};
@@ -81,6 +84,17 @@ fn whole_steps(c: &mut Criterion) {
                 c.bench_function(&id, |b| {
                     b.iter_batched_ref(|| initial.clone(), Simulation::step, BatchSize::LargeInput)
                 });
+                if kernel.runs_on_clusters() && model != Model::Wcsph && label == "dense" {
+                    let mut on_tiles = initial.clone();
+                    on_tiles.set_pair_structure(PairStructure::Tiles);
+                    c.bench_function(&format!("{id}/tiles"), |b| {
+                        b.iter_batched_ref(
+                            || on_tiles.clone(),
+                            Simulation::step,
+                            BatchSize::LargeInput,
+                        )
+                    });
+                }
             }
         }
     }

@@ -108,7 +108,8 @@ impl Simulation {
 
     /// The state after stage 1 of a step, as a trace records it: `particles` in any order
     /// with every field kept, and `blocks` the block stage 1 gave each of them (which the
-    /// wall stages use even after the particles have moved).
+    /// wall stages use even after the particles have moved); placed as stage 1 places
+    /// them (on clusters where a step would run on them).
     pub fn after_stage_one(
         params: Params,
         grid: Grid,
@@ -119,7 +120,10 @@ impl Simulation {
         let mut simulation = Self::unplaced(params, grid, method, Particles::default());
         simulation.cells.sort_with_blocks(&grid, &particles, blocks);
         simulation.particles = particles.permuted(simulation.cells.order());
-        simulation.find_tiles();
+        simulation.build_clusters();
+        if !simulation.clusters_built {
+            simulation.find_tiles();
+        }
         simulation
     }
 
