@@ -140,31 +140,26 @@ impl Clusters {
     pub fn repack(&mut self, particles: &Particles) {
         let mut positions = std::mem::take(&mut self.positions);
         for (packed, source) in positions.iter_mut().zip(&particles.p) {
-            packed.clear();
-            packed.extend(
-                self.places
-                    .iter()
-                    .enumerate()
-                    .map(|(place, &slot)| match slot {
-                        EMPTY => far(place),
-                        slot => source[slot as usize],
-                    }),
-            );
-            let end = self.places.len();
-            packed.extend((end..end + CLUSTER).map(far));
+            self.pack(source, far, packed);
         }
         self.positions = positions;
     }
 
-    /// Copies `source` (by slot) into `packed` by place, `empty` at empty places and in
-    /// the empty cluster after the last.
-    pub fn pack(&self, source: &[f64], empty: f64, packed: &mut Vec<f64>) {
+    /// Copies `source` (by slot) into `packed` by place, `empty(place)` at empty places
+    /// and in the empty cluster after the last.
+    pub fn pack(&self, source: &[f64], empty: impl Fn(usize) -> f64, packed: &mut Vec<f64>) {
         packed.clear();
-        packed.extend(self.places.iter().map(|&slot| match slot {
-            EMPTY => empty,
-            slot => source[slot as usize],
-        }));
-        packed.extend(std::iter::repeat_n(empty, CLUSTER));
+        packed.extend(
+            self.places
+                .iter()
+                .enumerate()
+                .map(|(place, &slot)| match slot {
+                    EMPTY => empty(place),
+                    slot => source[slot as usize],
+                }),
+        );
+        let end = self.places.len();
+        packed.extend((end..end + CLUSTER).map(empty));
     }
 
     /// For each cluster, the windows of its own row after it and of its forward rows:

@@ -120,10 +120,7 @@ impl Simulation {
         let mut simulation = Self::unplaced(params, grid, method, Particles::default());
         simulation.cells.sort_with_blocks(&grid, &particles, blocks);
         simulation.particles = particles.permuted(simulation.cells.order());
-        simulation.build_clusters();
-        if !simulation.clusters_built {
-            simulation.find_tiles();
-        }
+        simulation.find_neighbours();
         simulation
     }
 
@@ -307,8 +304,8 @@ impl Simulation {
     }
 
     /// Reuses the cell order and tiles or clusters from step to step with a skin `width`
-    /// metres wide ([`crate::sim::skin`]), or (`None`) rebuilds them every step. Takes effect at the
-    /// next step, which builds them.
+    /// metres wide ([`crate::sim::skin`]), or (`None`) rebuilds them every step. Takes
+    /// effect at the next step, which builds them.
     pub fn set_skin(&mut self, width: Option<f64>) -> Result<(), GridSizeError> {
         self.skin = width.map(|w| Skin::new(self.params.h, w)).transpose()?;
         Ok(())
@@ -342,9 +339,8 @@ impl Simulation {
 
     /// A copy whose densities are those of the current positions (stage 1 and the model's
     /// density stages run on the copy), with the copy's cell order and tiles (found even
-    /// where its pair passes run on clusters): for looking
-    /// at a state without disturbing the run. A model whose densities are states of their
-    /// own is only placed (stage 1).
+    /// where its pair passes run on clusters): for looking at a state without disturbing
+    /// the run. A model whose densities are states of their own is only placed (stage 1).
     pub fn with_fresh_densities(&self) -> Simulation {
         let mut copy = self.clone();
         copy.reposition();
@@ -483,6 +479,12 @@ impl Simulation {
         if let Some(skin) = &mut self.skin {
             skin.record(&self.particles);
         }
+        self.find_neighbours();
+    }
+
+    /// The neighbour structure of the placement: its clusters where the pair passes run
+    /// on them ([`Self::build_clusters`]), else its tiles.
+    fn find_neighbours(&mut self) {
         self.build_clusters();
         if !self.clusters_built {
             self.find_tiles();
@@ -719,9 +721,9 @@ mod tests {
 
     /// Steps `particles` 60 times with lists kept with a skin of 0.3 h (the pair loops
     /// on `structure`) and with tiles rebuilt every step; checks at every step that the
-    /// kept tiles or clusters hold every pair closer than h, and returns the builds and the largest
-    /// distance between the runs; panics if the last step was asked to run on clusters
-    /// of a dense scene and did not.
+    /// kept tiles or clusters hold every pair closer than h, and returns the builds and
+    /// the largest distance between the runs; panics if the last step was asked to run
+    /// on clusters of a dense scene and did not.
     fn run_with_and_without_a_skin(particles: Particles, structure: PairStructure) -> (u64, f64) {
         let method = Method {
             model: Model::Fluidanimate,

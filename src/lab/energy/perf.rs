@@ -95,7 +95,7 @@ pub fn rapl_events(pmus: &Path) -> Result<Vec<String>, String> {
 const PROBE: std::time::Duration = std::time::Duration::from_millis(20);
 
 /// The RAPL events that `program` can count system-wide here, probed with a window of
-/// [`PROBE`], or why none can.
+/// 20 ms (`PROBE`), or why none can.
 pub fn usable_events(program: &Path, pmus: &Path) -> Result<Vec<String>, String> {
     let events = rapl_events(pmus)?;
     let counts = Counting::start(program, &events)

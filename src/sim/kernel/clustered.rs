@@ -82,12 +82,18 @@ fn lanes_of<L: Lanes, const OWN: bool>(row: usize) -> L::V {
     }
 }
 
-/// The value of `values` for row `row` of the cluster at `base`: its particle's, or its
-/// two particles' (one per half).
+/// The places of row `row` of the cluster at `base`: its particle's twice, or its two
+/// particles' (one per half).
 #[inline(always)]
-fn row_value<L: Lanes>(values: &[f64], base: usize, row: usize) -> Halves {
+fn row_places<L: Lanes>(base: usize, row: usize) -> [usize; 2] {
     let first = base + row * per_row::<L>();
-    Halves([values[first], values[first + per_row::<L>() - 1]])
+    [first, first + per_row::<L>() - 1]
+}
+
+/// The value of `values` at `places`, one per half.
+#[inline(always)]
+fn at_halves(values: &[f64], [a, b]: [usize; 2]) -> Halves {
+    Halves([values[a], values[b]])
 }
 
 /// Adds the totals of `sum`, row `row`'s, to its particles in `target` (by place) from
@@ -193,7 +199,8 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities, clusters: &Clusters
         close.starts.push(recorded as u32);
         let base = own * CLUSTER;
         let rows = std::array::from_fn(|row| {
-            [0, 1, 2].map(|axis| row_value::<L>(&p[axis], base, row % row_count::<L>()))
+            let places = row_places::<L>(base, row % row_count::<L>());
+            [0, 1, 2].map(|axis| at_halves(&p[axis], places))
         });
         let mut row_sums = [L::ZERO_SUM; CLUSTER];
         // SAFETY (both blocks): every place of a cluster or of the empty cluster is
@@ -301,11 +308,11 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         per_particle,
     } = packed;
     for axis in 0..3 {
-        clusters.pack(&v[axis], 0.0, &mut packed_v[axis]);
+        clusters.pack(&v[axis], |_| 0.0, &mut packed_v[axis]);
         packed_a[axis].clear();
         packed_a[axis].resize((empty + 1) * CLUSTER, 0.0);
     }
-    clusters.pack(rho, 1.0, packed_rho);
+    clusters.pack(rho, |_| 1.0, packed_rho);
     inverse_rho.clear();
     inverse_rho.extend(packed_rho.iter().map(|rho| 1.0 / rho));
     let p = clusters.positions();
@@ -333,17 +340,19 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         inverse_rho,
     );
     let mut sums_to = [ax, ay, az];
+    // The particle or particles (one per half) whose values `value` takes from each
+    // array.
+    let first_of = |value: &dyn Fn(&[f64]) -> Halves| First {
+        p: [value(&p[0]), value(&p[1]), value(&p[2])],
+        v: [value(vx), value(vy), value(vz)],
+        rho: value(packed_rho),
+        inverse_rho: value(inverse_rho),
+    };
     for own in 0..empty {
         let base = own * CLUSTER;
         let rows: [First; CLUSTER] = std::array::from_fn(|row| {
-            let row = row % row_count::<L>();
-            let value = |values: &[f64]| row_value::<L>(values, base, row);
-            First {
-                p: [value(&p[0]), value(&p[1]), value(&p[2])],
-                v: [value(vx), value(vy), value(vz)],
-                rho: value(packed_rho),
-                inverse_rho: value(inverse_rho),
-            }
+            let places = row_places::<L>(base, row % row_count::<L>());
+            first_of(&|values| at_halves(values, places))
         });
         let mut row_sums = [[L::ZERO_SUM; 3]; CLUSTER];
         // SAFETY: every place of a cluster or of the empty cluster is within every array
@@ -365,16 +374,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
             }
         }
         for (i, &count) in counts.iter().enumerate() {
-            let first = First {
-                p: [0, 1, 2].map(|axis| p[axis][base + i].into()),
-                v: [
-                    vx[base + i].into(),
-                    vy[base + i].into(),
-                    vz[base + i].into(),
-                ],
-                rho: packed_rho[base + i].into(),
-                inverse_rho: inverse_rho[base + i].into(),
-            };
+            let first = first_of(&|values| values[base + i].into());
             let mut sum = [L::ZERO_SUM; 3];
             let listed = &per_particle[i * stride..i * stride + count];
             // As many clusters per register as a row holds particles.

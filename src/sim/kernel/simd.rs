@@ -15,7 +15,6 @@ use super::{Accelerations, Candidates, Densities, OVERFLOW_GROUP};
 
 /// The group bit that stands for every group from [`OVERFLOW_GROUP`] on.
 const OVERFLOW_BIT: u64 = 1 << OVERFLOW_GROUP;
-use crate::sim::clusters::CLUSTER;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::{AxisArrays, PADDING};
@@ -66,8 +65,8 @@ pub(crate) trait Lanes {
     unsafe fn load(values: &[f64], at: impl Into<Places>) -> Self::V;
     /// The first half of the lanes `halves.0[0]`, the second `halves.0[1]`.
     fn halves(halves: Halves) -> Self::V;
-    /// On 8 lanes, each half holding the same cluster of [`CLUSTER`] places: a mask of the
-    /// places after place `after[h]` of it in half `h` (unused on 4 lanes).
+    /// On 8 lanes, each half holding the same cluster of 4 places: a mask of the places
+    /// after place `after[h]` of it in half `h` (unused on 4 lanes).
     fn after_in_halves(after: [usize; 2]) -> Self::V;
     /// The sum of the two halves in the first half, zeros in the second (used on 8
     /// lanes).
@@ -257,8 +256,7 @@ macro_rules! f64_lanes {
             fn after_in_halves(after: [usize; 2]) -> $type {
                 let half = $lanes / 2;
                 <$type>::new(std::array::from_fn(|lane| {
-                    let place = lane % half;
-                    if place > after[lane / half] && place < CLUSTER {
+                    if lane % half > after[lane / half] {
                         f64::from_bits(u64::MAX)
                     } else {
                         0.0
@@ -424,8 +422,7 @@ impl Lanes for MixedF32x8 {
     #[inline(always)]
     fn after_in_halves(after: [usize; 2]) -> f32x8 {
         f32x8::new(std::array::from_fn(|lane| {
-            let place = lane % 4;
-            if place > after[lane / 4] && place < CLUSTER {
+            if lane % 4 > after[lane / 4] {
                 f32::from_bits(u32::MAX)
             } else {
                 0.0
@@ -614,7 +611,7 @@ pub(super) fn increment_densities<L: Lanes>(pass: Densities) {
 /// # Safety
 /// `j + LANES` is within `rho` and every array of `p`.
 #[inline(always)]
-pub(super) unsafe fn density_group<L: Lanes>(
+unsafe fn density_group<L: Lanes>(
     p: &AxisArrays,
     rho: &mut [f64],
     first: [f64; 3],
@@ -734,7 +731,7 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
     /// # Safety
     /// `j + LANES` is within every array.
     #[inline(always)]
-    pub(super) unsafe fn visit(
+    unsafe fn visit(
         &self,
         first: &First,
         j: usize,
