@@ -28,12 +28,11 @@ use crate::sim::particles::{AxisArrays, Particles};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
 pub enum PairStructure {
     /// The tiles of whole neighbour cells (`sim::neighbours`), for comparison: what the
-    /// scalar and reference kernels, the weakly compressible model and scattered scenes
-    /// run on either way.
+    /// scalar and reference kernels and scattered scenes run on either way.
     Tiles,
     /// Clusters of 4 along x-sorted rows of cells and their windows (`sim::clusters`),
-    /// on dense scenes, for the course models on the simd, simd8 and mixed kernels
-    /// (tiles elsewhere).
+    /// on dense scenes, for every model on the simd, simd8 and mixed kernels (tiles
+    /// elsewhere).
     #[default]
     Clusters,
 }

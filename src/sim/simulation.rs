@@ -204,6 +204,12 @@ impl Simulation {
         self.search.tiles()
     }
 
+    /// The clusters of the current placement, where its pair passes run on them.
+    #[cfg(test)]
+    pub(crate) fn clusters(&self) -> Option<&Clusters> {
+        self.clusters_built.then_some(&self.clusters)
+    }
+
     /// The pair lanes a pass over every candidate of the current placement evaluates on
     /// the run's kernel and structure (a SIMD kernel's masked lanes included): on the
     /// clusters, 16 per cluster pair (each cluster with itself and with each cluster of
@@ -492,12 +498,11 @@ impl Simulation {
     }
 
     /// Clusters of the placement's cell order at the current positions, where they were
-    /// asked for, the scene is dense (not mostly lone particles), the kernel has loops on
-    /// clusters and the model's passes run on them.
+    /// asked for, the scene is dense (not mostly lone particles) and the kernel has loops
+    /// on clusters.
     fn build_clusters(&mut self) {
         self.clusters_built = self.structure == PairStructure::Clusters
             && self.method.kernel.runs_on_clusters()
-            && self.dynamics.pairs_on_clusters()
             && !self.cells.is_sparse();
         if self.clusters_built {
             let keys = self.cells.keys();

@@ -121,7 +121,7 @@ fn particles_found<L: Lanes>(found: &[u32; CLUSTER]) -> u32 {
 }
 
 /// Adds `packed` (by place) to `target` (by slot).
-fn unpack_add(places: &[u32], packed: &[f64], target: &mut [f64]) {
+pub(super) fn unpack_add(places: &[u32], packed: &[f64], target: &mut [f64]) {
     for (&slot, &value) in places.iter().zip(packed) {
         if slot != EMPTY {
             target[slot as usize] += value;
@@ -306,6 +306,7 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
         inverse_rho,
         a: packed_a,
         per_particle,
+        ..
     } = packed;
     for axis in 0..3 {
         clusters.pack(&v[axis], |_| 0.0, &mut packed_v[axis]);

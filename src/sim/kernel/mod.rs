@@ -1,5 +1,5 @@
 //! The pair loops, the hot part of a time step, over the neighbour structures (the tiles
-//! of the neighbour search; on dense scenes, the course models' SIMD loops on clusters):
+//! of the neighbour search; on dense scenes, the SIMD loops on clusters):
 //! each model's pair terms are passes ([`PairPass`]: the course models' density and
 //! acceleration stages 3-5, [`Densities`] and [`Accelerations`], and the weakly
 //! compressible model's [`WeaklyCompressible`]), and [`Kernel::run`] maps a kernel to its
@@ -198,6 +198,10 @@ pub struct Packed {
     per_particle: Vec<u32>,
     /// Accelerations by place.
     a: AxisArrays,
+    /// The weakly compressible model's p / rho^2 by place.
+    pressure_terms: Vec<f64>,
+    /// The weakly compressible model's density rates by place.
+    rates: Vec<f64>,
 }
 
 impl Packed {
@@ -209,6 +213,8 @@ impl Packed {
             + crate::sim::heap_bytes(&self.inverse_rho)
             + crate::sim::heap_bytes(&self.per_particle)
             + axes(&self.a)
+            + crate::sim::heap_bytes(&self.pressure_terms)
+            + crate::sim::heap_bytes(&self.rates)
     }
 }
 

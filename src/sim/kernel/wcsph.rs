@@ -1,5 +1,5 @@
 //! The weakly compressible model's pair loop ([`crate::sim::model::wcsph`]): in one pass over the
-//! tiles, each pair's pressure and viscosity acceleration and its density rates (the
+//! candidate pairs (of the tiles, or of the clusters), each pair's pressure and viscosity acceleration and its density rates (the
 //! continuity equation and the delta-SPH diffusion), added to both particles. A particle
 //! within one support radius of a wall also meets the mirror images of its partners
 //! across that wall (and across two or three walls at an edge or corner) and its own:
@@ -12,13 +12,18 @@
 //! al. 2012), and its density follows: the pressure keeps growing with depth, so the
 //! floor holds water at rest.
 //!
-//! Three implementations: [`scalar`] (one pair at a time), [`lanes`] (a lane-width of
-//! partners at a time, on any [`Lanes`]) and [`reference`] (each particle's terms summed
-//! on their own in id order with compensated sums). All share [`pair`]'s formulas.
+//! Four implementations: [`scalar`] (one pair at a time), [`lanes`] (a lane-width of
+//! partners at a time over the tiles, on any [`Lanes`]), [`clustered`] (the same lanes
+//! over [`Clusters`], on dense scenes) and [`reference`] (each particle's terms summed on
+//! their own in id order with compensated sums). All share [`pair`]'s formulas; the lanes
+//! take one division per group where [`pair`] takes four (the viscosity's and the
+//! diffusion's quotients from one reciprocal), which moves the last bits only.
 
+use super::clustered::unpack_add;
 use super::reference::Neumaier;
-use super::simd::{assert_padded, slots_used, Lanes};
-use super::PairPass;
+use super::simd::{assert_padded, slots_used, Lanes, Places};
+use super::{Packed, PairPass};
+use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
 use crate::sim::neighbours::Tile;
 use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY};
 use crate::sim::particles::{vector_at, AxisArrays};
@@ -107,12 +112,16 @@ pub struct WeaklyCompressible<'a> {
     pub constants: &'a WcsphConstants,
     /// The candidate pairs.
     pub tiles: &'a [Tile],
+    /// The clusters of the same placement, which the SIMD kernels run on where given.
+    pub clusters: Option<&'a Clusters>,
     /// What the pass reads.
     pub state: State<'a>,
     /// Each slot's particle (one per particle): the order of the reference kernel's sums.
     pub id: &'a [u32],
     /// What the pass adds to.
     pub rates: Rates<'a>,
+    /// The copies by place, on [`Clusters`].
+    pub packed: &'a mut Packed,
 }
 
 impl PairPass for WeaklyCompressible<'_> {
@@ -120,7 +129,10 @@ impl PairPass for WeaklyCompressible<'_> {
         scalar(self);
     }
     fn lanes<L: Lanes>(self) {
-        lanes::<L>(self);
+        match self.clusters {
+            Some(clusters) => clustered::<L>(self, clusters),
+            None => lanes::<L>(self),
+        }
     }
     fn reference(self) {
         reference(self);
@@ -260,6 +272,7 @@ pub(super) fn scalar(pass: WeaklyCompressible) {
         state,
         id,
         mut rates,
+        ..
     } = pass;
     let (rates, n) = (&mut rates, id.len());
     for tile in tiles {
@@ -316,6 +329,7 @@ pub(super) fn reference(pass: WeaklyCompressible) {
         state,
         id,
         mut rates,
+        ..
     } = pass;
     let (rates, n) = (&mut rates, id.len());
     let support2 = constants.support * constants.support;
@@ -372,6 +386,10 @@ struct First {
     rho: f64,
     pressure: f64,
     walls: NearWalls,
+    /// The sets of walls its partners' images are taken across ([`NearWalls::images`]),
+    /// the first `image_count`.
+    images: [u8; 7],
+    image_count: usize,
     /// Near the floor: the p / rho^2 and density of its image below it ([`image_of`]),
     /// which its partners meet.
     floor_image: Option<(f64, f64)>,
@@ -402,29 +420,35 @@ type GroupTerms<L> = (
 );
 
 impl<L: Lanes> Pairs<'_, L> {
-    /// The terms of `first` with partners j..j+LANES (lanes of `lanes`), or with their
+    /// The terms of `first` with the partners at `at` (lanes of `lanes`), or with their
     /// images across the walls of `set` (0: the partners themselves); zero in lanes beyond
     /// the support, `None` if every lane is.
     ///
     /// # Safety
-    /// `j + LANES` is within every array.
+    /// Every place of `at` is within every array of the state.
     #[inline(always)]
-    unsafe fn group(&self, first: &First, j: usize, lanes: L::V, set: u8) -> Option<GroupTerms<L>> {
+    unsafe fn group(
+        &self,
+        first: &First,
+        at: Places,
+        lanes: L::V,
+        set: u8,
+    ) -> Option<GroupTerms<L>> {
         let State { p, v, .. } = self.state;
         let across = |axis: usize| set & (1 << axis) != 0;
         // SAFETY (both closures): guaranteed by the caller.
         let offset = |axis: usize| unsafe {
             if across(axis) {
-                L::differences(&p[axis], j, 2.0 * first.walls.at[axis] - first.p[axis])
+                L::differences(&p[axis], at, 2.0 * first.walls.at[axis] - first.p[axis])
             } else {
-                L::offsets(&p[axis], j, first.p[axis])
+                L::offsets(&p[axis], at, first.p[axis])
             }
         };
         let velocity = |axis: usize| unsafe {
             if across(axis) {
-                L::differences(&v[axis], j, -first.v[axis])
+                L::differences(&v[axis], at, -first.v[axis])
             } else {
-                L::offsets(&v[axis], j, first.v[axis])
+                L::offsets(&v[axis], at, first.v[axis])
             }
         };
         let d = [offset(0), offset(1), offset(2)];
@@ -437,24 +461,18 @@ impl<L: Lanes> Pairs<'_, L> {
         let mass_gradient = self.mass_gradient * (w * w * w);
         let dv = [velocity(0), velocity(1), velocity(2)];
         let approach = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
-        let inverse = self.one / (r2 + self.eta2);
         // SAFETY: guaranteed by the caller.
         let (rho_j, pressure_j) = unsafe {
             (
-                L::load(self.state.rho, j),
-                L::load(self.state.pressure_terms, j),
+                L::load(self.state.rho, at),
+                L::load(self.state.pressure_terms, at),
             )
         };
         let rho_i = L::splat(first.rho);
         let pressure_i = L::splat(first.pressure);
-        let viscosity = |rho_a: L::V, rho_b: L::V| {
-            L::max(
-                self.zero - self.viscosity * approach * inverse / (rho_a + rho_b),
-                self.zero,
-            )
-        };
+        let viscosity =
+            |approach_over: L::V| L::max(self.zero - self.viscosity * approach_over, self.zero);
         let continuity = self.zero - mass_gradient * approach;
-        let diffusion = self.diffusion * mass_gradient * r2 * inverse;
         let terms = |scale: L::V| {
             [
                 (d[0] * scale) & close,
@@ -462,15 +480,28 @@ impl<L: Lanes> Pairs<'_, L> {
                 (d[2] * scale) & close,
             ]
         };
+        let softened = r2 + self.eta2;
         let floor_image = first.floor_image.filter(|_| across(1));
         let Some((pressure_i_image, rho_i_image)) = floor_image else {
-            let scale = mass_gradient * (pressure_i + pressure_j + viscosity(rho_i, rho_j));
-            let difference = rho_j - rho_i;
-            let rate_i = (continuity + diffusion * difference / rho_j) & close;
-            let rate_j = (continuity - diffusion * difference / rho_i) & close;
+            // One division for the lanes' three quotients: 1 / (softened (rho_i + rho_j))
+            // of the viscosity, and 1 / rho_j, 1 / rho_i of the diffusion.
+            let (densities, product) = (rho_i + rho_j, rho_i * rho_j);
+            let denominator = softened * densities;
+            let reciprocal = self.one / (denominator * product);
+            let over_denominator = reciprocal * product;
+            let over_product = reciprocal * denominator;
+            let scale =
+                mass_gradient * (pressure_i + pressure_j + viscosity(approach * over_denominator));
+            let diffusion = self.diffusion * mass_gradient * r2 * densities * over_denominator;
+            let difference = (rho_j - rho_i) * diffusion * over_product;
+            let rate_i = (continuity + difference * rho_i) & close;
+            let rate_j = (continuity - difference * rho_j) & close;
             let da = terms(scale);
             return Some((da, da, rate_i, rate_j));
         };
+        let inverse = self.one / softened;
+        let diffusion = self.diffusion * mass_gradient * r2 * inverse;
+        let viscosity = |rho_a: L::V, rho_b: L::V| viscosity(approach * inverse / (rho_a + rho_b));
         // Across the floor an image's pressure differs from its particle's by
         // rho g_y (y' - y), and its density by that over c0^2 ([`image_of`]): j's image
         // lies y'_j - y_j = 2 (y_i - w) - 2 d_y from j; i's is the first's own.
@@ -489,7 +520,132 @@ impl<L: Lanes> Pairs<'_, L> {
     }
 }
 
-/// The pair loop on `L` lanes.
+impl First {
+    /// Particle `i` of `state`.
+    fn of(constants: &WcsphConstants, state: &State, i: usize) -> Self {
+        let position = [0, 1, 2].map(|axis| state.p[axis][i]);
+        let walls = NearWalls::of(position, constants.support);
+        let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
+        let floor_image = (walls.axes & 0b010 != 0 && walls.at[1] == BOX_MIN.y).then(|| {
+            let p = DVec3::from_array(position);
+            image_of(constants, pressure, rho, p, mirrored(p, 0b010, &walls))
+        });
+        let mut images = [0; 7];
+        let mut image_count = 0;
+        for set in walls.images() {
+            images[image_count] = set;
+            image_count += 1;
+        }
+        First {
+            p: position,
+            v: [0, 1, 2].map(|axis| state.v[axis][i]),
+            rho,
+            pressure,
+            walls,
+            images,
+            image_count,
+            floor_image,
+        }
+    }
+}
+
+impl<'a, L: Lanes> Pairs<'a, L> {
+    /// The lanes loop's constants, on `state`.
+    fn new(constants: &WcsphConstants, state: State<'a>) -> Self {
+        Pairs {
+            state,
+            support2: L::splat(constants.support * constants.support),
+            over_2h: L::splat(0.5 / constants.h),
+            one: L::splat(1.0),
+            zero: L::splat(0.0),
+            mass_gradient: L::splat(constants.mass * constants.gradient_factor),
+            viscosity: L::splat(
+                2.0 * constants.artificial_viscosity * constants.sound_speed * constants.h,
+            ),
+            diffusion: L::splat(
+                2.0 * constants.density_diffusion * constants.h * constants.sound_speed,
+            ),
+            eta2: L::splat(constants.eta2),
+            twice_gravity: L::splat(2.0 * GRAVITY.y),
+            inverse_sound_speed2: L::splat(1.0 / (constants.sound_speed * constants.sound_speed)),
+        }
+    }
+
+    /// The lanes of `at` (of `lanes`) within the support of `first`, a bit each.
+    ///
+    /// # Safety
+    /// Every place of `at` is within the positions.
+    #[inline(always)]
+    unsafe fn close(&self, first: &First, at: Places, lanes: L::V) -> u32 {
+        // SAFETY: guaranteed by the caller.
+        let offset = |axis: usize| unsafe { L::offsets(&self.state.p[axis], at, first.p[axis]) };
+        let d = [offset(0), offset(1), offset(2)];
+        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        L::bitmask(L::lt(r2, self.support2) & lanes)
+    }
+
+    /// The terms of `first` with the partners at `at` (lanes of `lanes`) and
+    /// with their images across `first`'s walls: `first`'s added to `sums` (its
+    /// acceleration by axis, then its density rate), the partners' to `targets` (the same,
+    /// by place).
+    ///
+    /// # Safety
+    /// Every place of `at` is within every array of the state and `targets`.
+    #[inline(always)]
+    unsafe fn visit(
+        &self,
+        first: &First,
+        at: Places,
+        lanes: L::V,
+        sums: &mut [L::Sum; 4],
+        targets: &mut [&mut [f64]; 4],
+    ) {
+        // SAFETY (both): guaranteed by the caller. The partners themselves first (set 0,
+        // which the compiler folds into the group), then their images.
+        unsafe { self.add_group(first, at, lanes, 0, sums, targets) };
+        for &set in &first.images[..first.image_count] {
+            unsafe { self.add_group(first, at, lanes, set, sums, targets) };
+        }
+    }
+
+    /// [`Self::group`]'s terms, added: `first`'s to `sums`, the partners' to `targets`
+    /// ([`Self::visit`]).
+    ///
+    /// # Safety
+    /// As for [`Self::visit`].
+    #[inline(always)]
+    unsafe fn add_group(
+        &self,
+        first: &First,
+        at: Places,
+        lanes: L::V,
+        set: u8,
+        sums: &mut [L::Sum; 4],
+        targets: &mut [&mut [f64]; 4],
+    ) {
+        // SAFETY: guaranteed by the caller.
+        let Some((da, da_j, rate_i, rate_j)) = (unsafe { self.group(first, at, lanes, set) })
+        else {
+            return;
+        };
+        for axis in 0..3 {
+            L::accumulate(&mut sums[axis], da[axis]);
+            // SAFETY: guaranteed by the caller. An image's force on j is mirrored back.
+            unsafe {
+                if set & (1 << axis) != 0 {
+                    L::add_to(targets[axis], at, da_j[axis]);
+                } else {
+                    L::subtract_from(targets[axis], at, da_j[axis]);
+                }
+            }
+        }
+        L::accumulate(&mut sums[3], rate_i);
+        // SAFETY: guaranteed by the caller.
+        unsafe { L::add_to(targets[3], at, rate_j) };
+    }
+}
+
+/// The pair loop on `L` lanes, over the tiles.
 pub(super) fn lanes<L: Lanes>(pass: WeaklyCompressible) {
     let WeaklyCompressible {
         constants,
@@ -497,6 +653,7 @@ pub(super) fn lanes<L: Lanes>(pass: WeaklyCompressible) {
         state,
         id,
         mut rates,
+        ..
     } = pass;
     let (rates, n) = (&mut rates, id.len());
     let ([x, y, z], [vx, vy, vz]) = (state.p, state.v);
@@ -504,87 +661,160 @@ pub(super) fn lanes<L: Lanes>(pass: WeaklyCompressible) {
     let arrays = [&x[..], y, z, vx, vy, vz, state.rho, state.pressure_terms];
     assert_padded(slots_used(tiles), L::LANES, &arrays);
     assert_padded(slots_used(tiles), L::LANES, &[ax, ay, az, rates.rho]);
-    let pairs = Pairs::<L> {
-        state,
-        support2: L::splat(constants.support * constants.support),
-        over_2h: L::splat(0.5 / constants.h),
-        one: L::splat(1.0),
-        zero: L::splat(0.0),
-        mass_gradient: L::splat(constants.mass * constants.gradient_factor),
-        viscosity: L::splat(
-            2.0 * constants.artificial_viscosity * constants.sound_speed * constants.h,
-        ),
-        diffusion: L::splat(
-            2.0 * constants.density_diffusion * constants.h * constants.sound_speed,
-        ),
-        eta2: L::splat(constants.eta2),
-        twice_gravity: L::splat(2.0 * GRAVITY.y),
-        inverse_sound_speed2: L::splat(1.0 / (constants.sound_speed * constants.sound_speed)),
-    };
-    let mut a = [ax, ay, az];
+    let pairs = Pairs::<L>::new(constants, state);
+    let mut targets = [&mut ax[..], ay, az, rates.rho];
     for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
         for i in cell_tiles[0].firsts() {
-            let position = [x[i], y[i], z[i]];
-            let walls = NearWalls::of(position, constants.support);
-            let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
-            let floor_image = (walls.axes & 0b010 != 0 && walls.at[1] == BOX_MIN.y).then(|| {
-                let p = DVec3::from_array(position);
-                image_of(constants, pressure, rho, p, mirrored(p, 0b010, &walls))
-            });
-            let first = First {
-                p: position,
-                v: [vx[i], vy[i], vz[i]],
-                rho,
-                pressure,
-                walls,
-                floor_image,
-            };
-            let (mut sum, mut rate) = ([L::ZERO_SUM; 3], L::ZERO_SUM);
-            let mut visit = |j: usize, lanes: L::V, set: u8| {
-                // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded
-                // checked that every array holds slots_used(tiles) + PADDING elements,
-                // PADDING >= LANES - 1, so j + LANES <= len.
-                let Some((da, da_j, rate_i, rate_j)) =
-                    (unsafe { pairs.group(&first, j, lanes, set) })
-                else {
-                    return;
-                };
-                for axis in 0..3 {
-                    L::accumulate(&mut sum[axis], da[axis]);
-                    // SAFETY: as above. The image's force on j is mirrored back.
-                    unsafe {
-                        if set & (1 << axis) != 0 {
-                            L::add_to(a[axis], j, da_j[axis]);
-                        } else {
-                            L::subtract_from(a[axis], j, da_j[axis]);
-                        }
-                    }
-                }
-                L::accumulate(&mut rate, rate_i);
-                // SAFETY: as above.
-                unsafe { L::add_to(rates.rho, j, rate_j) };
-            };
+            let first = First::of(constants, &state, i);
+            let mut sums = [L::ZERO_SUM; 4];
             for tile in cell_tiles {
                 let partners = tile.partners(i);
-                let mut j = partners.start;
-                while j < partners.end {
-                    let lanes = if j + L::LANES <= partners.end {
-                        L::all()
-                    } else {
-                        L::first(partners.end - j)
-                    };
-                    visit(j, lanes, 0);
-                    for set in first.walls.images() {
-                        visit(j, lanes, set);
-                    }
-                    j += L::LANES;
+                for j in partners.clone().step_by(L::LANES) {
+                    let lanes = L::first(partners.end - j);
+                    // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded
+                    // checked that every array holds slots_used(tiles) + PADDING
+                    // elements, PADDING >= LANES - 1, so j + LANES <= len.
+                    unsafe { pairs.visit(&first, j.into(), lanes, &mut sums, &mut targets) };
                 }
             }
-            for axis in 0..3 {
-                a[axis][i] += L::total(sum[axis]);
+            for (target, sum) in targets.iter_mut().zip(sums) {
+                target[i] += L::total(sum);
             }
-            rates.rho[i] += L::total(rate);
         }
+    }
+    self_images(constants, state, n, rates);
+}
+
+/// The pair loop on `L` lanes, over `clusters`, on copies by place of what the pass
+/// reads and adds to. Each particle of a cluster first finds, by distance alone, the
+/// clusters of its windows holding a partner within the support (a lane-width of
+/// consecutive places at a time: a window's clusters are consecutive), then meets the
+/// places after it in its own cluster and those clusters, as many per register as it
+/// holds (1 on 4 lanes, 2 on 8), so that the pair terms, bound by their square root and
+/// division, run on few lanes without a partner. An image of a partner is within the
+/// support only if the partner is ([`crate::sim::kernel::wcsph`]), so the same clusters
+/// serve the images. Empty places lie beyond every support, as do their images.
+pub(super) fn clustered<L: Lanes>(pass: WeaklyCompressible, clusters: &Clusters) {
+    let WeaklyCompressible {
+        constants,
+        state,
+        id,
+        mut rates,
+        packed,
+        ..
+    } = pass;
+    let Packed {
+        v,
+        rho,
+        pressure_terms,
+        a,
+        rates: density_rates,
+        per_particle: found,
+        ..
+    } = packed;
+    let empty = clusters.empty_cluster();
+    for (packed, source) in v.iter_mut().zip(state.v) {
+        clusters.pack(source, |_| 0.0, packed);
+    }
+    // An empty place's density only has to be a number: its lanes are masked.
+    clusters.pack(state.rho, |_| 1.0, rho);
+    clusters.pack(state.pressure_terms, |_| 0.0, pressure_terms);
+    for sums in a.iter_mut().chain([&mut *density_rates]) {
+        sums.clear();
+        sums.resize((empty + 1) * CLUSTER, 0.0);
+    }
+    let p = clusters.positions();
+    let needed = (empty + 1) * CLUSTER;
+    let per_register = L::LANES / CLUSTER;
+    assert!(per_register == 1 || per_register == 2);
+    let reads = [
+        &p[0],
+        &p[1],
+        &p[2],
+        &v[0],
+        &v[1],
+        &v[2],
+        &*rho,
+        &*pressure_terms,
+    ];
+    let sums = [&a[0], &a[1], &a[2], &*density_rates];
+    assert!(reads.iter().chain(&sums).all(|a| a.len() >= needed));
+    let packed_state = State {
+        p,
+        v,
+        rho,
+        pressure_terms,
+    };
+    let pairs = Pairs::<L>::new(constants, packed_state);
+    let [ax, ay, az] = a;
+    let mut targets = [&mut ax[..], ay, az, density_rates];
+    let places = clusters.places();
+    for own in 0..empty {
+        let windows = clusters.windows(own);
+        let base = own * CLUSTER;
+        // Its own cluster, each cluster of its windows, and a spare register's worth.
+        let most = 1
+            + windows
+                .iter()
+                .map(|&[b, e]| (e - b) as usize)
+                .sum::<usize>()
+            + per_register;
+        if found.len() < most {
+            found.resize(most, 0);
+        }
+        for place in base..base + CLUSTER {
+            if places[place] == EMPTY {
+                break;
+            }
+            let first = First::of(constants, &packed_state, place);
+            // The clusters with a partner within the support, written without a branch:
+            // each at the end, which advances only past those that hold one.
+            found[0] = own as u32;
+            let mut count = 1;
+            for &[begin, end] in windows {
+                for k in (begin..end).step_by(per_register) {
+                    let lanes = L::lanes_between(0, (end - k) as usize * CLUSTER);
+                    // SAFETY: k < end <= empty, so the places of k and k + 1 are within
+                    // (empty + 1) * CLUSTER, which every array holds (asserted).
+                    let close =
+                        unsafe { pairs.close(&first, (k as usize * CLUSTER).into(), lanes) };
+                    for c in 0..per_register {
+                        found[count] = k + c as u32;
+                        count += usize::from(close >> (c * CLUSTER) & 0b1111 != 0);
+                    }
+                }
+            }
+            // An odd count's spare half holds the empty cluster.
+            found[count] = empty as u32;
+            let mut sums = [L::ZERO_SUM; 4];
+            for (index, clusters) in found[..count + per_register - 1]
+                .chunks_exact(per_register)
+                .enumerate()
+            {
+                let at = Places::fours(
+                    clusters[0] as usize * CLUSTER,
+                    clusters[per_register - 1] as usize * CLUSTER,
+                );
+                // In its own cluster, the places after it.
+                let lanes = if index == 0 {
+                    L::lanes_between(place - base + 1, L::LANES)
+                } else {
+                    L::all()
+                };
+                // SAFETY: every cluster of `found` is at most the empty one, whose places
+                // every array holds (asserted).
+                unsafe { pairs.visit(&first, at, lanes, &mut sums, &mut targets) };
+            }
+            for (target, sum) in targets.iter_mut().zip(sums) {
+                target[place] += L::total(sum);
+            }
+        }
+    }
+    let n = id.len();
+    let rates = &mut rates;
+    let [x, y, z] = &mut *rates.a;
+    for (target, sums) in [&mut x[..], y, z, rates.rho].into_iter().zip(targets) {
+        unpack_add(places, sums, target);
     }
     self_images(constants, state, n, rates);
 }
@@ -592,11 +822,13 @@ pub(super) fn lanes<L: Lanes>(pass: WeaklyCompressible) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::clusters::PairStructure;
     use crate::sim::kernel::Kernel;
     use crate::sim::method::Method;
     use crate::sim::model::{Model, Wcsph};
     use crate::sim::particles::{Particles, PADDING};
     use crate::sim::simulation::Simulation;
+    use crate::sim::stages::Stage;
 
     /// A jittered block of `size` particles a spacing (1 / `ppm`) apart from `corner`,
     /// with random velocities and densities within 1% of rest.
@@ -621,9 +853,11 @@ mod tests {
     }
 
     /// The pair loop of `kernel` on `particles` (densities as given, velocities their
-    /// hv), placed in cell order: accelerations and density rates by particle id.
+    /// hv), placed in cell order, on `structure` where the kernel runs on clusters:
+    /// accelerations and density rates by particle id.
     fn pass(
         kernel: Kernel,
+        structure: PairStructure,
         model: &Wcsph,
         ppm: f64,
         particles: &Particles,
@@ -632,7 +866,15 @@ mod tests {
             model: Model::Wcsph,
             kernel,
         };
-        let sim = Simulation::with_method(ppm, particles.clone(), method).unwrap();
+        let mut sim = Simulation::with_method(ppm, particles.clone(), method).unwrap();
+        sim.set_pair_structure(structure);
+        sim.run_stage(Stage::Reposition);
+        let on_clusters = structure == PairStructure::Clusters && kernel.runs_on_clusters();
+        assert_eq!(
+            sim.clusters().is_some(),
+            on_clusters,
+            "{kernel:?} on {structure:?}"
+        );
         let placed = sim.particles();
         let n = placed.len();
         // The densities as given (the simulation settled its own), in slot order.
@@ -659,12 +901,14 @@ mod tests {
         kernel.run(WeaklyCompressible {
             constants: &model.constants,
             tiles: sim.tiles(),
+            clusters: sim.clusters(),
             state,
             id: &placed.id,
             rates: Rates {
                 a: &mut a,
                 rho: &mut rates,
             },
+            packed: &mut Packed::default(),
         });
         let (mut by_id_a, mut by_id_rate) = (vec![DVec3::ZERO; n], vec![0.0; n]);
         for (slot, (&id, &rate)) in placed.id.iter().zip(&rates).enumerate() {
@@ -697,7 +941,13 @@ mod tests {
         let ppm = 300.0;
         let particles = block(ppm, [12, 11, 13], BOX_MIN, 7);
         let model = Wcsph::new(ppm, 10.0);
-        let scalar = pass(Kernel::Scalar, &model, ppm, &particles);
+        let scalar = pass(
+            Kernel::Scalar,
+            PairStructure::Tiles,
+            &model,
+            ppm,
+            &particles,
+        );
         assert!(scalar.0.iter().all(|a| a.is_finite() && *a != DVec3::ZERO));
         for (kernel, tolerance) in [
             (Kernel::Simd, 1e-12),
@@ -705,12 +955,15 @@ mod tests {
             (Kernel::Reference, 1e-12),
             (Kernel::Mixed, 5e-6),
         ] {
-            let (da, drate) = difference(&scalar, &pass(kernel, &model, ppm, &particles));
-            println!("{kernel:?}: {da:.2e} {drate:.2e}");
-            assert!(
-                da < tolerance && drate < tolerance,
-                "{kernel:?}: {da:e} {drate:e}"
-            );
+            for structure in [PairStructure::Tiles, PairStructure::Clusters] {
+                let other = pass(kernel, structure, &model, ppm, &particles);
+                let (da, drate) = difference(&scalar, &other);
+                println!("{kernel:?} on {structure:?}: {da:.2e} {drate:.2e}");
+                assert!(
+                    da < tolerance && drate < tolerance,
+                    "{kernel:?} on {structure:?}: {da:e} {drate:e}"
+                );
+            }
         }
     }
 
@@ -752,8 +1005,8 @@ mod tests {
         });
         assert!(moved, "the explicit images are near a wall");
         [Kernel::Scalar, Kernel::Simd].map(|kernel| {
-            let with_images = pass(kernel, &model, ppm, &particles);
-            let (a, rate) = pass(kernel, &model, ppm, &explicit);
+            let with_images = pass(kernel, PairStructure::Clusters, &model, ppm, &particles);
+            let (a, rate) = pass(kernel, PairStructure::Clusters, &model, ppm, &explicit);
             let block = (a[..n].to_vec(), rate[..n].to_vec());
             difference(&with_images, &block)
         })

@@ -96,10 +96,6 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
         TimeStep::Fixed(TIME_STEP)
     }
 
-    fn pairs_on_clusters(&self) -> bool {
-        true
-    }
-
     fn interact(&mut self, context: &mut Context) {
         for stage in [
             Stage::IncrementDensities,

@@ -86,7 +86,7 @@ pub struct Context<'a> {
     /// The tiles of candidate pairs.
     pub tiles: &'a [Tile],
     /// The clusters of the same placement, where the driver built them (a dense scene,
-    /// a kernel on lanes, a model that asks for them).
+    /// a kernel on lanes, clusters asked for).
     pub clusters: Option<&'a Clusters>,
     /// The walls of each slot's block (stage 1).
     pub walls: &'a Walls,
@@ -112,12 +112,6 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// given: the cut-off unless the kernel's support is wider than h.
     fn smoothing_length(&self, params: &Params) -> f64 {
         params.h
-    }
-
-    /// Whether the model's pair passes run on [`Clusters`] on the kernels that have
-    /// loops on them ([`Kernel::runs_on_clusters`]); else on the tiles alone.
-    fn pairs_on_clusters(&self) -> bool {
-        false
     }
 
     /// Whether the densities are a state of their own, carried from step to step (moved

@@ -12,7 +12,7 @@
 
 use super::{Context, Dynamics};
 use crate::sim::cells::Walls;
-use crate::sim::kernel::{Rates, State, WcsphConstants, WeaklyCompressible};
+use crate::sim::kernel::{Packed, Rates, State, WcsphConstants, WeaklyCompressible};
 use crate::sim::params::{Params, BOX_MIN, FLUID_DENSITY, GRAVITY};
 use crate::sim::particles::{AxisArrays, Particles, PADDING};
 use crate::sim::stages::{self, Stage};
@@ -51,6 +51,8 @@ pub struct Wcsph {
     rates: Vec<f64>,
     /// The velocities the pair pass reads (padded): [`predicted_velocity`].
     velocities: AxisArrays,
+    /// The copies by place of the pair pass on clusters.
+    packed: Packed,
 }
 
 impl Wcsph {
@@ -212,6 +214,7 @@ impl Dynamics for Wcsph {
         context.kernel.run(WeaklyCompressible {
             constants: &self.constants,
             tiles: context.tiles,
+            clusters: context.clusters,
             state: State {
                 p,
                 v: &self.velocities,
@@ -223,6 +226,7 @@ impl Dynamics for Wcsph {
                 a,
                 rho: &mut self.rates,
             },
+            packed: &mut self.packed,
         });
     }
 
@@ -256,7 +260,10 @@ impl Dynamics for Wcsph {
 
     fn heap_bytes(&self) -> usize {
         let axes: usize = self.velocities.iter().map(crate::sim::heap_bytes).sum();
-        crate::sim::heap_bytes(&self.pressure_terms) + crate::sim::heap_bytes(&self.rates) + axes
+        crate::sim::heap_bytes(&self.pressure_terms)
+            + crate::sim::heap_bytes(&self.rates)
+            + axes
+            + self.packed.heap_bytes()
     }
 }
 
