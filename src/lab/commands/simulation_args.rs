@@ -45,7 +45,7 @@ pub struct SimulationArgs {
     /// closer than h stay exactly those of a rebuild every step).
     #[arg(long, allow_negative_numbers = true, value_name = "FRACTION_OF_H", value_parser = parse_skin)]
     pub skin: Option<f64>,
-    /// The neighbour structure of the course models' SIMD pair loops on dense scenes.
+    /// The neighbour structure of the SIMD pair loops on dense scenes.
     #[arg(long, value_enum, default_value_t = PairStructure::default())]
     pub pairs: PairStructure,
 }
