@@ -409,3 +409,144 @@ fn a_terminal_gets_a_progress_bar_with_steps_per_second() {
     );
     assert!(text.contains(&parameters), "{text}");
 }
+
+/// The (time, file) of each frame of a `.pvd` collection.
+fn collection_frames(path: &Path) -> Vec<(f64, String)> {
+    let collection = std::fs::read_to_string(path).unwrap();
+    let document = roxmltree::Document::parse(&collection).unwrap();
+    document
+        .descendants()
+        .filter(|n| n.has_tag_name("DataSet"))
+        .map(|n| {
+            let time = n.attribute("timestep").unwrap().parse().unwrap();
+            (time, n.attribute("file").unwrap().to_string())
+        })
+        .collect()
+}
+
+#[test]
+fn frames_in_physical_time_land_on_their_times_whatever_the_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    // Steps of 0.7 ms against frames every 1 ms to 5 ms: each frame's step is cut short
+    // to land on it (0.7 + 0.3 ms), so frame k is step 2k at exactly k ms.
+    let out = dir.path().join("series");
+    let (small, folder) = (small.to_str().unwrap(), out.to_str().unwrap());
+    let args = [
+        "export",
+        small,
+        folder,
+        "--model",
+        "fluidanimate",
+        "--dt",
+        "0.0007",
+    ];
+    let timed = [
+        "--until",
+        "0.005",
+        "--frame-every",
+        "0.001",
+        "--format",
+        "vtp",
+    ];
+    let output = export(&[&args[..], &timed[..]].concat());
+    let frames = collection_frames(&out.join("small.pvd"));
+    assert_eq!(frames.len(), 6, "{}", stdout(&output));
+    for (k, (time, file)) in frames.iter().enumerate() {
+        assert!(
+            (time - k as f64 * 1e-3).abs() < 1e-15,
+            "frame {k} at {time}"
+        );
+        assert_eq!(file, &format!("small_{:06}.vtp", 2 * k));
+        assert!(out.join(file).is_file());
+    }
+    // --until alone: the final state only, at that time, after steps cut to reach it.
+    let out = dir.path().join("final");
+    let folder = out.to_str().unwrap();
+    let args = [
+        "export",
+        small,
+        folder,
+        "--model",
+        "fluidanimate",
+        "--dt",
+        "0.0007",
+    ];
+    export(&[&args[..], &["--until", "0.005", "--format", "vtp"][..]].concat());
+    let frames = collection_frames(&out.join("small.pvd"));
+    assert_eq!(frames.len(), 1);
+    assert!((frames[0].0 - 0.005).abs() < 1e-15, "{}", frames[0].0);
+    // 0.7 ms steps: 7 whole, then 0.1 ms to land on 5 ms.
+    assert_eq!(frames[0].1, "small_000008.vtp");
+}
+
+#[test]
+fn a_time_that_is_not_finite_and_positive_or_two_extents_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let (small, out) = (small.to_str().unwrap(), dir.path().join("out"));
+    let folder = out.to_str().unwrap();
+    for (option, value) in [
+        ("--until", "-1"),
+        ("--until", "0"),
+        ("--until", "nan"),
+        ("--until", "inf"),
+        ("--frame-every", "0"),
+        ("--frame-every", "-0.001"),
+    ] {
+        for subcommand in ["export", "render"] {
+            let target = match subcommand {
+                "export" => folder.to_string(),
+                _ => format!("{folder}.png"),
+            };
+            let output = run_lab(&[subcommand, small, &target, option, value]);
+            assert_eq!(exit_code(&output), 2, "{subcommand} {option} {value}");
+            let message = format!("{value} is not a positive, finite time in seconds");
+            assert!(stderr(&output).contains(&message), "{}", stderr(&output));
+        }
+    }
+    // A run ends by steps or by time, and writes frames by steps or by time.
+    for [option, value, extra, extra_value] in [
+        ["--until", "0.01", "--steps", "3"],
+        ["--frame-every", "0.001", "--every", "2"],
+    ] {
+        let output = run_lab(&["export", small, folder, option, value, extra, extra_value]);
+        assert_eq!(exit_code(&output), 2);
+        assert!(
+            stderr(&output).contains("cannot be used with"),
+            "{}",
+            stderr(&output)
+        );
+    }
+    assert!(!out.exists(), "a refused run leaves no folder");
+}
+
+#[test]
+fn a_png_series_in_physical_time_has_a_frame_per_interval() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let png = dir.path().join("frame.png");
+    let output = run_lab(&[
+        "render",
+        small.to_str().unwrap(),
+        png.to_str().unwrap(),
+        "--until",
+        "0.003",
+        "--frame-every",
+        "0.0015",
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // 1 ms steps: the second is cut to 0.5 ms to land on 1.5 ms, the third and fourth
+    // land on 2.5 and 3 ms.
+    let mut written: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    written.sort();
+    assert_eq!(
+        written,
+        ["frame_000000.png", "frame_000002.png", "frame_000004.png"],
+        "{}",
+        stdout(&output)
+    );
+}

@@ -1,7 +1,7 @@
-//! `fluid-lab export`: a state, or a run every k steps, as VTK (legacy ASCII, or XML with
+//! `fluid-lab export`: a state, or a run every k steps or every t simulated seconds, as VTK (legacy ASCII, or XML with
 //! binary arrays and a `.pvd` time series, for ParaView) or CSV files.
 
-use super::simulation_args::{load, run_visiting, Loaded, SimulationArgs};
+use super::simulation_args::{load, run_visiting, Loaded, SimulationArgs, Span};
 use crate::io::export::{pvd_collection, Snapshot};
 use crate::io::output::OutputFile;
 use clap::builder::RangedI64ValueParser;
@@ -20,6 +20,8 @@ pub struct ExportArgs {
     /// Also export every this many steps (and step 0) [default: the final state only].
     #[arg(long, allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
     every: Option<u64>,
+    #[command(flatten)]
+    span: Span,
     /// File format.
     #[arg(long, value_enum, default_value_t = ExportFormat::Vtk)]
     format: ExportFormat,
@@ -46,10 +48,11 @@ pub fn exec(args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
         ..
     } = load(&args.simulation)?;
     super::create_output_dir(&args.output_dir)?;
-    let steps = args.simulation.steps;
+    let extent = args.span.extent(args.simulation.steps);
+    let visits = args.span.frames(args.every);
     let collection = args.output_dir.join(format!("{stem}.pvd"));
     let mut frames = Vec::new();
-    run_visiting(&mut simulation, steps, args.every, |simulation, step| {
+    run_visiting(&mut simulation, extent, visits, |simulation, step| {
         let snapshot = Snapshot::of(simulation, step);
         let (bytes, extension) = match args.format {
             ExportFormat::Vtk => (

@@ -1,6 +1,6 @@
 //! `fluid-lab render`: a state as a PNG, or a run as an animated GIF or a PNG series.
 
-use super::simulation_args::{load, run_visiting, Loaded, SimulationArgs};
+use super::simulation_args::{load, run_visiting, Extent, Frames, Loaded, SimulationArgs, Span};
 use crate::io::export::Snapshot;
 use crate::io::output::OutputFile;
 use crate::lab::render::{self, Animation, Colouring};
@@ -15,12 +15,15 @@ use std::path::{Path, PathBuf};
 pub struct RenderArgs {
     #[command(flatten)]
     simulation: SimulationArgs,
-    /// Output: .png for the final state (a numbered series with --every), .gif for an
-    /// animation of the run.
+    /// Output: .png for the final state (a numbered series with --every or
+    /// --frame-every), .gif for an animation of the run.
     output: PathBuf,
-    /// Draw every this many steps (and step 0) [default for .gif: steps / 50].
+    /// Draw every this many steps (and step 0) [default for .gif: 50 frames, by steps or,
+    /// with --until, by simulated time].
     #[arg(long, allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
     every: Option<u64>,
+    #[command(flatten)]
+    span: Span,
     /// What the colours show.
     #[arg(long, value_enum, default_value_t = Colouring::Speed)]
     colour: Colouring,
@@ -58,17 +61,18 @@ impl Picture {
 pub fn exec(args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let output = &args.output;
     let picture = Picture::of(output)?;
-    let steps = args.simulation.steps;
-    let frame_path = |step: u64| match args.every {
-        Some(_) => {
+    let extent = args.span.extent(args.simulation.steps);
+    let series = args.span.is_series(args.every);
+    let frame_path = |step: u64| match series {
+        true => {
             let stem = output.file_stem().unwrap_or_default().to_string_lossy();
             let extension = output.extension().unwrap_or_default().to_string_lossy();
             output.with_file_name(format!("{stem}_{step:06}.{extension}"))
         }
-        None => output.clone(),
+        false => output.clone(),
     };
-    let first = match (picture, args.every) {
-        (Picture::Png, Some(_)) => frame_path(0),
+    let first = match (picture, series) {
+        (Picture::Png, true) => frame_path(0),
         _ => output.clone(),
     };
     let mut first = Some(OutputFile::create(&first)?);
@@ -86,21 +90,26 @@ pub fn exec(args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
     };
     match picture {
         Picture::Gif => {
-            let every = args.every.unwrap_or((steps / 50).max(1));
+            let frames = match (args.span.frames(args.every), extent) {
+                (Frames::Last, Extent::Steps(steps)) => Frames::EverySteps((steps / 50).max(1)),
+                (Frames::Last, Extent::Until(end)) => Frames::EverySeconds(end / 50.0),
+                (frames, _) => frames,
+            };
             let staged = first.take().expect("the GIF's output").staged()?;
             let mut animation = Animation::create(staged.path(), args.delay_ms)?;
-            let mut frames = 0;
-            run_visiting(&mut simulation, steps, Some(every), |simulation, step| {
+            let mut frames_drawn = 0;
+            run_visiting(&mut simulation, extent, frames, |simulation, step| {
                 animation.push(&Snapshot::of(simulation, step), &style)?;
-                frames += 1;
+                frames_drawn += 1;
                 Ok(())
             })?;
             drop(animation);
             staged.commit()?;
-            writeln!(stdout, "wrote {} ({frames} frames)", output.display())?;
+            writeln!(stdout, "wrote {} ({frames_drawn} frames)", output.display())?;
         }
         Picture::Png => {
-            run_visiting(&mut simulation, steps, args.every, |simulation, step| {
+            let frames = args.span.frames(args.every);
+            run_visiting(&mut simulation, extent, frames, |simulation, step| {
                 let path = frame_path(step);
                 let file = match first.take() {
                     Some(file) => file,

@@ -115,33 +115,142 @@ pub fn progress_bar(steps: u64) -> ProgressBar {
     ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::stderr()).with_style(style)
 }
 
-/// Runs `steps` steps, calling `visit` at step 0 and every `every` steps (if given), and
-/// at the last step.
+/// How far a run of `export` or `render` goes, in physical time if asked, and which of its
+/// states it writes besides the last: the options they share beside their `--every`.
+#[derive(Debug, Args)]
+pub struct Span {
+    /// Run to this physical time in seconds instead of --steps (the last step cut short
+    /// to land on it).
+    #[arg(long, value_name = "SECONDS", conflicts_with = "steps", allow_negative_numbers = true, value_parser = parse_seconds)]
+    pub until: Option<f64>,
+    /// Also write the state every this many simulated seconds (and at time 0), each at
+    /// its time exactly: a step that would pass a frame's time is cut short to land on it.
+    #[arg(long, value_name = "SECONDS", conflicts_with = "every", allow_negative_numbers = true, value_parser = parse_seconds)]
+    pub frame_every: Option<f64>,
+}
+
+impl Span {
+    /// The run's extent: `--until`, else `steps`.
+    pub fn extent(&self, steps: u64) -> Extent {
+        self.until.map_or(Extent::Steps(steps), Extent::Until)
+    }
+
+    /// The states written besides the last: `--frame-every`, else every `every` steps.
+    pub fn frames(&self, every: Option<u64>) -> Frames {
+        match (self.frame_every, every) {
+            (Some(interval), _) => Frames::EverySeconds(interval),
+            (None, Some(every)) => Frames::EverySteps(every),
+            (None, None) => Frames::Last,
+        }
+    }
+
+    /// Whether states besides the last are written.
+    pub fn is_series(&self, every: Option<u64>) -> bool {
+        self.frames(every) != Frames::Last
+    }
+}
+
+/// How far a run goes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Extent {
+    /// This many steps.
+    Steps(u64),
+    /// To this physical time (s), the last step cut short to land on it.
+    Until(f64),
+}
+
+/// Which states of a run are visited besides its last.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Frames {
+    /// None.
+    Last,
+    /// Step 0 and every this many steps.
+    EverySteps(u64),
+    /// Time 0 and every this many simulated seconds, each landed on exactly.
+    EverySeconds(f64),
+}
+
+/// A progress bar over the run's extent on stderr (steps, or simulated microseconds), with
+/// its rate, if stderr is a terminal; hidden otherwise.
+fn progress_over(extent: Extent) -> ProgressBar {
+    match extent {
+        Extent::Steps(steps) => progress_bar(steps),
+        Extent::Until(_) if !std::io::stderr().is_terminal() => ProgressBar::hidden(),
+        Extent::Until(end) => {
+            let style = ProgressStyle::with_template(
+                "{bar:30} {pos}/{len} simulated us  {per_sec}  eta {eta}",
+            )
+            .expect("a valid template");
+            let micros = (end * 1e6).ceil() as u64;
+            ProgressBar::with_draw_target(Some(micros), ProgressDrawTarget::stderr())
+                .with_style(style)
+        }
+    }
+}
+
+/// Runs `simulation` over `extent`, calling `visit` with the step count at the states of
+/// `frames` (step 0 included) and at the last.
 pub fn run_visiting(
     simulation: &mut Simulation,
-    steps: u64,
-    every: Option<u64>,
+    extent: Extent,
+    frames: Frames,
     mut visit: impl FnMut(&Simulation, u64) -> Result<(), Box<dyn Error>>,
 ) -> Result<(), Box<dyn Error>> {
-    let progress = progress_bar(steps);
-    for step in 0..=steps {
-        if step > 0 {
-            simulation.step();
-            progress.inc(1);
-            // A state with NaN or infinities is not drawn or exported as if it were one.
-            if let Some(id) = Vitals::of(simulation).non_finite {
-                progress.finish_and_clear();
-                return Err(
-                    format!("the run failed at step {step}: particle {id} is not finite").into(),
-                );
-            }
+    let progress = progress_over(extent);
+    let is_over = |simulation: &Simulation, step: u64| match extent {
+        Extent::Steps(steps) => step >= steps,
+        Extent::Until(end) => simulation.has_reached(end),
+    };
+    let mut step = 0;
+    // Frames in time land on multiples of the interval, counted, not summed.
+    let mut frame = 0u64;
+    if frames != Frames::Last || is_over(simulation, 0) {
+        visit(simulation, 0)?;
+    }
+    while !is_over(simulation, step) {
+        let next_frame = match frames {
+            Frames::EverySeconds(interval) => (frame + 1) as f64 * interval,
+            _ => f64::INFINITY,
+        };
+        let end = match extent {
+            Extent::Until(end) => end.min(next_frame),
+            Extent::Steps(_) => next_frame,
+        };
+        simulation.step_towards(end);
+        step += 1;
+        match extent {
+            Extent::Steps(_) => progress.inc(1),
+            Extent::Until(_) => progress.set_position((simulation.time() * 1e6) as u64),
         }
-        if step == steps || every.is_some_and(|every| step % every == 0) {
+        // A state with NaN or infinities is not drawn or exported as if it were one.
+        if let Some(id) = Vitals::of(simulation).non_finite {
+            progress.finish_and_clear();
+            return Err(
+                format!("the run failed at step {step}: particle {id} is not finite").into(),
+            );
+        }
+        let on_frame = match frames {
+            Frames::Last => false,
+            Frames::EverySteps(every) => step % every == 0,
+            Frames::EverySeconds(_) => simulation.has_reached(next_frame),
+        };
+        if on_frame && matches!(frames, Frames::EverySeconds(_)) {
+            frame += 1;
+        }
+        if on_frame || is_over(simulation, step) {
             visit(simulation, step)?;
         }
     }
     progress.finish_and_clear();
     Ok(())
+}
+
+/// Parses a physical time in seconds: finite and positive.
+pub fn parse_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(seconds) if seconds.is_finite() && seconds > 0.0 => Ok(seconds),
+        _ => Err(format!("{text} is not a positive, finite time in seconds")),
+    }
 }
 
 /// Parses a positive, finite time step.
