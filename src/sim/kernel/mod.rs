@@ -10,9 +10,12 @@
 //! by the densities' reciprocals rather than dividing by their product: the reference
 //! outputs depend on neither (SPEC.md section 5; every one holds byte for byte). [`Kernel::Reference`] sums each
 //! particle's terms in id order with compensated summation, for accuracy measurements.
-//! A fifth, [`Kernel::Mixed`], runs the SIMD loop with each pair's terms in f32 lanes
-//! (differences and sums in f64): less exact (within 5e-7 relative on a dense step), a
-//! workbench method.
+//! A fifth, [`Kernel::Mixed`], computes the pair terms in f32 lanes: on tiles, the SIMD
+//! loop with each pair's differences taken in f64 and narrowed; on the course models'
+//! clusters, its own loops (`narrowed`: a cluster pair per 16-lane register, with what the
+//! terms read narrowed once per placement, positions relative to each cluster's first
+//! particle); sums in f64. Less exact (within 5e-7 relative on a dense step), a workbench
+//! method.
 //!
 //! The density loop also records where the pairs closer than h are ([`ClosePairs`]): the
 //! acceleration loop, over the same positions, visits only those tiles and, on the SIMD
@@ -20,6 +23,7 @@
 //! clusters for those particles, without testing the others again.
 
 mod clustered;
+mod narrowed;
 mod reference;
 mod scalar;
 mod simd;
@@ -45,9 +49,12 @@ pub enum Kernel {
     /// As [`Kernel::Simd`], eight partners at a time in `wide::f64x8` lanes (one AVX-512
     /// register; two AVX2 registers elsewhere).
     Simd8,
-    /// Mixed precision, eight partners at a time: each pair's differences computed in f64
-    /// and narrowed to f32, the pair terms in `wide::f32x8` lanes, the sums in f64. Not
-    /// held to the reference outputs (within 5e-7 relative on a dense step); a workbench method.
+    /// Mixed precision: the pair terms in f32 lanes, the sums in f64. On tiles (and for
+    /// the weakly compressible model) eight partners at a time, each pair's differences
+    /// computed in f64 and narrowed; on the course models' clusters a cluster of 4 against
+    /// a cluster of 4 in 16 lanes, positions narrowed once per placement relative to each
+    /// cluster's first particle. Not held to the reference outputs (within 5e-7 relative on
+    /// a dense step); a workbench method.
     Mixed,
     /// Each particle's sums on their own, over its partners in id order, with compensated
     /// (Neumaier) summation: the reference trajectory for accuracy measurements (slow).
@@ -117,7 +124,7 @@ impl Kernel {
             Kernel::Scalar => pass.scalar(),
             Kernel::Simd => pass.lanes::<F64x4>(),
             Kernel::Simd8 => pass.lanes::<F64x8>(),
-            Kernel::Mixed => pass.lanes::<MixedF32x8>(),
+            Kernel::Mixed => pass.mixed(),
             Kernel::Reference => pass.reference(),
         }
     }
@@ -139,6 +146,13 @@ pub(crate) trait PairPass {
     fn scalar(self);
     /// A lane-width of partners at a time, on lanes `L`.
     fn lanes<L: Lanes>(self);
+    /// The mixed kernel: on [`MixedF32x8`] lanes unless the pass has loops of its own.
+    fn mixed(self)
+    where
+        Self: Sized,
+    {
+        self.lanes::<MixedF32x8>();
+    }
     /// Each particle's terms on their own, in id order, with compensated sums.
     fn reference(self);
 }
@@ -202,6 +216,35 @@ pub struct Packed {
     pressure_terms: Vec<f64>,
     /// The weakly compressible model's density rates by place.
     rates: Vec<f64>,
+    /// The mixed kernel's values narrowed once per placement.
+    narrowed: Narrowed,
+}
+
+/// What the mixed kernel's loops on [`Clusters`] read, narrowed to f32: per cluster, a
+/// register of 16 lanes holding its 4 particles' values in each run of 4 lanes, as a
+/// partner cluster meets them (`kernel::narrowed`).
+#[derive(Debug, Clone, Default)]
+struct Narrowed {
+    /// Positions relative to their cluster's first particle (infinite at empty places).
+    p: [Vec<wide::f32x16>; 3],
+    /// Velocities.
+    v: [Vec<wide::f32x16>; 3],
+    /// Densities less the rest density.
+    excess: Vec<wide::f32x16>,
+    /// The densities' reciprocals.
+    inverse_rho: Vec<wide::f32x16>,
+}
+
+impl Narrowed {
+    /// The bytes its buffers hold on the heap.
+    fn heap_bytes(&self) -> usize {
+        self.p
+            .iter()
+            .chain(&self.v)
+            .chain([&self.excess, &self.inverse_rho])
+            .map(crate::sim::heap_bytes)
+            .sum()
+    }
 }
 
 impl Packed {
@@ -215,6 +258,7 @@ impl Packed {
             + axes(&self.a)
             + crate::sim::heap_bytes(&self.pressure_terms)
             + crate::sim::heap_bytes(&self.rates)
+            + self.narrowed.heap_bytes()
     }
 }
 
@@ -271,6 +315,15 @@ impl PairPass for Densities<'_> {
             None => simd::increment_densities::<L>(self),
         }
     }
+    fn mixed(self) {
+        match self.clusters {
+            Some(clusters) => {
+                self.close.clear();
+                narrowed::increment_densities(self, clusters);
+            }
+            None => self.lanes::<MixedF32x8>(),
+        }
+    }
     fn reference(self) {
         self.close.clear();
         reference::increment_densities(self);
@@ -318,6 +371,12 @@ impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
         match self.clusters {
             Some(clusters) => clustered::transfer_accelerations::<L, FLUIDANIMATE>(self, clusters),
             None => simd::transfer_accelerations::<L, FLUIDANIMATE>(self),
+        }
+    }
+    fn mixed(self) {
+        match self.clusters {
+            Some(clusters) => narrowed::transfer_accelerations::<FLUIDANIMATE>(self, clusters),
+            None => self.lanes::<MixedF32x8>(),
         }
     }
     fn reference(self) {
@@ -404,6 +463,68 @@ mod tests {
                     "{density_error}"
                 );
                 assert!(acceleration_error < 1e-5 && acceleration_error > 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn the_mixed_loops_on_clusters_find_every_pair_with_or_without_the_density_pass_s_list() {
+        // The acceleration pass of the mixed kernel on clusters, after its density pass
+        // (the clusters it recorded) and alone (every cluster of the windows, positions
+        // narrowed by the pass itself): the same terms, up to the order of the sums.
+        use super::{Accelerations, Candidates, ClosePairs, Densities, Packed};
+        let ppm = 292.0;
+        let method = Method {
+            model: Model::Fluidanimate,
+            kernel: Kernel::Mixed,
+        };
+        let sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
+        let clusters = sim.clusters().expect("a dense block runs on clusters");
+        let placed = sim.particles();
+        let params = sim.params();
+        let (mut close, mut packed) = (ClosePairs::default(), Packed::default());
+        let mut rho = vec![0.0; placed.rho.len()];
+        Kernel::Mixed.run(Densities {
+            params,
+            tiles: sim.tiles(),
+            clusters: Some(clusters),
+            p: &placed.p,
+            id: &placed.id,
+            rho: &mut rho,
+            close: &mut close,
+            packed: &mut packed,
+        });
+        let n = placed.len();
+        super::transform_densities(params, &mut rho[..n]);
+        assert!(!close.clusters.is_empty());
+        let accelerations = |candidates: Candidates, packed: &mut Packed| {
+            let mut a = placed.a.clone();
+            for axis in &mut a {
+                axis.fill(0.0);
+            }
+            Kernel::Mixed.run(Accelerations::<true> {
+                params,
+                candidates,
+                clusters: Some(clusters),
+                p: &placed.p,
+                v: &placed.v,
+                rho: &rho,
+                id: &placed.id,
+                a: &mut a,
+                packed,
+            });
+            a
+        };
+        let listed = accelerations(Candidates::Close(&close), &mut packed);
+        let alone = accelerations(Candidates::All(&[]), &mut Packed::default());
+        let largest = (0..n)
+            .map(|s| crate::sim::particles::vector_at(&listed, s).length())
+            .fold(0.0, f64::max);
+        assert!(largest > 0.0);
+        for slot in 0..n {
+            for axis in 0..3 {
+                let difference = (listed[axis][slot] - alone[axis][slot]).abs();
+                assert!(difference <= 1e-6 * largest, "slot {slot}: {difference}");
             }
         }
     }
