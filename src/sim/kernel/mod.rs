@@ -172,7 +172,8 @@ pub struct ClosePairs {
     /// group from the 63rd on. The SIMD kernels keep all tiles of a cell with any such pair.
     pub groups: Vec<u64>,
     /// On [`Clusters`]: for each cluster, in order, the clusters of its list holding a
-    /// partner closer than h to one of its particles.
+    /// partner closer than h to one of its particles (on the f64 kernels each entry also
+    /// holds, in its top bits, which of its particles have one).
     pub clusters: Vec<u32>,
     /// Where each cluster's entries start in [`Self::clusters`], then their end.
     pub starts: Vec<u32>,

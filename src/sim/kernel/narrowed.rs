@@ -9,9 +9,9 @@
 //! particle's own sums stay in f32 over its cluster's partners and are widened once.
 //!
 //! The density pass records, per cluster, the clusters holding a partner closer than h
-//! for one of its particles, as the f64 loops on clusters do ([`super::ClosePairs`]); the
-//! acceleration pass of the same placement visits only those cluster pairs, each
-//! whole (16 lanes).
+//! for one of its particles ([`super::ClosePairs`], the clusters alone: the pairs are
+//! evaluated whole); the acceleration pass of the same placement visits only those
+//! cluster pairs, 16 lanes each.
 
 use super::clustered::unpack_add;
 use super::{Accelerations, Candidates, Densities, Narrowed, Packed};
@@ -19,10 +19,6 @@ use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
 use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::AxisArrays;
 use wide::f32x16;
-
-/// Where a recorded cluster's entry holds the particles that have a partner in it (as in
-/// the f64 loops on clusters).
-const PARTICLES_SHIFT: u32 = 28;
 
 /// The lanes of a cluster against itself that hold a pair once: partner j after
 /// particle i.
@@ -174,7 +170,6 @@ pub(super) fn increment_densities(pass: Densities, clusters: &Clusters) {
         ..
     } = packed;
     let empty = clusters.empty_cluster();
-    assert!(empty < 1 << PARTICLES_SHIFT, "too many clusters to record");
     narrowed.narrow_positions(clusters);
     sums.clear();
     sums.resize(empty * CLUSTER, 0.0);
@@ -182,34 +177,39 @@ pub(super) fn increment_densities(pass: Densities, clusters: &Clusters) {
     let h2 = f32x16::splat(params.h2 as f32);
     let (own_mask, all) = (own_pairs(), f32x16::splat(f32::from_bits(u32::MAX)));
     close.starts.reserve(empty + 1);
+    // The recorded clusters are written without a branch on whether a cluster pair holds
+    // a close pair: each at the end, which advances only past those that do.
+    let mut recorded = 0;
     for own in 0..empty {
-        close.starts.push(close.clusters.len() as u32);
+        close.starts.push(recorded as u32);
         let rows = [0, 1, 2].map(|axis| particles(narrowed.p[axis][own]));
         let mut own_sums = f32x16::ZERO;
-        let at = [own, own];
+        let positions = (&narrowed.p, p);
         density_pair(
-            (&narrowed.p, p),
+            positions,
             &rows,
-            at,
+            [own, own],
             own_mask,
             h2,
             &mut own_sums,
             sums,
         );
-        for &[begin, end] in clusters.windows(own) {
-            for k in begin as usize..end as usize {
-                let at = [own, k];
-                let found = density_pair((&narrowed.p, p), &rows, at, all, h2, &mut own_sums, sums);
-                let particles = (0..CLUSTER).fold(0, |bits, i| {
-                    bits | u32::from(found >> (CLUSTER * i) & 0b1111 != 0) << i
-                });
-                if particles != 0 {
-                    close.clusters.push(k as u32 | particles << PARTICLES_SHIFT);
-                }
+        let windows = clusters.windows(own);
+        let most: u32 = windows.iter().map(|&[begin, end]| end - begin).sum();
+        if close.clusters.len() < recorded + most as usize {
+            close.clusters.resize(2 * (recorded + most as usize), 0);
+        }
+        for &[begin, end] in windows {
+            for k in begin..end {
+                let at = [own, k as usize];
+                let found = density_pair(positions, &rows, at, all, h2, &mut own_sums, sums);
+                close.clusters[recorded] = k;
+                recorded += usize::from(found != 0);
             }
         }
         add_at(sums, own, particle_totals(own_sums));
     }
+    close.clusters.truncate(recorded);
     close.starts.push(close.clusters.len() as u32);
     unpack_add(clusters.places(), sums, rho);
 }
@@ -281,8 +281,8 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
             Some(close) => {
                 let entries =
                     &close.clusters[close.starts[own] as usize..close.starts[own + 1] as usize];
-                for &entry in entries {
-                    let k = (entry & ((1 << PARTICLES_SHIFT) - 1)) as usize;
+                for &k in entries {
+                    let k = k as usize;
                     terms.add_pair((narrowed, p), &rows, [own, k], all, &mut own_sums, sums);
                 }
             }
