@@ -583,6 +583,91 @@ fn run_large(args: &[&OsStr]) {
 }
 
 #[test]
+fn a_run_to_a_physical_time_lands_on_it_and_resumes_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| -> PathBuf { dir.path().join(name) };
+    let small = input("small");
+    let run = |extra: &[&OsStr]| {
+        let mut args: Vec<&OsStr> = vec!["run".as_ref(), small.as_os_str()];
+        args.extend(
+            [
+                "--model",
+                "fluidanimate",
+                "--dt",
+                "0.001",
+                "--until",
+                "0.0052",
+            ]
+            .map(OsStr::new),
+        );
+        args.extend(extra);
+        run_lab(&args)
+    };
+    // 5 whole steps of 1 ms, then one of 0.2 ms that lands on 5.2 ms.
+    let whole = run(&[path("whole.fld").as_os_str()]);
+    assert_eq!(exit_code(&whole), 0, "{}", stderr(&whole));
+    let line = stdout(&whole);
+    assert!(
+        line.contains(" steps=6 ") && line.contains(" simulated_s=0.005200 "),
+        "{line}"
+    );
+    // Checkpointed after 4 steps, then resumed to the same time: the same file.
+    let part = run(&[
+        "--checkpoint-every".as_ref(),
+        "4".as_ref(),
+        "--checkpoint".as_ref(),
+        path("part.ck").as_os_str(),
+    ]);
+    assert_eq!(exit_code(&part), 0, "{}", stderr(&part));
+    let resumed = run(&[
+        path("resumed.fld").as_os_str(),
+        "--resume".as_ref(),
+        path("part.ck").as_os_str(),
+    ]);
+    assert_eq!(exit_code(&resumed), 0, "{}", stderr(&resumed));
+    assert!(
+        stdout(&resumed).contains(" steps=2 "),
+        "{}",
+        stdout(&resumed)
+    );
+    let read = |name: &str| std::fs::read(path(name)).unwrap();
+    assert_eq!(read("whole.fld"), read("resumed.fld"));
+    // An end before the checkpoint's time is refused; a time that is not finite and
+    // positive too.
+    let mut args: Vec<&OsStr> = vec!["run".as_ref(), small.as_os_str()];
+    args.extend(
+        [
+            "--model",
+            "fluidanimate",
+            "--dt",
+            "0.001",
+            "--until",
+            "0.003",
+        ]
+        .map(OsStr::new),
+    );
+    let checkpoint = path("part.ck");
+    args.extend(["--resume".as_ref(), checkpoint.as_os_str()]);
+    let early = run_lab(&args);
+    assert_eq!(exit_code(&early), 1);
+    assert!(
+        stderr(&early).contains("beyond --until 0.003"),
+        "{}",
+        stderr(&early)
+    );
+    for value in ["0", "-1", "nan", "inf"] {
+        let output = run_lab(&[
+            "run".as_ref(),
+            small.as_os_str(),
+            "--until".as_ref(),
+            OsStr::new(value),
+        ]);
+        assert_eq!(exit_code(&output), 2, "{value}");
+        assert!(stderr(&output).contains("is not a positive, finite time in seconds"));
+    }
+}
+
+#[test]
 fn checkpoints_continue_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| -> PathBuf { dir.path().join(name) };

@@ -2,7 +2,7 @@
 //! optionally per-step diagnostics and the final state.
 
 use super::same_file;
-use super::simulation_args::{load, progress_bar, Loaded, SimulationArgs};
+use super::simulation_args::{load, parse_seconds, progress_over, Extent, Loaded, SimulationArgs};
 use crate::io::checkpoint::{self, Checkpoint};
 use crate::io::fld;
 use crate::io::input::read_regular;
@@ -38,10 +38,14 @@ pub struct RunArgs {
     #[arg(long, requires = "checkpoint_every")]
     checkpoint: Option<PathBuf>,
     /// Go on from this checkpoint (of a run of the same input, model, kernel and time
-    /// step) to --steps in all, bit for bit as if never stopped; diagnostics then start at
-    /// the checkpoint's step.
+    /// step) to --steps in all (or to --until), bit for bit as if never stopped;
+    /// diagnostics then start at the checkpoint's step.
     #[arg(long)]
     resume: Option<PathBuf>,
+    /// Run to this physical time in seconds instead of --steps (the last step cut short
+    /// to land on it).
+    #[arg(long, value_name = "SECONDS", conflicts_with = "steps", allow_negative_numbers = true, value_parser = parse_seconds)]
+    until: Option<f64>,
 }
 
 /// Reads the checkpoint at `path` and checks that it continues the run `simulation`
@@ -75,6 +79,7 @@ fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint
 /// Runs the scene, timed, and writes the timing line, the diagnostics and the final state.
 pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let steps = args.simulation.steps;
+    let extent = args.until.map_or(Extent::Steps(steps), Extent::Until);
     let input = &args.simulation.input;
     // The side files must be files of their own: not the input, the output or each other
     // (the output may be the input, as with `fluid`).
@@ -117,13 +122,17 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
     };
     if let Some(path) = &args.resume {
         let checkpoint = resume(path, &simulation, input_crc)?;
-        if checkpoint.step > steps {
-            return Err(format!(
-                "{} is at step {}, beyond --steps {steps}",
-                path.display(),
-                checkpoint.step
-            )
-            .into());
+        let beyond = match extent {
+            Extent::Steps(steps) => (checkpoint.step > steps)
+                .then(|| format!("step {}, beyond --steps {steps}", checkpoint.step)),
+            Extent::Until(end) => {
+                let time = checkpoint.state.time;
+                (time > end && end - time < -1e-12 * end)
+                    .then(|| format!("t = {time} s, beyond --until {end}"))
+            }
+        };
+        if let Some(beyond) = beyond {
+            return Err(format!("{} is at {beyond}", path.display()).into());
         }
         first = checkpoint.step + 1;
         simulation = Simulation::resume(checkpoint.state).map_err(|error| error.to_string())?;
@@ -137,7 +146,11 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         output.reserve(fld::file_size(particles))?;
     }
     if let Some(file) = &mut diagnostics_file {
-        let rows = (steps + 1 - first) / args.every + 2;
+        // A run to a physical time: its steps are not known before it.
+        let rows = match extent {
+            Extent::Steps(steps) => (steps + 1 - first) / args.every + 2,
+            Extent::Until(_) => 2,
+        };
         file.reserve(rows.saturating_mul(DIAGNOSTICS_ROW_BYTES))?;
     }
     let mut rows = String::from(diagnostics::CSV_HEADER);
@@ -151,13 +164,26 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         diagnose(&simulation, first - 1);
     }
     let start_time = simulation.time();
-    let progress = progress_bar(steps + 1 - first);
+    let progress = progress_over(match extent {
+        Extent::Steps(steps) => Extent::Steps(steps + 1 - first),
+        until => until,
+    });
+    let is_over = |simulation: &Simulation, step: u64| match extent {
+        Extent::Steps(steps) => step >= steps,
+        Extent::Until(end) => simulation.has_reached(end),
+    };
+    let end = args.until.unwrap_or(f64::INFINITY);
     let mut seconds = 0.0;
-    for step in first..=steps {
+    let mut step = first - 1;
+    while !is_over(&simulation, step) {
+        step += 1;
         let started = Instant::now();
-        simulation.step();
+        simulation.step_towards(end);
         seconds += started.elapsed().as_secs_f64();
-        progress.inc(1);
+        match extent {
+            Extent::Steps(_) => progress.inc(1),
+            Extent::Until(_) => progress.set_position((simulation.time() * 1e6) as u64),
+        }
         // A run that produced NaN or infinities fails here, naming the step, instead of
         // writing them out.
         if let Some(id) = Vitals::of(&simulation).non_finite {
@@ -170,7 +196,7 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
                 format!("the run failed at step {step}: particle {id} is not finite").into(),
             );
         }
-        if diagnostics_file.is_some() && (step % args.every == 0 || step == steps) {
+        if diagnostics_file.is_some() && (step % args.every == 0 || is_over(&simulation, step)) {
             diagnose(&simulation, step);
         }
         if let (Some(every), Some(path)) = (args.checkpoint_every, &args.checkpoint) {
@@ -181,7 +207,7 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
     }
     progress.finish_and_clear();
     let particles = simulation.particles().len();
-    let run = steps + 1 - first;
+    let run = step + 1 - first;
     let per_particle_step = seconds / (run.max(1) as f64 * particles as f64);
     let simulated = simulation.time() - start_time;
     let builds = simulation.skin().map_or(String::new(), |skin| {

@@ -106,7 +106,7 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
 
 /// A progress bar over `steps` on stderr, with steps per second, if stderr is a terminal;
 /// hidden otherwise.
-pub fn progress_bar(steps: u64) -> ProgressBar {
+fn progress_bar(steps: u64) -> ProgressBar {
     if steps == 0 || !std::io::stderr().is_terminal() {
         return ProgressBar::hidden();
     }
@@ -172,7 +172,7 @@ pub enum Frames {
 
 /// A progress bar over the run's extent on stderr (steps, or simulated microseconds), with
 /// its rate, if stderr is a terminal; hidden otherwise.
-fn progress_over(extent: Extent) -> ProgressBar {
+pub fn progress_over(extent: Extent) -> ProgressBar {
     match extent {
         Extent::Steps(steps) => progress_bar(steps),
         Extent::Until(_) if !std::io::stderr().is_terminal() => ProgressBar::hidden(),
