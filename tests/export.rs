@@ -536,8 +536,8 @@ fn a_png_series_in_physical_time_has_a_frame_per_interval() {
         "0.0015",
     ]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
-    // 1 ms steps: the second is cut to 0.5 ms to land on 1.5 ms, the third and fourth
-    // land on 2.5 and 3 ms.
+    // 1 ms steps: the second is cut to 0.5 ms to land on 1.5 ms (frame at step 2), the
+    // third reaches 2.5 ms and the fourth is cut to land on 3 ms (frame at step 4).
     let mut written: Vec<String> = std::fs::read_dir(dir.path())
         .unwrap()
         .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
