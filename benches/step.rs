@@ -3,8 +3,8 @@
 //! every model (single stages: the course and fluidanimate models, whose stages are
 //! SPEC.md's; the weakly compressible model has one pair pass, timed in its whole steps)
 //! and every fast kernel, plus whole steps of generated scenes of 3,000 to 100,000
-//! particles (time per particle-step). The course models' SIMD kernels run on clusters on
-//! the dense states, the default since round three (issue 25); their whole steps are also
+//! particles (time per particle-step). Every model's SIMD kernels run on clusters on the
+//! dense states, the default since round three (issue 25); their whole steps are also
 //! timed on the tiles, under the same name ending in `/tiles`.
 //!
 //! `cargo bench --bench step -- --profile-time 10 <filter>` also writes a flamegraph of

@@ -460,6 +460,29 @@ fn frames_in_physical_time_land_on_their_times_whatever_the_step() {
         assert_eq!(file, &format!("small_{:06}.vtp", 2 * k));
         assert!(out.join(file).is_file());
     }
+    // The weakly compressible model's CFL steps on its dam break, cut to land on each
+    // frame likewise.
+    let dam = dir.path().join("dam.fld");
+    let dam = dam.to_str().unwrap();
+    export(&["scene", "dam-break", "--ppm", "60", dam]);
+    let out = dir.path().join("cfl");
+    let folder = out.to_str().unwrap();
+    let args = ["export", dam, folder, "--model", "wcsph", "--format", "vtp"];
+    export(
+        &[
+            &args[..],
+            &["--until", "0.002", "--frame-every", "0.0005"][..],
+        ]
+        .concat(),
+    );
+    let frames = collection_frames(&out.join("dam.pvd"));
+    assert_eq!(frames.len(), 5);
+    for (k, (time, _)) in frames.iter().enumerate() {
+        assert!(
+            (time - k as f64 * 5e-4).abs() < 1e-15,
+            "frame {k} at {time}"
+        );
+    }
     // --until alone: the final state only, at that time, after steps cut to reach it.
     let out = dir.path().join("final");
     let folder = out.to_str().unwrap();
@@ -519,6 +542,10 @@ fn a_time_that_is_not_finite_and_positive_or_two_extents_are_refused() {
         );
     }
     assert!(!out.exists(), "a refused run leaves no folder");
+    assert!(
+        !Path::new(&format!("{folder}.png")).exists(),
+        "nor a picture"
+    );
 }
 
 #[test]

@@ -668,6 +668,47 @@ fn a_run_to_a_physical_time_lands_on_it_and_resumes_bit_for_bit() {
 }
 
 #[test]
+fn a_run_to_a_physical_time_stops_when_its_adaptive_step_collapses() {
+    // Two particles at 100 km/s: the adaptive step, C h / (c + |hv|), is 2e-8 s, so 1 s
+    // would take fifty million steps (more than the ten million allowed). Each
+    // simulating subcommand stops at once instead.
+    let dir = tempfile::tempdir().unwrap();
+    let mut particles = fluid::Particles::zeroed(2);
+    for slot in 0..2 {
+        particles.p[0][slot] = -0.01 + 0.002 * slot as f64;
+        particles.hv[0][slot] = 1e5;
+        particles.v[0][slot] = 1e5;
+    }
+    let fast = dir.path().join("fast.fld");
+    std::fs::write(&fast, fluid::io::fld::encode(204.0, &particles).unwrap()).unwrap();
+    let out = dir.path().join("out");
+    let outputs = [
+        ("run", out.with_extension("fld")),
+        ("export", out.clone()),
+        ("render", out.with_extension("png")),
+    ];
+    for (subcommand, output) in outputs {
+        let run = run_lab(&[
+            subcommand.as_ref(),
+            fast.as_os_str(),
+            output.as_os_str(),
+            "--adaptive".as_ref(),
+            "0.3".as_ref(),
+            "--until".as_ref(),
+            "1".as_ref(),
+        ]);
+        assert_eq!(exit_code(&run), 1, "{subcommand}");
+        let message = stderr(&run);
+        assert!(
+            message
+                .contains("the run failed at step 1, t = 0.000000 s: its adaptive step collapsed"),
+            "{subcommand}: {message}"
+        );
+        assert_eq!(message.lines().count(), 1, "{message}");
+    }
+}
+
+#[test]
 fn checkpoints_continue_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| -> PathBuf { dir.path().join(name) };

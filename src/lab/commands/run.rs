@@ -2,7 +2,9 @@
 //! optionally per-step diagnostics and the final state.
 
 use super::same_file;
-use super::simulation_args::{load, parse_seconds, progress_over, Extent, Loaded, SimulationArgs};
+use super::simulation_args::{
+    load, parse_seconds, progress_over, stalled, Extent, Loaded, SimulationArgs,
+};
 use crate::io::checkpoint::{self, Checkpoint};
 use crate::io::fld;
 use crate::io::input::read_regular;
@@ -195,6 +197,14 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
             return Err(
                 format!("the run failed at step {step}: particle {id} is not finite").into(),
             );
+        }
+        if let Some(stalled) = stalled(&simulation, extent, step) {
+            progress.finish_and_clear();
+            if let Some(file) = diagnostics_file {
+                diagnose(&simulation, step);
+                file.commit(rows.as_bytes())?;
+            }
+            return Err(stalled.into());
         }
         if diagnostics_file.is_some() && (step % args.every == 0 || is_over(&simulation, step)) {
             diagnose(&simulation, step);

@@ -8,7 +8,7 @@ use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
 use crate::sim::simulation::Simulation;
-use crate::sim::timestep::TimeStep;
+use crate::sim::timestep::{Limit, TimeStep};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::error::Error;
@@ -188,8 +188,31 @@ pub fn progress_over(extent: Extent) -> ProgressBar {
     }
 }
 
+/// The most steps a run to a physical time may still need at its current adaptive step
+/// before it is taken to have collapsed ([`stalled`]).
+const MOST_STEPS_TO_GO: f64 = 1e7;
+
+/// Why a run to a physical time stops short of it after `step`: its last adaptive step
+/// has collapsed so far that more than [`MOST_STEPS_TO_GO`] steps would remain.
+pub fn stalled(simulation: &Simulation, extent: Extent, step: u64) -> Option<String> {
+    let Extent::Until(end) = extent else {
+        return None;
+    };
+    let (dt, limit) = simulation.last_step()?;
+    let adaptive = !matches!(limit, Limit::Fixed | Limit::Landing);
+    let to_go = end - simulation.time();
+    (adaptive && dt * MOST_STEPS_TO_GO < to_go).then(|| {
+        format!(
+            "the run failed at step {step}, t = {:.6} s: its adaptive step collapsed to \
+             {dt:.3e} s, with {to_go:.6} s still to go",
+            simulation.time()
+        )
+    })
+}
+
 /// Runs `simulation` over `extent`, calling `visit` with the step count at the states of
-/// `frames` (step 0 included) and at the last.
+/// `frames` (step 0 included) and at the last; a run to a physical time fails if its
+/// adaptive step collapses ([`stalled`]).
 pub fn run_visiting(
     simulation: &mut Simulation,
     extent: Extent,
@@ -216,6 +239,12 @@ pub fn run_visiting(
             Extent::Until(end) => end.min(next_frame),
             Extent::Steps(_) => next_frame,
         };
+        if simulation.has_reached(end) {
+            // A frame closer than a step can land: it is the state at hand, written.
+            frame += 1;
+            visit(simulation, step)?;
+            continue;
+        }
         simulation.step_towards(end);
         step += 1;
         match extent {
@@ -228,6 +257,10 @@ pub fn run_visiting(
             return Err(
                 format!("the run failed at step {step}: particle {id} is not finite").into(),
             );
+        }
+        if let Some(stalled) = stalled(simulation, extent, step) {
+            progress.finish_and_clear();
+            return Err(stalled.into());
         }
         let on_frame = match frames {
             Frames::Last => false,

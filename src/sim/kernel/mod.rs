@@ -14,7 +14,8 @@
 //! loop with each pair's differences taken in f64 and narrowed; on the course models'
 //! clusters, its own loops (`narrowed`: a cluster pair per 16-lane register, with what the
 //! terms read narrowed once per placement, positions relative to each cluster's first
-//! particle); sums in f64. Less exact (within 5e-7 relative on a dense step), a workbench
+//! particle; a particle's sums over a cluster's partners in f32, its totals in f64); sums
+//! by particle in f64. Less exact (within 5e-7 relative on a dense step), a workbench
 //! method.
 //!
 //! The density loop also records where the pairs closer than h are ([`ClosePairs`]): the
@@ -49,7 +50,7 @@ pub enum Kernel {
     /// As [`Kernel::Simd`], eight partners at a time in `wide::f64x8` lanes (one AVX-512
     /// register; two AVX2 registers elsewhere).
     Simd8,
-    /// Mixed precision: the pair terms in f32 lanes, the sums in f64. On tiles (and for
+    /// Mixed precision: the pair terms in f32 lanes, the sums by particle in f64. On tiles (and for
     /// the weakly compressible model) eight partners at a time, each pair's differences
     /// computed in f64 and narrowed; on the course models' clusters a cluster of 4 against
     /// a cluster of 4 in 16 lanes, positions narrowed once per placement relative to each
@@ -209,7 +210,8 @@ pub struct Packed {
     /// The densities' reciprocals (by place on [`Clusters`], else by slot).
     inverse_rho: Vec<f64>,
     /// On [`Clusters`], while the acceleration pass lists them: for each particle of a
-    /// cluster, the clusters recorded with a partner closer than h to it.
+    /// cluster, the clusters recorded with a partner closer than h to it (in the weakly
+    /// compressible pass, a particle's clusters with a partner within the support).
     per_particle: Vec<u32>,
     /// Accelerations by place.
     a: AxisArrays,

@@ -155,7 +155,7 @@ fn density_pair(
 }
 
 /// Stage 3 of the mixed kernel on `clusters`: records, per cluster, the clusters
-/// holding a partner closer than h, with the particles that have one, in `close`.
+/// holding a partner closer than h for one of its particles, in `close`.
 pub(super) fn increment_densities(pass: Densities, clusters: &Clusters) {
     let Densities {
         params,

@@ -1,12 +1,13 @@
-//! The weakly compressible model's pair loop ([`crate::sim::model::wcsph`]): in one pass over the
-//! candidate pairs (of the tiles, or of the clusters), each pair's pressure and viscosity acceleration and its density rates (the
-//! continuity equation and the delta-SPH diffusion), added to both particles. A particle
+//! The weakly compressible model's pair loop ([`crate::sim::model::wcsph`]): in one pass
+//! over the candidate pairs (of the tiles, or of the clusters), each pair's pressure and
+//! viscosity acceleration and its density rates (the continuity equation and the
+//! delta-SPH diffusion), added to both particles. A particle
 //! within one support radius of a wall also meets the mirror images of its partners
 //! across that wall (and across two or three walls at an edge or corner) and its own:
 //! free-slip walls. An image of j is within the support of i only if j is within the
 //! support of i and both are near that wall (|p_i - M p_j| >= |p_i - p_j| when both are
-//! on the wall's side), so the images need no search of their own: each pair of the
-//! tiles whose first particle is near a wall is also evaluated mirrored, and the image's
+//! on the wall's side), so the images need no search of their own: each candidate pair
+//! whose first particle is near a wall is also evaluated mirrored, and the image's
 //! terms go to i and, mirrored back, to j. Across the floor an image's pressure is its
 //! particle's plus the hydrostatic difference between them, rho g . (p' - p) (Adami et
 //! al. 2012), and its density follows: the pressure keeps growing with depth, so the
@@ -105,7 +106,8 @@ impl NearWalls {
 }
 
 /// The weakly compressible model's one pair pass: adds every pair's (and wall image's)
-/// acceleration and density rates to `rates`, over the tiles.
+/// acceleration and density rates to `rates`, over the tiles or, where given, the
+/// clusters.
 #[derive(Debug)]
 pub struct WeaklyCompressible<'a> {
     /// The pair terms' constants.
