@@ -14,7 +14,7 @@
 # Usage: scripts/pair-cost.sh [--steps N] [--every K] [--model M] [--pairs S] [INPUT] [KERNEL ...]
 #        defaults: --steps 1000 --every 10 --model fluidanimate --pairs clusters
 #                  data/in/large.fld simd simd8 mixed scalar
-# (--pairs tiles runs the SIMD kernels of the course models on whole neighbour cells
+# (--pairs tiles runs the SIMD kernels of every model on whole neighbour cells
 # instead of clusters; see `fluid-lab run --help`.)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -63,6 +63,13 @@ fn add_at(sums: &mut [f64], k: usize, totals: [f32; CLUSTER]) {
     }
 }
 
+/// A register holding `four` in each run of 4 lanes, as a partner cluster is met.
+fn tiled(four: [f32; CLUSTER]) -> f32x16 {
+    f32x16::from(std::array::from_fn::<f32, 16, _>(|lane| {
+        four[lane % CLUSTER]
+    }))
+}
+
 /// `narrow(value)` of each cluster's particles in `source` (by slot) into `narrowed`, a
 /// register per cluster holding its 4 values in each run of 4 lanes (0 at places that
 /// hold no particle).
@@ -74,12 +81,9 @@ fn narrow_by_cluster(
 ) {
     narrowed.clear();
     narrowed.extend(places.chunks_exact(CLUSTER).map(|cluster| {
-        let four: [f32; CLUSTER] = std::array::from_fn(|i| match cluster[i] {
+        tiled(std::array::from_fn(|i| match cluster[i] {
             EMPTY => 0.0,
             slot => narrow(source[slot as usize]),
-        });
-        f32x16::from(std::array::from_fn::<f32, 16, _>(|lane| {
-            four[lane % CLUSTER]
         }))
     }));
 }
@@ -96,12 +100,9 @@ impl Narrowed {
                     .chunks_exact(CLUSTER)
                     .zip(p.chunks_exact(CLUSTER))
                     .map(|(cluster, p)| {
-                        let four: [f32; CLUSTER] = std::array::from_fn(|i| match cluster[i] {
+                        tiled(std::array::from_fn(|i| match cluster[i] {
                             EMPTY => f32::INFINITY,
                             _ => (p[i] - p[0]) as f32,
-                        });
-                        f32x16::from(std::array::from_fn::<f32, 16, _>(|lane| {
-                            four[lane % CLUSTER]
                         }))
                     }),
             );
