@@ -19,7 +19,7 @@
 //! particles' slots at the end.
 
 use super::simd::{First, Halves, Lanes, Places, Transfer};
-use super::{Accelerations, Candidates, Densities, Packed};
+use super::{Accelerations, Densities, Packed};
 use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
 use crate::sim::particles::AxisArrays;
 
@@ -265,7 +265,7 @@ unsafe fn own_transfer<L: Lanes, const FLUIDANIMATE: bool>(
     }
 }
 
-/// Stage 5 on `L` lanes, over `clusters`; with [`Candidates::Close`] recorded on them,
+/// Stage 5 on `L` lanes, over `clusters`; with [`super::Candidates::Close`] recorded on them,
 /// only the clusters recorded there, else every cluster of its windows.
 pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     pass: Accelerations<FLUIDANIMATE>,
@@ -285,11 +285,9 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     // Without a density pass over the same clusters, every cluster of the windows with
     // every particle (a pass run alone).
     let (mut every, mut every_start) = (Vec::new(), Vec::new());
-    let (list, starts) = match candidates {
-        Candidates::Close(close) if close.starts.len() == empty + 1 => {
-            (&close.clusters[..], &close.starts[..])
-        }
-        _ => {
+    let (list, starts) = match candidates.recorded_on(clusters) {
+        Some(close) => (&close.clusters[..], &close.starts[..]),
+        None => {
             assert!(empty < 1 << PARTICLES_SHIFT, "too many clusters to record");
             for own in 0..empty {
                 every_start.push(every.len() as u32);

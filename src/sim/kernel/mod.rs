@@ -274,11 +274,22 @@ pub enum Candidates<'a> {
     Close(&'a ClosePairs),
 }
 
-impl Candidates<'_> {
+impl<'a> Candidates<'a> {
     fn tiles(&self) -> &[Tile] {
         match self {
             Candidates::All(tiles) => tiles,
             Candidates::Close(close) => &close.tiles,
+        }
+    }
+
+    /// The clusters a density pass recorded, if it ran on clusters of `clusters`' count
+    /// (`Close` of the same placement: the driver and the model make sure of that).
+    fn recorded_on(&self, clusters: &Clusters) -> Option<&'a ClosePairs> {
+        match *self {
+            Candidates::Close(close) if close.starts.len() == clusters.empty_cluster() + 1 => {
+                Some(close)
+            }
+            _ => None,
         }
     }
 }

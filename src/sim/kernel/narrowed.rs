@@ -14,7 +14,7 @@
 //! cluster pairs, 16 lanes each.
 
 use super::clustered::unpack_add;
-use super::{Accelerations, Candidates, Densities, Narrowed, Packed};
+use super::{Accelerations, Densities, Narrowed, Packed};
 use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
 use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::AxisArrays;
@@ -236,10 +236,7 @@ pub(super) fn transfer_accelerations<const FLUIDANIMATE: bool>(
     } = packed;
     let places = clusters.places();
     let empty = clusters.empty_cluster();
-    let recorded = match candidates {
-        Candidates::Close(close) if close.starts.len() == empty + 1 => Some(close),
-        _ => None,
-    };
+    let recorded = candidates.recorded_on(clusters);
     if recorded.is_none() {
         // No density pass over these positions: they are not narrowed yet.
         narrowed.narrow_positions(clusters);

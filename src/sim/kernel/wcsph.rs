@@ -436,16 +436,9 @@ impl<L: Lanes> Pairs<'_, L> {
         lanes: L::V,
         set: u8,
     ) -> Option<GroupTerms<L>> {
-        let State { p, v, .. } = self.state;
+        let v = self.state.v;
         let across = |axis: usize| set & (1 << axis) != 0;
-        // SAFETY (both closures): guaranteed by the caller.
-        let offset = |axis: usize| unsafe {
-            if across(axis) {
-                L::differences(&p[axis], at, 2.0 * first.walls.at[axis] - first.p[axis])
-            } else {
-                L::offsets(&p[axis], at, first.p[axis])
-            }
-        };
+        // SAFETY: guaranteed by the caller.
         let velocity = |axis: usize| unsafe {
             if across(axis) {
                 L::differences(&v[axis], at, -first.v[axis])
@@ -453,8 +446,8 @@ impl<L: Lanes> Pairs<'_, L> {
                 L::offsets(&v[axis], at, first.v[axis])
             }
         };
-        let d = [offset(0), offset(1), offset(2)];
-        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        // SAFETY: guaranteed by the caller.
+        let (d, r2) = unsafe { self.offsets(first, at, set) };
         let close = L::lt(r2, self.support2) & lanes;
         if !L::any(close) {
             return None;
@@ -580,10 +573,30 @@ impl<'a, L: Lanes> Pairs<'a, L> {
     #[inline(always)]
     unsafe fn close(&self, first: &First, at: Places, lanes: L::V) -> u32 {
         // SAFETY: guaranteed by the caller.
-        let offset = |axis: usize| unsafe { L::offsets(&self.state.p[axis], at, first.p[axis]) };
+        let (_, r2) = unsafe { self.offsets(first, at, 0) };
+        L::bitmask(L::lt(r2, self.support2) & lanes)
+    }
+
+    /// The offsets of `first` from the partners at `at`, or from their images across the
+    /// walls of `set` (0: the partners themselves), and their squares' sum: one formula
+    /// for the distance filter and the pair terms.
+    ///
+    /// # Safety
+    /// Every place of `at` is within the positions.
+    #[inline(always)]
+    unsafe fn offsets(&self, first: &First, at: Places, set: u8) -> ([L::V; 3], L::V) {
+        let p = self.state.p;
+        // SAFETY: guaranteed by the caller.
+        let offset = |axis: usize| unsafe {
+            if set & (1 << axis) != 0 {
+                L::differences(&p[axis], at, 2.0 * first.walls.at[axis] - first.p[axis])
+            } else {
+                L::offsets(&p[axis], at, first.p[axis])
+            }
+        };
         let d = [offset(0), offset(1), offset(2)];
         let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        L::bitmask(L::lt(r2, self.support2) & lanes)
+        (d, r2)
     }
 
     /// The terms of `first` with the partners at `at` (lanes of `lanes`) and
