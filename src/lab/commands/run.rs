@@ -3,13 +3,13 @@
 
 use super::same_file;
 use super::simulation_args::{
-    load, parse_seconds, progress_over, stalled, Extent, Loaded, SimulationArgs,
+    failure, load, parse_seconds, progress_over, Extent, Loaded, SimulationArgs,
 };
 use crate::io::checkpoint::{self, Checkpoint};
 use crate::io::fld;
 use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
-use crate::lab::diagnostics::{self, Diagnostics, Vitals};
+use crate::lab::diagnostics::{self, Diagnostics};
 use crate::sim::simulation::Simulation;
 use clap::builder::RangedI64ValueParser;
 use clap::Args;
@@ -170,43 +170,28 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         Extent::Steps(steps) => Extent::Steps(steps + 1 - first),
         until => until,
     });
-    let is_over = |simulation: &Simulation, step: u64| match extent {
-        Extent::Steps(steps) => step >= steps,
-        Extent::Until(end) => simulation.has_reached(end),
-    };
     let end = args.until.unwrap_or(f64::INFINITY);
     let mut seconds = 0.0;
     let mut step = first - 1;
-    while !is_over(&simulation, step) {
+    while !extent.is_over(&simulation, step) {
         step += 1;
         let started = Instant::now();
         simulation.step_towards(end);
         seconds += started.elapsed().as_secs_f64();
-        match extent {
-            Extent::Steps(_) => progress.inc(1),
-            Extent::Until(_) => progress.set_position((simulation.time() * 1e6) as u64),
-        }
-        // A run that produced NaN or infinities fails here, naming the step, instead of
-        // writing them out.
-        if let Some(id) = Vitals::of(&simulation).non_finite {
+        extent.show(&progress, &simulation);
+        // A run that failed (NaN or infinities, a collapsed step) stops here, naming the
+        // step, instead of writing its state out; its diagnostics are written.
+        if let Some(failure) = failure(&simulation, extent, step) {
             progress.finish_and_clear();
             if let Some(file) = diagnostics_file {
                 diagnose(&simulation, step);
                 file.commit(rows.as_bytes())?;
             }
-            return Err(
-                format!("the run failed at step {step}: particle {id} is not finite").into(),
-            );
+            return Err(failure.into());
         }
-        if let Some(stalled) = stalled(&simulation, extent, step) {
-            progress.finish_and_clear();
-            if let Some(file) = diagnostics_file {
-                diagnose(&simulation, step);
-                file.commit(rows.as_bytes())?;
-            }
-            return Err(stalled.into());
-        }
-        if diagnostics_file.is_some() && (step % args.every == 0 || is_over(&simulation, step)) {
+        if diagnostics_file.is_some()
+            && (step % args.every == 0 || extent.is_over(&simulation, step))
+        {
             diagnose(&simulation, step);
         }
         if let (Some(every), Some(path)) = (args.checkpoint_every, &args.checkpoint) {

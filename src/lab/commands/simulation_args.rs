@@ -159,6 +159,24 @@ pub enum Extent {
     Until(f64),
 }
 
+impl Extent {
+    /// Whether a run at `simulation`, `step` steps in, has gone this far.
+    pub fn is_over(self, simulation: &Simulation, step: u64) -> bool {
+        match self {
+            Extent::Steps(steps) => step >= steps,
+            Extent::Until(end) => simulation.has_reached(end),
+        }
+    }
+
+    /// Moves `progress` (made by [`progress_over`]) on past a step to `simulation`.
+    pub fn show(self, progress: &ProgressBar, simulation: &Simulation) {
+        match self {
+            Extent::Steps(_) => progress.inc(1),
+            Extent::Until(_) => progress.set_position((simulation.time() * 1e6) as u64),
+        }
+    }
+}
+
 /// Which states of a run are visited besides its last.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Frames {
@@ -189,12 +207,19 @@ pub fn progress_over(extent: Extent) -> ProgressBar {
 }
 
 /// The most steps a run to a physical time may still need at its current adaptive step
-/// before it is taken to have collapsed ([`stalled`]).
+/// before it is taken to have collapsed ([`failure`]).
 const MOST_STEPS_TO_GO: f64 = 1e7;
 
-/// Why a run to a physical time stops short of it after `step`: its last adaptive step
-/// has collapsed so far that more than [`MOST_STEPS_TO_GO`] steps would remain.
-pub fn stalled(simulation: &Simulation, extent: Extent, step: u64) -> Option<String> {
+/// Why a run fails after `step`: a particle that is not finite (NaN or infinities are not
+/// drawn, exported or written as if they were a state), or, on the way to a physical
+/// time, an adaptive step collapsed so far that more than [`MOST_STEPS_TO_GO`] steps
+/// would remain.
+pub fn failure(simulation: &Simulation, extent: Extent, step: u64) -> Option<String> {
+    if let Some(id) = Vitals::of(simulation).non_finite {
+        return Some(format!(
+            "the run failed at step {step}: particle {id} is not finite"
+        ));
+    }
     let Extent::Until(end) = extent else {
         return None;
     };
@@ -211,8 +236,7 @@ pub fn stalled(simulation: &Simulation, extent: Extent, step: u64) -> Option<Str
 }
 
 /// Runs `simulation` over `extent`, calling `visit` with the step count at the states of
-/// `frames` (step 0 included) and at the last; a run to a physical time fails if its
-/// adaptive step collapses ([`stalled`]).
+/// `frames` (step 0 included) and at the last; stops at a [`failure`].
 pub fn run_visiting(
     simulation: &mut Simulation,
     extent: Extent,
@@ -220,17 +244,13 @@ pub fn run_visiting(
     mut visit: impl FnMut(&Simulation, u64) -> Result<(), Box<dyn Error>>,
 ) -> Result<(), Box<dyn Error>> {
     let progress = progress_over(extent);
-    let is_over = |simulation: &Simulation, step: u64| match extent {
-        Extent::Steps(steps) => step >= steps,
-        Extent::Until(end) => simulation.has_reached(end),
-    };
     let mut step = 0;
     // Frames in time land on multiples of the interval, counted, not summed.
     let mut frame = 0u64;
-    if frames != Frames::Last || is_over(simulation, 0) {
+    if frames != Frames::Last || extent.is_over(simulation, 0) {
         visit(simulation, 0)?;
     }
-    while !is_over(simulation, step) {
+    while !extent.is_over(simulation, step) {
         let next_frame = match frames {
             Frames::EverySeconds(interval) => (frame + 1) as f64 * interval,
             _ => f64::INFINITY,
@@ -247,20 +267,10 @@ pub fn run_visiting(
         }
         simulation.step_towards(end);
         step += 1;
-        match extent {
-            Extent::Steps(_) => progress.inc(1),
-            Extent::Until(_) => progress.set_position((simulation.time() * 1e6) as u64),
-        }
-        // A state with NaN or infinities is not drawn or exported as if it were one.
-        if let Some(id) = Vitals::of(simulation).non_finite {
+        extent.show(&progress, simulation);
+        if let Some(failure) = failure(simulation, extent, step) {
             progress.finish_and_clear();
-            return Err(
-                format!("the run failed at step {step}: particle {id} is not finite").into(),
-            );
-        }
-        if let Some(stalled) = stalled(simulation, extent, step) {
-            progress.finish_and_clear();
-            return Err(stalled.into());
+            return Err(failure.into());
         }
         let on_frame = match frames {
             Frames::Last => false,
@@ -270,7 +280,7 @@ pub fn run_visiting(
         if on_frame && matches!(frames, Frames::EverySeconds(_)) {
             frame += 1;
         }
-        if on_frame || is_over(simulation, step) {
+        if on_frame || extent.is_over(simulation, step) {
             visit(simulation, step)?;
         }
     }
