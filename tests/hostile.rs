@@ -778,6 +778,13 @@ fn checkpoints_continue_bit_for_bit() {
     let output = resume(&["--model", "wcsph", "--dt", "1e-4"]);
     assert_eq!(exit_code(&output), 1);
     assert!(stderr(&output).contains("a checkpoint of a run with another time step"));
+    let output = resume(&["--model", "wcsph", "--walls", "free-slip"]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("a checkpoint of a run with another setting of its model"),
+        "{}",
+        stderr(&output)
+    );
     // A checkpoint of the format before the models kept their own state (version 3, which
     // held the sound speed where version 4 holds the model's values) is refused, not
     // misread.

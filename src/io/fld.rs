@@ -7,6 +7,7 @@ use crate::io::gformat::format_g_exact;
 use crate::io::input::open_regular;
 use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::method::Method;
+use crate::sim::model::Dynamics;
 use crate::sim::params::Params;
 use crate::sim::particles::Particles;
 use crate::sim::simulation::Simulation;
@@ -123,8 +124,19 @@ impl Scene {
         method: Method,
         file: &(impl AsRef<OsStr> + ?Sized),
     ) -> Result<Simulation, FileError> {
+        self.into_simulation_with(method, method.model.dynamics(), file)
+    }
+
+    /// As [`Self::into_simulation`], with `dynamics`, the model `method` names with
+    /// choices of its own ([`Simulation::with_dynamics`]).
+    pub fn into_simulation_with(
+        self,
+        method: Method,
+        dynamics: Box<dyn Dynamics>,
+        file: &(impl AsRef<OsStr> + ?Sized),
+    ) -> Result<Simulation, FileError> {
         let ppm = self.ppm;
-        Simulation::with_method(ppm.into(), self.particles, method)
+        Simulation::with_dynamics(ppm.into(), self.particles, method, dynamics)
             .map_err(|e| invalid_ppm(ppm, file.as_ref(), e))
     }
 }

@@ -527,7 +527,7 @@ pub struct PointChart {
     pub x_log: bool,
     /// The y axis' description.
     pub y_label: String,
-    /// Whether the y axis is logarithmic (else linear, from 0).
+    /// Whether the y axis is logarithmic (else linear, from 0 or below).
     pub y_log: bool,
     /// The series: legend text and points.
     pub series: Vec<(String, Vec<(f64, f64)>)>,
@@ -575,17 +575,19 @@ impl PointChart {
     }
 
     /// The y axis: logarithmic, from half the smallest y to twice the largest (decades
-    /// apart at least); linear, from 0 to past the largest.
+    /// apart at least); linear, from 0 (or below the smallest y, if negative) to past
+    /// the largest.
     pub fn y_range(&self) -> Range<f64> {
         let (low, high) = self
             .drawn()
             .fold((f64::INFINITY, 0.0f64), |(lo, hi), (_, y)| {
                 (lo.min(y), hi.max(y))
             });
-        match (self.y_log, high > 0.0) {
+        let bottom = (low.min(0.0) * 1.1).max(f64::MIN);
+        match (self.y_log, high > 0.0 || bottom < 0.0) {
             (true, true) => (low / 2.0).min(high / 10.0)..(high * 2.0).min(f64::MAX),
             (true, false) => 1e-3..1.0,
-            (false, true) => 0.0..(high * 1.1).min(f64::MAX),
+            (false, true) => bottom..(high * 1.1).min(f64::MAX),
             (false, false) => 0.0..1.0,
         }
     }

@@ -14,8 +14,10 @@ use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY, RADIUS_MULTIPLIER};
 use crate::sim::particles::Particles;
 use crate::sim::simulation::Simulation;
 
-/// Martin and Moyce (1952), Phil. Trans. R. Soc. A 244, n^2 = 2, a = 1.125 in: the surge
-/// front as (T, Z), as tabulated in PySPH's `pysph/examples/db_exp_data.py`.
+/// Martin and Moyce (1952), "An experimental study of the collapse of liquid columns on a
+/// rigid horizontal plane", Phil. Trans. R. Soc. A 244, 312-324, n^2 = 2, a = 1.125 in
+/// (their figure 3): the surge front as (T, Z), as tabulated in PySPH's
+/// `pysph/examples/db_exp_data.py`.
 pub const MARTIN_MOYCE: [(f64, f64); 10] = [
     (0.849, 1.245),
     (1.212, 1.443),
@@ -27,6 +29,43 @@ pub const MARTIN_MOYCE: [(f64, f64); 10] = [
     (4.592, 5.841),
     (4.961, 6.271),
     (5.316, 6.717),
+];
+
+/// Koshizuka and Oka (1996), "Moving-particle semi-implicit method for fragmentation of
+/// incompressible fluid", Nucl. Sci. Eng. 123, 421-434 (their dam-break experiment, a
+/// column a wide and 2a high): the surge front as (T, Z) in the same variables, as
+/// tabulated in PySPH's `pysph/examples/db_exp_data.py` (less its starting point
+/// (0, 1)).
+pub const KOSHIZUKA_OKA: [(f64, f64); 8] = [
+    (0.381, 1.111),
+    (0.769, 1.252),
+    (1.153, 1.505),
+    (1.537, 1.892),
+    (1.935, 2.241),
+    (2.323, 2.615),
+    (2.719, 3.003),
+    (3.096, 3.624),
+];
+
+/// A set of measured fronts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measurements {
+    /// Who measured them, and when.
+    pub name: &'static str,
+    /// The fronts as (T, Z).
+    pub points: &'static [(f64, f64)],
+}
+
+/// Every experiment the dam break is compared with.
+pub const EXPERIMENTS: [Measurements; 2] = [
+    Measurements {
+        name: "Martin and Moyce (1952)",
+        points: &MARTIN_MOYCE,
+    },
+    Measurements {
+        name: "Koshizuka and Oka (1996)",
+        points: &KOSHIZUKA_OKA,
+    },
 ];
 
 /// The quantile of x near the floor taken as the front: high enough that its lag behind
@@ -144,6 +183,8 @@ pub fn collapse(simulation: &mut Simulation, dam: &DamBreak, until: f64, every: 
 /// The model's front at one experimental point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Comparison {
+    /// The experiment's name ([`Measurements::name`]).
+    pub experiment: &'static str,
     /// The experiment's T.
     pub t: f64,
     /// The experiment's Z.
@@ -161,17 +202,24 @@ impl Comparison {
     }
 }
 
-/// The run's front at every experimental T up to its last sample. A point whose Z is
-/// beyond what the box allows (less a margin of the course's smoothing length, 1.695
-/// spacings, for every model) is left out: there the box, not the model, stops the front.
+/// The run's front at every point of every experiment up to its last sample. A point
+/// whose Z is beyond what the box allows (less a margin of the course's smoothing length,
+/// 1.695 spacings, for every model) is left out: there the box, not the model, stops the
+/// front.
 pub fn compare(collapse: &Collapse, dam: &DamBreak) -> Vec<Comparison> {
     let samples = &collapse.samples;
     let margin = RADIUS_MULTIPLIER / dam.ppm;
     let wall = dam.largest_z() - margin / dam.column_width();
-    MARTIN_MOYCE
+    EXPERIMENTS
         .iter()
-        .filter(|&&(_, z)| z < wall)
-        .map(|&(t, z_experiment)| {
+        .flat_map(|experiment| {
+            experiment
+                .points
+                .iter()
+                .map(|&point| (experiment.name, point))
+        })
+        .filter(|&(_, (_, z))| z < wall)
+        .map(|(experiment, (t, z_experiment))| {
             let after = samples.iter().position(|sample| sample.t >= t);
             let z_model = after.filter(|&i| i > 0).map(|i| {
                 let (a, b) = (&samples[i - 1], &samples[i]);
@@ -179,6 +227,7 @@ pub fn compare(collapse: &Collapse, dam: &DamBreak) -> Vec<Comparison> {
                 a.z + share * (b.z - a.z)
             });
             Comparison {
+                experiment,
                 t,
                 z_experiment,
                 z_model: z_model.filter(|z| z.is_finite()),
@@ -187,14 +236,19 @@ pub fn compare(collapse: &Collapse, dam: &DamBreak) -> Vec<Comparison> {
         .collect()
 }
 
-/// The largest |relative error| over the comparisons with T at most `t`, if any was made.
-pub fn worst_error(comparisons: &[Comparison], t: f64) -> Option<f64> {
-    comparisons
+/// The errors of the comparisons of `experiment` (every experiment's if `None`) with T
+/// at most `t`: the largest |relative error| and the mean |relative error|, if any
+/// comparison was made.
+pub fn errors(comparisons: &[Comparison], experiment: Option<&str>, t: f64) -> Option<(f64, f64)> {
+    let errors: Vec<f64> = comparisons
         .iter()
         .filter(|comparison| comparison.t <= t)
+        .filter(|comparison| experiment.is_none_or(|name| comparison.experiment == name))
         .filter_map(Comparison::relative_error)
         .map(f64::abs)
-        .reduce(f64::max)
+        .collect();
+    let worst = errors.iter().copied().reduce(f64::max)?;
+    Some((worst, errors.iter().sum::<f64>() / errors.len() as f64))
 }
 
 #[cfg(test)]
@@ -267,22 +321,36 @@ mod tests {
             failure: None,
         };
         let comparisons = compare(&collapse, &dam());
-        // Z < 4.33 - 0.28 (1.695 spacings of 5 mm over 30 mm): the first five points;
-        // T <= 2 sampled: the first three.
-        assert_eq!(comparisons.len(), 5);
+        // Z < 4.33 - 0.28 (1.695 spacings of 5 mm over 30 mm): Martin and Moyce's first
+        // five points and all eight of Koshizuka and Oka's; T <= 2 sampled: the first
+        // three and five.
+        let of = |name: &str| -> Vec<Comparison> {
+            comparisons
+                .iter()
+                .copied()
+                .filter(|c| c.experiment == name)
+                .collect()
+        };
+        let (mm, ko) = (of(EXPERIMENTS[0].name), of(EXPERIMENTS[1].name));
+        assert_eq!((mm.len(), ko.len()), (5, 8));
         let z = 1.0 + 0.849 * 0.5;
-        assert!((comparisons[0].z_model.unwrap() - z).abs() < 1e-12);
-        let error = comparisons[0].relative_error().unwrap();
+        assert!((mm[0].z_model.unwrap() - z).abs() < 1e-12);
+        let error = mm[0].relative_error().unwrap();
         assert!((error - (z - 1.245) / 1.245).abs() < 1e-12);
-        assert!((comparisons[2].z_model.unwrap() - (1.5 + 0.602)).abs() < 1e-12);
-        assert_eq!(comparisons[3].z_model, None, "T = 2.283 is after the run");
-        let worst = worst_error(&comparisons, 3.6).unwrap();
-        let expected = comparisons[..3]
+        assert!((mm[2].z_model.unwrap() - (1.5 + 0.602)).abs() < 1e-12);
+        assert_eq!(mm[3].z_model, None, "T = 2.283 is after the run");
+        assert!((ko[0].z_model.unwrap() - (1.0 + 0.381 * 0.5)).abs() < 1e-12);
+        assert_eq!(ko[5].z_model, None, "T = 2.323 is after the run");
+        let expected: Vec<f64> = mm[..3]
             .iter()
             .map(|c| c.relative_error().unwrap().abs())
-            .fold(0.0, f64::max);
-        assert_eq!(worst, expected);
-        assert_eq!(worst_error(&comparisons, 0.5), None);
+            .collect();
+        let (worst, mean) = errors(&comparisons, Some(EXPERIMENTS[0].name), 3.6).unwrap();
+        assert_eq!(worst, expected.iter().copied().fold(0.0, f64::max));
+        assert!((mean - expected.iter().sum::<f64>() / 3.0).abs() < 1e-15);
+        let (both, _) = errors(&comparisons, None, 3.6).unwrap();
+        assert!(both >= worst);
+        assert_eq!(errors(&comparisons, None, 0.3), None);
     }
 
     #[test]

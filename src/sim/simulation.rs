@@ -33,7 +33,8 @@ pub struct Resumable {
     /// Whether the last sort found the particles sparse (see [`CellOrder::is_sparse`]).
     pub sparse: bool,
     /// What the model keeps beyond the particles ([`Dynamics::saved`]: the weakly
-    /// compressible model's sound speed, chosen at its start; nothing for the others).
+    /// compressible model's sound speed, chosen at its start, and its settings; nothing
+    /// for the others).
     pub model_state: Vec<f64>,
     /// The particles, in slot order, unpadded (with the densities the next step reads,
     /// for a model whose densities are a state).
@@ -90,6 +91,19 @@ impl Simulation {
         Self::with_params(method.model.params(ppm), particles, method)
     }
 
+    /// As [`Self::with_method`], with `dynamics`, the model `method` names with choices
+    /// of its own (e.g. the weakly compressible model's walls and viscosity), whose
+    /// cut-off sets the parameters.
+    pub fn with_dynamics(
+        ppm: f64,
+        particles: Particles,
+        method: Method,
+        dynamics: Box<dyn Dynamics>,
+    ) -> Result<Self, GridSizeError> {
+        let params = Params::with_cutoff(ppm, dynamics.cutoff(ppm));
+        Self::placed(params, particles, method, dynamics)
+    }
+
     /// As [`Self::with_method`], with parameters of one's own (e.g. another time step, the
     /// course models' fixed step; `params.h` must be the model's cut-off).
     pub fn with_params(
@@ -97,8 +111,18 @@ impl Simulation {
         particles: Particles,
         method: Method,
     ) -> Result<Self, GridSizeError> {
+        Self::placed(params, particles, method, method.model.dynamics())
+    }
+
+    /// The simulation of `particles` with `dynamics`, started and placed.
+    fn placed(
+        params: Params,
+        particles: Particles,
+        method: Method,
+        dynamics: Box<dyn Dynamics>,
+    ) -> Result<Self, GridSizeError> {
         let grid = Grid::new(params.h)?;
-        let mut simulation = Self::unplaced(params, grid, method, particles);
+        let mut simulation = Self::unplaced(params, grid, method, dynamics, particles);
         simulation
             .dynamics
             .initial_state(&params, &mut simulation.particles);
@@ -117,19 +141,25 @@ impl Simulation {
         particles: Particles,
         blocks: &[u32],
     ) -> Self {
-        let mut simulation = Self::unplaced(params, grid, method, Particles::default());
+        let dynamics = method.model.dynamics();
+        let mut simulation = Self::unplaced(params, grid, method, dynamics, Particles::default());
         simulation.cells.sort_with_blocks(&grid, &particles, blocks);
         simulation.particles = particles.permuted(simulation.cells.order());
         simulation.find_neighbours();
         simulation
     }
 
-    /// The simulation before stage 1, its model prepared on `particles` (for the weakly
-    /// compressible model, the sound speed of their densities as given) with its own
+    /// The simulation before stage 1, its model `dynamics` prepared on `particles` (for
+    /// the weakly compressible model, the sound speed of their heights) with its own
     /// time-step rule (a fixed one at `params.dt`).
-    fn unplaced(params: Params, grid: Grid, method: Method, mut particles: Particles) -> Self {
+    fn unplaced(
+        params: Params,
+        grid: Grid,
+        method: Method,
+        mut dynamics: Box<dyn Dynamics>,
+        mut particles: Particles,
+    ) -> Self {
         particles.pad();
-        let mut dynamics = method.model.dynamics();
         dynamics.prepare(&params, &particles);
         let time_step = match dynamics.default_time_step() {
             TimeStep::Fixed(_) => TimeStep::Fixed(params.dt),
@@ -267,6 +297,12 @@ impl Simulation {
         Ok(copy)
     }
 
+    /// What the model keeps beyond the particles ([`Dynamics::saved`]): for the weakly
+    /// compressible model, its sound speed and settings.
+    pub fn model_state(&self) -> Vec<f64> {
+        self.dynamics.saved()
+    }
+
     /// What a checkpoint keeps: the state from which [`Self::resume`] goes on bit for bit.
     /// None while lists are reused with a skin (their state is not kept).
     pub fn resumable(&self) -> Option<Resumable> {
@@ -280,7 +316,7 @@ impl Simulation {
             time: self.time,
             last_step: self.last_step,
             sparse: self.cells.is_sparse(),
-            model_state: self.dynamics.saved(),
+            model_state: self.model_state(),
             particles: self.particles.unpadded(),
         })
     }
@@ -289,9 +325,11 @@ impl Simulation {
     /// checkpointed simulation would have taken. Fails if its particles per metre admit
     /// no grid or the model's state is not the model's.
     pub fn resume(state: Resumable) -> Result<Self, String> {
-        let params = state.method.model.params(state.ppm);
+        let mut dynamics = state.method.model.dynamics();
+        dynamics.restore(&state.method.model.params(state.ppm), &state.model_state)?;
+        let params = Params::with_cutoff(state.ppm, dynamics.cutoff(state.ppm));
         let grid = Grid::new(params.h).map_err(|error| error.to_string())?;
-        let mut simulation = Self::unplaced(params, grid, state.method, state.particles);
+        let mut simulation = Self::unplaced(params, grid, state.method, dynamics, state.particles);
         simulation.dynamics.restore(&params, &state.model_state)?;
         simulation.set_time_step(state.time_step);
         simulation.cells = CellOrder::resumed(state.sparse);

@@ -6,7 +6,8 @@ use crate::lab::diagnostics::Vitals;
 use crate::sim::clusters::PairStructure;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
-use crate::sim::model::Model;
+use crate::sim::model::wcsph::{Settings, WallFriction};
+use crate::sim::model::{Dynamics, Model, Wcsph};
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::{Limit, TimeStep};
 use clap::Args;
@@ -48,6 +49,85 @@ pub struct SimulationArgs {
     /// The neighbour structure of the SIMD pair loops on dense scenes.
     #[arg(long, value_enum, default_value_t = PairStructure::default())]
     pub pairs: PairStructure,
+    /// The weakly compressible model's choices.
+    #[command(flatten)]
+    pub water: WaterArgs,
+}
+
+/// The weakly compressible model's choices (`--model wcsph`), each defaulting to the
+/// validated setting.
+#[derive(Debug, Clone, Default, Args)]
+pub struct WaterArgs {
+    /// The walls' friction in the viscous terms (wcsph) [default: the validated one]
+    #[arg(long, value_enum)]
+    pub walls: Option<WallFriction>,
+    /// Monaghan's artificial viscosity alpha (wcsph) [default: the validated one]
+    #[arg(long, value_name = "ALPHA", allow_negative_numbers = true)]
+    pub artificial_viscosity: Option<f64>,
+    /// Kinematic viscosity of the laminar term in m^2/s, 0 for none; water's is 1e-6
+    /// (wcsph) [default: the validated one]
+    #[arg(long, value_name = "NU", allow_negative_numbers = true)]
+    pub laminar_viscosity: Option<f64>,
+    /// Smoothing length h in lattice spacings (wcsph) [default: the validated one]
+    #[arg(long, value_name = "SPACINGS", allow_negative_numbers = true)]
+    pub smoothing: Option<f64>,
+    /// Sound speed over sqrt(2 g H), H the fluid's height at the start (wcsph)
+    /// [default: the validated one]
+    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true)]
+    pub sound_speed: Option<f64>,
+    /// delta-SPH density diffusion coefficient (wcsph) [default: the validated one]
+    #[arg(long, value_name = "DELTA", allow_negative_numbers = true)]
+    pub density_diffusion: Option<f64>,
+}
+
+impl WaterArgs {
+    /// Whether any choice was given.
+    fn any(&self) -> bool {
+        self.walls.is_some()
+            || [
+                self.artificial_viscosity,
+                self.laminar_viscosity,
+                self.smoothing,
+                self.sound_speed,
+                self.density_diffusion,
+            ]
+            .iter()
+            .any(Option::is_some)
+    }
+
+    /// The settings asked for, the validated ones where none is given.
+    pub fn settings(&self) -> Result<Settings, String> {
+        let default = Settings::default();
+        let settings = Settings {
+            walls: self.walls.unwrap_or(default.walls),
+            artificial_viscosity: self
+                .artificial_viscosity
+                .unwrap_or(default.artificial_viscosity),
+            laminar_viscosity: self.laminar_viscosity.unwrap_or(default.laminar_viscosity),
+            smoothing: self.smoothing.unwrap_or(default.smoothing),
+            sound_speed_factor: self.sound_speed.unwrap_or(default.sound_speed_factor),
+            density_diffusion: self.density_diffusion.unwrap_or(default.density_diffusion),
+        };
+        settings
+            .check()
+            .map(|()| settings)
+            .map_err(|error| format!("--model wcsph: {error}"))
+    }
+
+    /// `model` with these choices: the weakly compressible model's settings, refused for
+    /// another model.
+    pub fn dynamics(&self, model: Model) -> Result<Box<dyn Dynamics>, String> {
+        match model {
+            Model::Wcsph => Ok(Box::new(Wcsph::unprepared(self.settings()?))),
+            _ if self.any() => Err(format!(
+                "--walls, --artificial-viscosity, --laminar-viscosity, --smoothing, \
+                 --sound-speed and --density-diffusion are the weakly compressible \
+                 model's; --model {} takes none",
+                model.name()
+            )),
+            _ => Ok(model.dynamics()),
+        }
+    }
 }
 
 impl SimulationArgs {
@@ -89,7 +169,8 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     };
     let stem = args.input.file_stem().unwrap_or_default();
     let ppm = scene.ppm;
-    let mut simulation = scene.into_simulation(method, &name)?;
+    let dynamics = args.water.dynamics(args.model)?;
+    let mut simulation = scene.into_simulation_with(method, dynamics, &name)?;
     simulation.set_time_step(args.time_step());
     simulation.set_pair_structure(args.pairs);
     let h = simulation.params().h;

@@ -3,11 +3,11 @@
 //! experimental point as a CSV, and a chart of Z against T with the experiment's points.
 
 use super::create_output_dir;
-use super::simulation_args::{asked_time_step, parse_courant, parse_time_step};
+use super::simulation_args::{asked_time_step, parse_courant, parse_time_step, WaterArgs};
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
-use crate::lab::validation::{self, Collapse, Comparison, DamBreak, MARTIN_MOYCE};
+use crate::lab::validation::{self, Collapse, Comparison, DamBreak, EXPERIMENTS};
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
@@ -23,8 +23,8 @@ use std::time::Instant;
 /// The experiments a model can be validated against.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Experiment {
-    /// The collapse of a water column 2a high on a dry floor: the surge front of Martin
-    /// and Moyce (1952), n^2 = 2.
+    /// The collapse of a water column 2a high on a dry floor: the surge fronts of Martin
+    /// and Moyce (1952), n^2 = 2, and of Koshizuka and Oka (1996).
     DamBreak,
 }
 
@@ -69,19 +69,24 @@ pub struct ValidateArgs {
     /// Seed of the lattice jitter.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// The weakly compressible model's choices (its runs only).
+    #[command(flatten)]
+    water: WaterArgs,
 }
 
 /// The CSV columns of the fronts.
 const FRONTS_HEADER: &str = "model,kernel,ppm,width_m,time_step,step,time_s,T,front_m,Z,\
                              mean_density_error,max_density_error";
 /// The CSV columns of the comparisons.
-const ERRORS_HEADER: &str = "model,kernel,ppm,width_m,time_step,T,Z_experiment,Z_model,\
-                             relative_error";
+const ERRORS_HEADER: &str = "model,kernel,ppm,width_m,time_step,experiment,T,Z_experiment,\
+                             Z_model,relative_error";
 /// The experiment's points compared in the summary: T up to this.
 const SUMMARY_T: f64 = 3.6;
 
 /// One model at one resolution, run.
 struct Validated {
+    model: Model,
+    ppm: f64,
     label: String,
     collapse: Collapse,
     comparisons: Vec<Comparison>,
@@ -117,7 +122,14 @@ pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
                 model,
                 kernel: args.kernel,
             };
-            let mut simulation = Simulation::with_method(ppm, dam.particles()?, method)
+            let (dynamics, settings) = match model {
+                Model::Wcsph => (
+                    args.water.dynamics(model)?,
+                    args.water.settings()?.describe(),
+                ),
+                _ => (model.dynamics(), "its own constants".to_string()),
+            };
+            let mut simulation = Simulation::with_dynamics(ppm, dam.particles()?, method, dynamics)
                 .map_err(|error| format!("--ppms {ppm}: {error}"))?;
             let time_step = asked.unwrap_or(model.default_time_step());
             simulation.set_time_step(time_step);
@@ -147,7 +159,8 @@ pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
             for comparison in &comparisons {
                 let optional = |value: Option<f64>| value.map_or(String::new(), |v| v.to_string());
                 errors += &format!(
-                    "{cells},{},{},{},{}\n",
+                    "{cells},{},{},{},{},{}\n",
+                    comparison.experiment,
                     comparison.t,
                     comparison.z_experiment,
                     optional(comparison.z_model),
@@ -168,17 +181,26 @@ pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
                 true => format!("{:.3}", seconds / simulated),
                 false => "none".to_string(),
             };
-            let worst = validation::worst_error(&comparisons, SUMMARY_T)
-                .map_or("none".to_string(), |error| format!("{error:.3}"));
+            let agreement: String = EXPERIMENTS
+                .iter()
+                .map(|experiment| {
+                    let key = experiment_key(experiment.name);
+                    let errors = validation::errors(&comparisons, Some(experiment.name), SUMMARY_T);
+                    let (worst, mean) = errors.map_or(("none".into(), "none".into()), |(w, m)| {
+                        (format!("{w:.3}"), format!("{m:.3}"))
+                    });
+                    format!(" {key}_worst={worst} {key}_mean={mean}")
+                })
+                .collect();
             let failed = collapse.failure.map_or(String::new(), |(t, failure)| {
                 format!(" failed_at_T={t:.3} ({failure})")
             });
             writeln!(
                 stdout,
-                "model={} ppm={ppm} particles={} worst_error_T_le_{SUMMARY_T}={worst} \
+                "model={} ppm={ppm} particles={} T_le={SUMMARY_T}{agreement} \
                  max_density_error_T_le_{SUMMARY_T}={densest_compared:.3} \
                  max_density_error={densest:.3} seconds={seconds:.3} \
-                 seconds_per_simulated_s={per_simulated_second}{failed}",
+                 seconds_per_simulated_s={per_simulated_second}{failed} settings: {settings}",
                 model.name(),
                 simulation.particles().len(),
             )?;
@@ -187,6 +209,8 @@ pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
                 label += &format!(" (failed at T = {t:.2})");
             }
             runs.push(Validated {
+                model,
+                ppm,
                 label,
                 collapse,
                 comparisons,
@@ -201,22 +225,90 @@ pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     let machine = Machine::this();
     let rule = asked.map_or("each model's own time step".to_string(), rule_name);
     let footer = format!(
-        "column a = {} m, 2a high, {rule}, {} kernel; {}, commit {}; points: Martin and Moyce \
-         (1952); CPU s: {}",
+        "column a = {} m, 2a high, {rule}, {} kernel; {}, commit {}; {:.0} CPU s in all{}",
         args.width,
         args.kernel.name(),
         machine.cpu_model,
         machine.commit,
-        runs.iter()
-            .map(|run| format!("{:.1}", run.seconds))
-            .collect::<Vec<_>>()
-            .join(", ")
+        runs.iter().map(|run| run.seconds).sum::<f64>(),
+        match args.models.contains(&Model::Wcsph) {
+            true => format!("; wcsph: {}", args.water.settings()?.describe()),
+            false => String::new(),
+        }
     );
-    let chart = front_chart(&runs, &footer);
-    for path in chart::render(&chart, &args.output_dir, chart::SIZE)? {
-        writeln!(stdout, "wrote {}", path.display())?;
+    let charts = std::iter::once(front_chart(&runs, &footer)).chain(
+        args.models
+            .iter()
+            .filter_map(|&model| convergence_chart(&runs, model, &footer)),
+    );
+    for chart in charts {
+        for path in chart::render(&chart, &args.output_dir, chart::SIZE)? {
+            writeln!(stdout, "wrote {}", path.display())?;
+        }
     }
     Ok(())
+}
+
+/// The error of `model`'s front at each experimental point with T up to [`SUMMARY_T`]
+/// against particles per metre, a line per point, if it ran at more than one resolution
+/// and reached a point: `dam-break-convergence-<model>`.
+fn convergence_chart(runs: &[Validated], model: Model, footer: &str) -> Option<PointChart> {
+    let runs: Vec<&Validated> = runs.iter().filter(|run| run.model == model).collect();
+    let points = runs
+        .first()?
+        .comparisons
+        .iter()
+        .filter(|c| c.t <= SUMMARY_T);
+    let series: Vec<(String, Vec<(f64, f64)>)> = points
+        .map(|point| {
+            let errors = runs
+                .iter()
+                .filter_map(|run| {
+                    let same = run
+                        .comparisons
+                        .iter()
+                        .find(|c| c.experiment == point.experiment && c.t == point.t)?;
+                    Some((run.ppm, 100.0 * same.relative_error()?))
+                })
+                .collect();
+            let initials: String = point
+                .experiment
+                .split_whitespace()
+                .filter_map(|word| word.chars().next().filter(char::is_ascii_uppercase))
+                .collect();
+            (format!("{initials} T = {:.2}", point.t), errors)
+        })
+        .collect();
+    let reached = series.iter().any(|(_, errors)| !errors.is_empty());
+    (runs.len() > 1 && reached).then(|| PointChart {
+        name: match model {
+            Model::Course => "dam-break-convergence-course",
+            Model::Fluidanimate => "dam-break-convergence-fluidanimate",
+            Model::Wcsph => "dam-break-convergence-wcsph",
+        },
+        title: format!(
+            "Dam break, {}: front error at each experimental point (T <= {SUMMARY_T})",
+            model.name()
+        ),
+        x_label: "particles per metre".into(),
+        x_log: true,
+        y_label: "(Z_model - Z_experiment) / Z_experiment (%)".into(),
+        y_log: false,
+        series,
+        lines: true,
+        fronts: Vec::new(),
+        notes: Vec::new(),
+        legend: SeriesLabelPosition::UpperRight,
+        footer: footer.to_string(),
+    })
+}
+
+/// An experiment's name as the summary's keys take it: its first author, in lower case.
+fn experiment_key(name: &str) -> String {
+    name.split_whitespace()
+        .next()
+        .unwrap_or_default()
+        .to_lowercase()
 }
 
 /// A time-step rule as the CSVs name it.
@@ -230,12 +322,16 @@ fn rule_name(time_step: TimeStep) -> String {
 /// Z against T: the experiment's points, and each run's front (a line) with its value at
 /// each experimental T (points).
 fn front_chart(runs: &[Validated], footer: &str) -> PointChart {
-    let mut series = vec![("Martin and Moyce (1952)".to_string(), MARTIN_MOYCE.to_vec())];
-    let mut fronts = vec![Vec::new()];
+    let mut series: Vec<(String, Vec<(f64, f64)>)> = EXPERIMENTS
+        .iter()
+        .map(|experiment| (experiment.name.to_string(), experiment.points.to_vec()))
+        .collect();
+    let mut fronts = vec![Vec::new(); EXPERIMENTS.len()];
     for run in runs {
         let at_experiment = run
             .comparisons
             .iter()
+            .filter(|comparison| comparison.experiment == EXPERIMENTS[0].name)
             .filter_map(|comparison| Some((comparison.t, comparison.z_model?)))
             .collect();
         series.push((run.label.clone(), at_experiment));

@@ -50,6 +50,11 @@ pub struct WcsphConstants {
     pub artificial_viscosity: f64,
     /// The delta-SPH density diffusion coefficient delta.
     pub density_diffusion: f64,
+    /// The kinematic viscosity nu of the laminar term (m^2/s; 0: none).
+    pub laminar_viscosity: f64,
+    /// No-slip walls: the viscous terms meet images moving against their particles
+    /// (-v), instead of mirrored ones (free slip).
+    pub no_slip: bool,
 }
 
 impl WcsphConstants {
@@ -164,14 +169,16 @@ pub struct Rates<'a> {
     pub rho: &'a mut [f64],
 }
 
-/// The terms of particle i with partner (or image) j at offset `d` = p_i - p_j and
-/// velocity difference `dv` = v_i - v_j: i's acceleration (j gets its opposite) and the
-/// density rates of i and j; `None` beyond the support.
+/// The terms of particle i with partner (or image) j at offset `d` = p_i - p_j, velocity
+/// difference `dv` = v_i - v_j (of the continuity equation) and `viscous`, the velocity
+/// difference the viscous terms take (`dv`, or across a no-slip wall v_i + v_j): i's
+/// acceleration (j gets its opposite) and the density rates of i and j; `None` beyond
+/// the support.
 #[inline(always)]
 pub(super) fn pair(
     constants: &WcsphConstants,
     d: DVec3,
-    dv: DVec3,
+    [dv, viscous]: [DVec3; 2],
     [rho_i, rho_j]: [f64; 2],
     [pressure_i, pressure_j]: [f64; 2],
 ) -> Option<(DVec3, [f64; 2])> {
@@ -182,18 +189,19 @@ pub(super) fn pair(
         return None;
     }
     let mass_gradient = constants.mass * constants.gradient(r2.sqrt());
-    let approach = dv.dot(d);
     let inverse = 1.0 / (r2 + constants.eta2);
+    let over_densities = inverse / (rho_i + rho_j);
     let viscosity = (-2.0
         * constants.artificial_viscosity
         * constants.sound_speed
         * constants.h
-        * approach
-        * inverse
-        / (rho_i + rho_j))
+        * viscous.dot(d)
+        * over_densities)
         .max(0.0);
-    let acceleration = d * (mass_gradient * (pressure_i + pressure_j + viscosity));
-    let continuity = -mass_gradient * approach;
+    let laminar = 4.0 * constants.laminar_viscosity * mass_gradient * r2 * over_densities;
+    let acceleration =
+        d * (mass_gradient * (pressure_i + pressure_j + viscosity)) - viscous * laminar;
+    let continuity = -mass_gradient * dv.dot(d);
     let diffusion = 2.0
         * constants.density_diffusion
         * constants.h
@@ -206,6 +214,36 @@ pub(super) fn pair(
         continuity + diffusion * (rho_i - rho_j) / rho_i,
     ];
     Some((acceleration, rates))
+}
+
+/// The velocity differences of `pair` for particle i (velocity `v_i`) with the image
+/// across the walls of `set` of a partner j (velocity `v_j`; `set` 0: j itself): the
+/// mirrored one, v_i - R v_j, and the viscous terms' (the same, or v_i + v_j across a
+/// no-slip wall).
+fn velocity_differences(constants: &WcsphConstants, v_i: DVec3, v_j: DVec3, set: u8) -> [DVec3; 2] {
+    let dv = v_i - reflected(v_j, set);
+    let viscous = if constants.no_slip && set != 0 {
+        v_i + v_j
+    } else {
+        dv
+    };
+    [dv, viscous]
+}
+
+/// The velocity differences j's side of an image pair takes in i's frame: its terms
+/// with the image of i are -R times [`pair`]'s at (`d`, these), R the reflection of
+/// `set`. The mirrored difference is i's own; the no-slip one is v_i + v_j negated off
+/// the walls' axes.
+fn partner_differences(
+    constants: &WcsphConstants,
+    [dv, viscous]: [DVec3; 2],
+    set: u8,
+) -> [DVec3; 2] {
+    if constants.no_slip && set != 0 {
+        [dv, -reflected(viscous, set)]
+    } else {
+        [dv, viscous]
+    }
 }
 
 /// `vector` with the axes of `set` (bits) negated: the reflection's linear part.
@@ -253,7 +291,7 @@ fn self_images(constants: &WcsphConstants, state: State, n: usize, rates: &mut R
         let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
         for set in walls.images() {
             let image = mirrored(p, set, &walls);
-            let dv = v - reflected(v, set);
+            let dv = velocity_differences(constants, v, v, set);
             let (pressure_image, rho_image) = image_of(constants, pressure, rho, p, image);
             let (pressures, densities) = ([pressure, pressure_image], [rho, rho_image]);
             if let Some((da, [rate, _])) = pair(constants, p - image, dv, densities, pressures) {
@@ -288,7 +326,7 @@ pub(super) fn scalar(pass: WeaklyCompressible) {
                 let images = std::iter::once(0).chain(walls.images());
                 for set in images {
                     let image = mirrored(p_j, set, &walls);
-                    let dv = v_i - reflected(v_j, set);
+                    let dv = velocity_differences(constants, v_i, v_j, set);
                     let (pressure_image, rho_image) =
                         image_of(constants, pressure_j, rho_j, p_j, image);
                     let pressures = [pressure_i, pressure_image];
@@ -296,15 +334,22 @@ pub(super) fn scalar(pass: WeaklyCompressible) {
                     let terms = pair(constants, d, dv, [rho_i, rho_image], pressures);
                     if let Some((da, [rate_i, rate_j])) = terms {
                         // j meets the image of i, which across the floor has its own
-                        // hydrostatic pressure and density.
-                        let (da_j, rate_j) = if set & 0b010 == 0 || walls.at[1] != BOX_MIN.y {
+                        // hydrostatic pressure and density, and across a no-slip wall
+                        // its own velocity.
+                        let floor = set & 0b010 != 0 && walls.at[1] == BOX_MIN.y;
+                        let own_terms = floor || constants.no_slip && set != 0;
+                        let (da_j, rate_j) = if !own_terms {
                             (da, rate_j)
                         } else {
-                            let image_i = mirrored(p_i, set, &walls);
-                            let (pressure_image, rho_image) =
-                                image_of(constants, pressure_i, rho_i, p_i, image_i);
-                            let pressures = [pressure_image, pressure_j];
-                            let terms = pair(constants, d, dv, [rho_image, rho_j], pressures);
+                            let (pressure_i, rho_i) = if floor {
+                                let image_i = mirrored(p_i, set, &walls);
+                                image_of(constants, pressure_i, rho_i, p_i, image_i)
+                            } else {
+                                (pressure_i, rho_i)
+                            };
+                            let pressures = [pressure_i, pressure_j];
+                            let dv = partner_differences(constants, dv, set);
+                            let terms = pair(constants, d, dv, [rho_i, rho_j], pressures);
                             terms.map_or((DVec3::ZERO, 0.0), |(da_j, [_, rate_j])| (da_j, rate_j))
                         };
                         let back = reflected(da_j, set);
@@ -361,7 +406,7 @@ pub(super) fn reference(pass: WeaklyCompressible) {
             let own = usize::from(j == i);
             for set in std::iter::once(0).chain(walls.images()).skip(own) {
                 let image = mirrored(p_j, set, &walls);
-                let dv = v_i - reflected(v_j, set);
+                let dv = velocity_differences(constants, v_i, v_j, set);
                 let (pressure_image, rho_image) =
                     image_of(constants, pressure_j, rho_j, p_j, image);
                 let pressure = [state.pressure_terms[i], pressure_image];
@@ -410,6 +455,12 @@ struct Pairs<'a, L: Lanes> {
     eta2: L::V,
     twice_gravity: L::V,
     inverse_sound_speed2: L::V,
+    /// 4 nu of the laminar term.
+    laminar: L::V,
+    /// Whether there is a laminar term (nu > 0).
+    laminar_term: bool,
+    /// Whether the walls are no-slip ones.
+    no_slip: bool,
 }
 
 /// One group's terms: i's acceleration and the partners' (before reflection; per axis),
@@ -424,12 +475,14 @@ type GroupTerms<L> = (
 impl<L: Lanes> Pairs<'_, L> {
     /// The terms of `first` with the partners at `at` (lanes of `lanes`), or with their
     /// images across the walls of `set` (0: the partners themselves); zero in lanes beyond
-    /// the support, `None` if every lane is.
+    /// the support, `None` if every lane is. `NO_SLIP`: the images are those of no-slip
+    /// walls, whose viscous terms take v_i + v_j (i's side) and its mirror (j's side,
+    /// [`partner_differences`]). `LAMINAR`: with the laminar viscous term.
     ///
     /// # Safety
     /// Every place of `at` is within every array of the state.
     #[inline(always)]
-    unsafe fn group(
+    unsafe fn group<const NO_SLIP: bool, const LAMINAR: bool>(
         &self,
         first: &First,
         at: Places,
@@ -455,7 +508,31 @@ impl<L: Lanes> Pairs<'_, L> {
         let w = self.one - L::sqrt(r2) * self.over_2h;
         let mass_gradient = self.mass_gradient * (w * w * w);
         let dv = [velocity(0), velocity(1), velocity(2)];
-        let approach = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
+        let dot = |u: &[L::V; 3]| u[0] * d[0] + u[1] * d[1] + u[2] * d[2];
+        let approach = dot(&dv);
+        // The viscous terms' velocity differences, i's and j's (in i's frame): off the
+        // walls' axes, v_i + v_j = 2 v_i - dv and its opposite.
+        let (viscous_i, viscous_j) = if NO_SLIP {
+            let twice = |axis: usize| L::splat(2.0 * first.v[axis]);
+            let side = |axis: usize, sign: f64| {
+                if across(axis) {
+                    dv[axis]
+                } else {
+                    L::splat(sign) * (twice(axis) - dv[axis])
+                }
+            };
+            (
+                [side(0, 1.0), side(1, 1.0), side(2, 1.0)],
+                [side(0, -1.0), side(1, -1.0), side(2, -1.0)],
+            )
+        } else {
+            (dv, dv)
+        };
+        let (approach_i, approach_j) = if NO_SLIP {
+            (dot(&viscous_i), dot(&viscous_j))
+        } else {
+            (approach, approach)
+        };
         // SAFETY: guaranteed by the caller.
         let (rho_j, pressure_j) = unsafe {
             (
@@ -468,35 +545,43 @@ impl<L: Lanes> Pairs<'_, L> {
         let viscosity =
             |approach_over: L::V| L::max(self.zero - self.viscosity * approach_over, self.zero);
         let continuity = self.zero - mass_gradient * approach;
-        let terms = |scale: L::V| {
-            [
-                (d[0] * scale) & close,
-                (d[1] * scale) & close,
-                (d[2] * scale) & close,
-            ]
+        // The acceleration d (pressure and artificial viscosity) - K u (laminar), masked.
+        let terms = |scale: L::V, laminar: L::V, u: &[L::V; 3]| {
+            [0, 1, 2].map(|axis| match LAMINAR {
+                true => (d[axis] * scale - u[axis] * laminar) & close,
+                false => (d[axis] * scale) & close,
+            })
         };
+        let laminar_factor = self.laminar * mass_gradient * r2;
         let softened = r2 + self.eta2;
         let floor_image = first.floor_image.filter(|_| across(1));
         let Some((pressure_i_image, rho_i_image)) = floor_image else {
             // One division for the lanes' three quotients: 1 / (softened (rho_i + rho_j))
-            // of the viscosity, and 1 / rho_j, 1 / rho_i of the diffusion.
+            // of the viscosities, and 1 / rho_j, 1 / rho_i of the diffusion.
             let (densities, product) = (rho_i + rho_j, rho_i * rho_j);
             let denominator = softened * densities;
             let reciprocal = self.one / (denominator * product);
             let over_denominator = reciprocal * product;
             let over_product = reciprocal * denominator;
-            let scale =
-                mass_gradient * (pressure_i + pressure_j + viscosity(approach * over_denominator));
+            let pressures = pressure_i + pressure_j;
+            let scale = |approach: L::V| {
+                mass_gradient * (pressures + viscosity(approach * over_denominator))
+            };
+            let laminar = laminar_factor * over_denominator;
             let diffusion = self.diffusion * mass_gradient * r2 * densities * over_denominator;
             let difference = (rho_j - rho_i) * diffusion * over_product;
             let rate_i = (continuity + difference * rho_i) & close;
             let rate_j = (continuity - difference * rho_j) & close;
-            let da = terms(scale);
-            return Some((da, da, rate_i, rate_j));
+            let da = terms(scale(approach_i), laminar, &viscous_i);
+            let da_j = if NO_SLIP {
+                terms(scale(approach_j), laminar, &viscous_j)
+            } else {
+                da
+            };
+            return Some((da, da_j, rate_i, rate_j));
         };
         let inverse = self.one / softened;
         let diffusion = self.diffusion * mass_gradient * r2 * inverse;
-        let viscosity = |rho_a: L::V, rho_b: L::V| viscosity(approach * inverse / (rho_a + rho_b));
         // Across the floor an image's pressure differs from its particle's by
         // rho g_y (y' - y), and its density by that over c0^2 ([`image_of`]): j's image
         // lies y'_j - y_j = 2 (y_i - w) - 2 d_y from j; i's is the first's own.
@@ -505,13 +590,20 @@ impl<L: Lanes> Pairs<'_, L> {
         let rho_j_image = rho_j + rho_j * lift_j * self.inverse_sound_speed2;
         let pressure_j_image = (pressure_j * rho_j + lift_j) * rho_j / (rho_j_image * rho_j_image);
         let (rho_i_image, pressure_i_image) = (L::splat(rho_i_image), L::splat(pressure_i_image));
+        let over_i = inverse / (rho_i + rho_j_image);
+        let over_j = inverse / (rho_i_image + rho_j);
         let scale_i =
-            mass_gradient * (pressure_i + pressure_j_image + viscosity(rho_i, rho_j_image));
+            mass_gradient * (pressure_i + pressure_j_image + viscosity(approach_i * over_i));
         let scale_j =
-            mass_gradient * (pressure_i_image + pressure_j + viscosity(rho_i_image, rho_j));
+            mass_gradient * (pressure_i_image + pressure_j + viscosity(approach_j * over_j));
         let rate_i = (continuity + diffusion * (rho_j_image - rho_i) / rho_j_image) & close;
         let rate_j = (continuity + diffusion * (rho_i_image - rho_j) / rho_i_image) & close;
-        Some((terms(scale_i), terms(scale_j), rate_i, rate_j))
+        Some((
+            terms(scale_i, laminar_factor * over_i, &viscous_i),
+            terms(scale_j, laminar_factor * over_j, &viscous_j),
+            rate_i,
+            rate_j,
+        ))
     }
 }
 
@@ -563,6 +655,9 @@ impl<'a, L: Lanes> Pairs<'a, L> {
             eta2: L::splat(constants.eta2),
             twice_gravity: L::splat(2.0 * GRAVITY.y),
             inverse_sound_speed2: L::splat(1.0 / (constants.sound_speed * constants.sound_speed)),
+            laminar: L::splat(4.0 * constants.laminar_viscosity),
+            laminar_term: constants.laminar_viscosity != 0.0,
+            no_slip: constants.no_slip,
         }
     }
 
@@ -639,8 +734,14 @@ impl<'a, L: Lanes> Pairs<'a, L> {
         targets: &mut [&mut [f64]; 4],
     ) {
         // SAFETY: guaranteed by the caller.
-        let Some((da, da_j, rate_i, rate_j)) = (unsafe { self.group(first, at, lanes, set) })
-        else {
+        // SAFETY (each): guaranteed by the caller.
+        let terms = match (self.no_slip && set != 0, self.laminar_term) {
+            (false, false) => unsafe { self.group::<false, false>(first, at, lanes, set) },
+            (false, true) => unsafe { self.group::<false, true>(first, at, lanes, set) },
+            (true, false) => unsafe { self.group::<true, false>(first, at, lanes, set) },
+            (true, true) => unsafe { self.group::<true, true>(first, at, lanes, set) },
+        };
+        let Some((da, da_j, rate_i, rate_j)) = terms else {
             return;
         };
         for axis in 0..3 {
@@ -840,10 +941,12 @@ mod tests {
     use crate::sim::clusters::PairStructure;
     use crate::sim::kernel::Kernel;
     use crate::sim::method::Method;
+    use crate::sim::model::wcsph::{Settings, WallFriction};
     use crate::sim::model::{Model, Wcsph};
     use crate::sim::particles::{Particles, PADDING};
     use crate::sim::simulation::Simulation;
     use crate::sim::stages::Stage;
+    use std::f64::consts::PI;
 
     /// A jittered block of `size` particles a spacing (1 / `ppm`) apart from `corner`,
     /// with random velocities and densities within 1% of rest.
@@ -955,35 +1058,191 @@ mod tests {
         // A block in the box's low corner: images across one, two and three walls.
         let ppm = 300.0;
         let particles = block(ppm, [12, 11, 13], BOX_MIN, 7);
-        let model = Wcsph::new(ppm, 10.0);
-        let scalar = pass(
-            Kernel::Scalar,
-            PairStructure::Tiles,
-            &model,
-            ppm,
-            &particles,
-        );
-        assert!(scalar.0.iter().all(|a| a.is_finite() && *a != DVec3::ZERO));
-        for (kernel, tolerance) in [
-            (Kernel::Simd, 1e-12),
-            (Kernel::Simd8, 1e-12),
-            (Kernel::Reference, 1e-12),
-            (Kernel::Mixed, 5e-6),
-        ] {
-            for structure in [PairStructure::Tiles, PairStructure::Clusters] {
-                let other = pass(kernel, structure, &model, ppm, &particles);
-                let (da, drate) = difference(&scalar, &other);
-                println!("{kernel:?} on {structure:?}: {da:.2e} {drate:.2e}");
-                assert!(
-                    da < tolerance && drate < tolerance,
-                    "{kernel:?} on {structure:?}: {da:e} {drate:e}"
-                );
+        // Free-slip walls, and no-slip ones with a laminar viscosity large enough to
+        // weigh as much as the artificial one.
+        let no_slip = Settings {
+            walls: WallFriction::NoSlip,
+            laminar_viscosity: 1e-3,
+            ..Settings::default()
+        };
+        for settings in [Settings::default(), no_slip] {
+            let model = Wcsph::with_settings(settings, ppm, 10.0);
+            let scalar = pass(
+                Kernel::Scalar,
+                PairStructure::Tiles,
+                &model,
+                ppm,
+                &particles,
+            );
+            assert!(scalar.0.iter().all(|a| a.is_finite() && *a != DVec3::ZERO));
+            for (kernel, tolerance) in [
+                (Kernel::Simd, 1e-12),
+                (Kernel::Simd8, 1e-12),
+                (Kernel::Reference, 1e-12),
+                (Kernel::Mixed, 5e-6),
+            ] {
+                for structure in [PairStructure::Tiles, PairStructure::Clusters] {
+                    let other = pass(kernel, structure, &model, ppm, &particles);
+                    let (da, drate) = difference(&scalar, &other);
+                    println!(
+                        "{:?} {kernel:?} on {structure:?}: {da:.2e} {drate:.2e}",
+                        settings.walls
+                    );
+                    assert!(
+                        da < tolerance && drate < tolerance,
+                        "{:?} {kernel:?} on {structure:?}: {da:e} {drate:e}",
+                        settings.walls
+                    );
+                }
             }
         }
     }
 
-    /// The terms of a block near the walls of `axes` (images), against those of the same
-    /// block with its mirror images across every subset of those walls made particles,
+    /// A lattice block of `size` particles from `corner` at `ppm`, at rest density, each
+    /// moving at `velocity` of its position.
+    fn flowing(
+        ppm: f64,
+        size: [usize; 3],
+        corner: DVec3,
+        velocity: impl Fn(DVec3) -> DVec3,
+    ) -> Particles {
+        let n = size[0] * size[1] * size[2];
+        let mut particles = Particles::zeroed(n);
+        for slot in 0..n {
+            let k = [
+                slot % size[0],
+                slot / size[0] % size[1],
+                slot / (size[0] * size[1]),
+            ];
+            let p = corner + DVec3::from_array(k.map(|k| (k as f64 + 0.5) / ppm));
+            let v = velocity(p);
+            for axis in 0..3 {
+                particles.p[axis][slot] = p[axis];
+                particles.hv[axis][slot] = v[axis];
+            }
+            particles.rho[slot] = 1000.0;
+        }
+        particles
+    }
+
+    /// The laminar viscous accelerations of `particles` (at rest density: no pressure)
+    /// with the walls `walls`, viscosity `nu` and no artificial viscosity, on the SIMD
+    /// kernel over clusters, of the particles `inside` takes: (position, velocity,
+    /// acceleration) each.
+    fn laminar(
+        ppm: f64,
+        particles: &Particles,
+        walls: WallFriction,
+        nu: f64,
+        inside: impl Fn(DVec3) -> bool,
+    ) -> Vec<(DVec3, DVec3, DVec3)> {
+        let settings = Settings {
+            walls,
+            artificial_viscosity: 0.0,
+            laminar_viscosity: nu,
+            ..Settings::default()
+        };
+        let model = Wcsph::with_settings(settings, ppm, 10.0);
+        let (a, _) = pass(
+            Kernel::Simd,
+            PairStructure::Clusters,
+            &model,
+            ppm,
+            particles,
+        );
+        (0..particles.len())
+            .filter(|&slot| inside(particles.position(slot)))
+            .map(|slot| {
+                (
+                    particles.position(slot),
+                    particles.half_velocity(slot),
+                    a[slot],
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_couette_flow_over_a_no_slip_floor_is_steady() {
+        // Water sheared over the floor, u_x = k y (y above the floor): a plane Couette
+        // flow, whose viscous acceleration nu d2u/dy2 is zero at every height. No-slip
+        // images (-v) continue the profile as it is; free-slip ones (v) fold it at the
+        // wall, and the layers near it feel a drag of about nu k / (spacing).
+        let (ppm, nu, k) = (200.0, 1e-3, 10.0);
+        let corner = DVec3::new(-0.04, BOX_MIN.y, -0.04);
+        let particles = flowing(ppm, [16, 10, 16], corner, |p| {
+            DVec3::new(k * (p.y - BOX_MIN.y), 0.0, 0.0)
+        });
+        // Away from the block's sides and top by a support radius (2.6 spacings).
+        let margin = 2.6 / ppm;
+        let inside = |p: DVec3| {
+            let (low, high) = (corner, corner + DVec3::new(16.0, 10.0, 16.0) / ppm);
+            p.x - low.x > margin
+                && high.x - p.x > margin
+                && p.z - low.z > margin
+                && high.z - p.z > margin
+                && high.y - p.y > margin
+        };
+        // Along the flow (across it, the images below the floor push up: their
+        // hydrostatic pressure, which this block at rest density does not balance).
+        let scale = nu * k * ppm;
+        let largest = |walls| {
+            laminar(ppm, &particles, walls, nu, inside)
+                .iter()
+                .map(|(_, _, a)| a.x.abs())
+                .fold(0.0, f64::max)
+                / scale
+        };
+        let (no_slip, free_slip) = (
+            largest(WallFriction::NoSlip),
+            largest(WallFriction::FreeSlip),
+        );
+        println!("largest |a| over nu k / dx: no slip {no_slip:.2e}, free slip {free_slip:.2e}");
+        assert!(no_slip < 0.02, "{no_slip}");
+        assert!(free_slip > 0.3, "{free_slip}");
+    }
+
+    #[test]
+    fn a_shear_wave_decays_at_nu_k_squared() {
+        // u_x = U sin(k y) away from every wall: the laminar term's acceleration is
+        // nu d2u/dy2 = -nu k^2 u, so the wave decays at the rate nu k^2. Fitted over the
+        // particles a support radius inside the block, within 10% (the lattice's
+        // discretisation: 16 spacings a wave).
+        let (ppm, nu) = (200.0, 1e-3);
+        let size = [12, 24, 12];
+        let corner = DVec3::new(-0.03, -0.06, -0.03);
+        let wave = 2.0 * PI / (16.0 / ppm);
+        let particles = flowing(ppm, size, corner, |p| {
+            DVec3::new(0.01 * (wave * (p.y - corner.y)).sin(), 0.0, 0.0)
+        });
+        let margin = 2.6 / ppm;
+        let high = corner + DVec3::from_array(size.map(|s| s as f64)) / ppm;
+        let inside =
+            |p: DVec3| (p - corner).min_element() > margin && (high - p).min_element() > margin;
+        let terms = laminar(ppm, &particles, WallFriction::FreeSlip, nu, inside);
+        assert!(terms.len() > 500, "{}", terms.len());
+        let (au, uu) = terms.iter().fold((0.0, 0.0), |(au, uu), (_, v, a)| {
+            (au - a.x * v.x, uu + v.x * v.x)
+        });
+        let rate = au / uu;
+        let expected = nu * wave * wave;
+        println!("decay rate {rate:.4} 1/s, nu k^2 = {expected:.4} 1/s");
+        assert!(
+            (rate / expected - 1.0).abs() < 0.1,
+            "{rate} against {expected}"
+        );
+        let across = terms
+            .iter()
+            .map(|(_, _, a)| a.y.abs().max(a.z.abs()))
+            .fold(0.0, f64::max);
+        assert!(
+            across < 1e-6 * expected * 0.01,
+            "a shear wave drives no other flow: {across}"
+        );
+    }
+
+    /// The terms of a block near the free-slip walls of `axes` (images), against those of
+    /// the same block with its mirror images across every subset of those walls made particles,
     /// moved by `shift` to where no wall is near: the largest differences.
     fn against_explicit_images(axes: u8, corner: DVec3, shift: DVec3) -> [(f64, f64); 2] {
         let ppm = 200.0;
@@ -993,7 +1252,12 @@ mod tests {
             axes,
             at: BOX_MIN.to_array(),
         };
-        let model = Wcsph::new(ppm, 10.0);
+        // Mirrored particles move as the images of free-slip walls.
+        let free_slip = Settings {
+            walls: WallFriction::FreeSlip,
+            ..Settings::default()
+        };
+        let model = Wcsph::with_settings(free_slip, ppm, 10.0);
         let sets: Vec<u8> = std::iter::once(0).chain(walls.images()).collect();
         let mut explicit = Particles::zeroed(sets.len() * n);
         for (copy, &set) in sets.iter().enumerate() {

@@ -193,7 +193,10 @@ mod tests {
         let ppm = std::hint::black_box(200.0);
         assert_eq!(Model::Course.params(ppm), Params::new(ppm));
         assert_eq!(Model::Fluidanimate.params(ppm), Params::new(ppm));
-        assert_eq!(Model::Wcsph.params(ppm).h, wcsph::SUPPORT / ppm);
+        assert_eq!(
+            Model::Wcsph.params(ppm).h,
+            2.0 * wcsph::Settings::default().smoothing / ppm
+        );
         assert_eq!(
             Model::Course.default_time_step(),
             TimeStep::Fixed(crate::sim::params::TIME_STEP)
