@@ -5,7 +5,8 @@
 # 3 MB is not committed); the accuracy-speed and error-time charts of four scenes
 # (docs/accuracy/*/, scripts/accuracy-sweeps.sh) and the stability map of every model,
 # precision and time-step rule (docs/stability/), and every model against the dam-break
-# experiment of Martin and Moyce (docs/validation/).
+# experiments of Martin and Moyce and of Koshizuka and Oka (docs/validation/; the
+# settings table docs/validation/settings.md is scripts/water-settings.sh's).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -19,5 +20,6 @@ echo "method: $lab render, accuracy, stability and validate (plotters, embedded 
 # Accuracy against speed, and where each method fails (CSV, PNG and SVG in each folder).
 scripts/accuracy-sweeps.sh docs/accuracy
 "$lab" stability --kernels simd,mixed --output-dir docs/stability
-"$lab" validate dam-break --models course,fluidanimate,wcsph --ppms 200,300,400 --width 0.026 \
+"$lab" validate dam-break --models course,fluidanimate,wcsph --ppms 200,300,400,600 --width 0.026 \
     --until 3.65 --output-dir docs/validation | tee docs/validation/summary.txt
+scripts/water-settings.sh target/water-settings >docs/validation/settings.md

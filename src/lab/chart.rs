@@ -410,10 +410,18 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    let (_, height) = root.dim_in_pixel();
-    let (plot, bottom) = root.split_vertically(height - 28);
+    let (width, height) = root.dim_in_pixel();
+    // About 6 pixels a character at 12 points.
+    let lines = wrap(footer, (width.saturating_sub(32) / 6).max(40) as usize);
+    let (plot, bottom) = root.split_vertically(height - 14 - 14 * lines.len() as u32);
     let style = ("sans-serif", 12).into_font().color(&BLACK.mix(0.7));
-    bottom.draw(&Text::new(footer, (16, 4), style))?;
+    for (row, line) in lines.iter().enumerate() {
+        bottom.draw(&Text::new(
+            line.as_str(),
+            (16, 4 + 14 * row as i32),
+            style.clone(),
+        ))?;
+    }
     Ok(plot)
 }
 
@@ -531,6 +539,9 @@ pub struct PointChart {
     pub y_log: bool,
     /// The series: legend text and points.
     pub series: Vec<(String, Vec<(f64, f64)>)>,
+    /// How many of the first series are measurements (an experiment's points), drawn in
+    /// black and grey with markers of their own, apart from the colours of the rest.
+    pub measured: usize,
     /// Whether to join each series' points with lines (else points only).
     pub lines: bool,
     /// A line per series through other points of its own (its Pareto front, say), in its
@@ -669,9 +680,28 @@ impl PointChart {
             .label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", 16))
             .draw()?;
-        let count = self.series.len();
+        let count = self.series.len() - self.measured.min(self.series.len());
         for (index, (label, points)) in self.series.iter().enumerate() {
-            let color = colour(index, count);
+            if index < self.measured {
+                // Crosses in black, then triangles in grey, and so on.
+                let shade = BLACK.mix(1.0 - 0.45 * (index % 2) as f64);
+                let points = points.iter().copied().filter(|&p| self.shows(p));
+                if index % 2 == 0 {
+                    let cross = move |p| Cross::new(p, 5, shade.stroke_width(2));
+                    context
+                        .draw_series(points.map(cross))?
+                        .label(label.as_str())
+                        .legend(move |(x, y)| Cross::new((x + 10, y), 5, shade.stroke_width(2)));
+                } else {
+                    let triangle = move |p| TriangleMarker::new(p, 6, shade.filled());
+                    context
+                        .draw_series(points.map(triangle))?
+                        .label(label.as_str())
+                        .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 6, shade.filled()));
+                }
+                continue;
+            }
+            let color = colour(index - self.measured, count);
             if let Some(front) = self.fronts.get(index) {
                 let front = front.iter().copied().filter(|&p| self.shows(p));
                 context.draw_series(LineSeries::new(front, color.mix(0.6).stroke_width(2)))?;

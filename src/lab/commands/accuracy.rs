@@ -581,6 +581,7 @@ fn speed_chart(
             .map(|(_, points)| accuracy::pareto_front(points))
             .collect(),
         series,
+        measured: 0,
         lines: false,
         legend: SeriesLabelPosition::UpperRight,
         notes: sweep
@@ -604,6 +605,7 @@ fn time_chart(sweep: &Sweep, metric: Metric, scene: &str, footer: &str) -> Point
         x_log: false,
         y_log: true,
         y_label: format!("{} position error (m)", metric.name()),
+        measured: 0,
         series: sweep
             .runs
             .iter()

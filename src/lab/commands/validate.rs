@@ -295,6 +295,7 @@ fn convergence_chart(runs: &[Validated], model: Model, footer: &str) -> Option<P
         y_label: "(Z_model - Z_experiment) / Z_experiment (%)".into(),
         y_log: false,
         series,
+        measured: 0,
         lines: true,
         fronts: Vec::new(),
         notes: Vec::new(),
@@ -345,12 +346,13 @@ fn front_chart(runs: &[Validated], footer: &str) -> PointChart {
     }
     PointChart {
         name: "dam-break",
-        title: "Dam break: surge front against the experiment".into(),
+        title: "Dam break: surge front against the experiments".into(),
         x_label: "T = t sqrt(2g/a)".into(),
         x_log: false,
         y_label: "Z = x / a".into(),
         y_log: false,
         series,
+        measured: EXPERIMENTS.len(),
         lines: false,
         fronts,
         notes: Vec::new(),

@@ -1198,7 +1198,7 @@ mod tests {
             largest(WallFriction::FreeSlip),
         );
         println!("largest |a| over nu k / dx: no slip {no_slip:.2e}, free slip {free_slip:.2e}");
-        assert!(no_slip < 0.02, "{no_slip}");
+        assert!(no_slip < 0.01, "{no_slip}");
         assert!(free_slip > 0.3, "{free_slip}");
     }
 
