@@ -712,12 +712,15 @@ fn a_run_to_a_physical_time_stops_when_its_adaptive_step_collapses() {
 fn checkpoints_continue_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| -> PathBuf { dir.path().join(name) };
+    // The last is of the weakly compressible model on the velocity Verlet, whose
+    // checkpoint also keeps its last density rates.
     for time_step in [
-        ["--dt", "0.001"],
-        ["--adaptive", "0.3"],
-        ["--model", "wcsph"],
+        ["--dt", "0.001", "--integrator", "leapfrog"],
+        ["--adaptive", "0.3", "--integrator", "verlet"],
+        ["--model", "wcsph", "--integrator", "leapfrog"],
+        ["--model", "wcsph", "--integrator", "verlet"],
     ] {
-        let [rule, value] = time_step.map(OsStr::new);
+        let [rule, value, integrator, name] = time_step.map(OsStr::new);
         // 12 steps in one run, checkpointed at the end.
         run_large(&[
             path("whole.fld").as_os_str(),
@@ -725,6 +728,8 @@ fn checkpoints_continue_bit_for_bit() {
             "12".as_ref(),
             rule,
             value,
+            integrator,
+            name,
             "--checkpoint-every".as_ref(),
             "12".as_ref(),
             "--checkpoint".as_ref(),
@@ -736,6 +741,8 @@ fn checkpoints_continue_bit_for_bit() {
             "5".as_ref(),
             rule,
             value,
+            integrator,
+            name,
             "--checkpoint-every".as_ref(),
             "5".as_ref(),
             "--checkpoint".as_ref(),
@@ -747,6 +754,8 @@ fn checkpoints_continue_bit_for_bit() {
             "12".as_ref(),
             rule,
             value,
+            integrator,
+            name,
             "--resume".as_ref(),
             path("part.ck").as_os_str(),
             "--checkpoint-every".as_ref(),
@@ -763,7 +772,7 @@ fn checkpoints_continue_bit_for_bit() {
         assert_eq!(read("whole.fld"), read("resumed.fld"), "{time_step:?}");
     }
     // A checkpoint of another run is refused: the last is of the weakly compressible
-    // model, on its own CFL step.
+    // model, on its own CFL step and the velocity Verlet.
     let resume = |extra: &[&str]| {
         let (large, checkpoint) = (input("large"), path("part.ck"));
         let mut args: Vec<&OsStr> = vec!["run".as_ref(), large.as_os_str()];
@@ -775,27 +784,36 @@ fn checkpoints_continue_bit_for_bit() {
     let output = resume(&[]);
     assert_eq!(exit_code(&output), 1);
     assert!(stderr(&output).contains("a checkpoint of a run with another model or kernel"));
-    let output = resume(&["--model", "wcsph", "--dt", "1e-4"]);
+    let output = resume(&["--model", "wcsph", "--dt", "1e-4", "--integrator", "verlet"]);
     assert_eq!(exit_code(&output), 1);
     assert!(stderr(&output).contains("a checkpoint of a run with another time step"));
-    let output = resume(&["--model", "wcsph", "--walls", "free-slip"]);
+    let output = resume(&["--model", "wcsph"]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(stderr(&output).contains("a checkpoint of a run with another integrator"));
+    let output = resume(&[
+        "--model",
+        "wcsph",
+        "--integrator",
+        "verlet",
+        "--walls",
+        "free-slip",
+    ]);
     assert_eq!(exit_code(&output), 1);
     assert!(
         stderr(&output).contains("a checkpoint of a run with another setting of its model"),
         "{}",
         stderr(&output)
     );
-    // A checkpoint of the format before the models kept their own state (version 3, which
-    // held the sound speed where version 4 holds the model's values) is refused, not
-    // misread.
+    // A checkpoint of the format before the integrators (version 4, which held the
+    // model's values after a one-byte count) is refused, not misread.
     let mut older = std::fs::read(path("part.ck")).unwrap();
-    older[..8].copy_from_slice(b"FLUIDCK3");
+    older[..8].copy_from_slice(b"FLUIDCK4");
     std::fs::write(path("part.ck"), older).unwrap();
-    let output = resume(&["--model", "wcsph"]);
+    let output = resume(&["--model", "wcsph", "--integrator", "verlet"]);
     assert_eq!(exit_code(&output), 1);
     let message = stderr(&output);
     assert!(
-        message.contains("an older fluid (format version 3)") && message.lines().count() == 1,
+        message.contains("an older fluid (format version 4)") && message.lines().count() == 1,
         "{message}"
     );
 }

@@ -349,6 +349,8 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         "1,2".as_ref(),
         "--adaptive".as_ref(),
         "0.3".as_ref(),
+        "--integrators".as_ref(),
+        "leapfrog,verlet".as_ref(),
         "--times".as_ref(),
         "0.002,0.004".as_ref(),
         "--budget".as_ref(),
@@ -364,8 +366,17 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         "accuracy-speed.svg",
         "error-time.png",
         "error-time.svg",
+        "convergence.png",
+        "convergence.svg",
     ] {
         assert!(report.contains(&format!("{}\n", dir.path().join(name).display())));
+    }
+    // Each kernel and integrator's order, fitted over its two fixed steps.
+    for kernel in [fluid::Kernel::NATIVE.name(), "mixed"] {
+        for integrator in ["leapfrog", "verlet"] {
+            let line = format!("order {kernel} {integrator}: ");
+            assert!(report.contains(&line), "{line}: {report}");
+        }
     }
     assert!(report.contains("budget 1e0 m (median error): "), "{report}");
     assert!(
@@ -382,14 +393,18 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     assert_eq!(header.join(","), fluid::lab::accuracy::CSV_HEADER);
     let column = |name: &str| header.iter().position(|&c| c == name).unwrap();
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    // Six methods (two kernels, three rules) at two times each; the reference at every
-    // time one of them was sampled at (2 and 4 ms, and the adaptive runs' own).
-    let references = rows
+    // Twelve methods (two kernels, three rules, two integrators) at two times each; the
+    // reference at every time one of them was sampled at (2 and 4 ms, and the adaptive
+    // runs' own), on the velocity Verlet.
+    let references: Vec<&Vec<&str>> = rows
         .iter()
         .filter(|r| r[column("kernel")] == "reference")
-        .count();
-    assert_eq!(rows.len() - references, 6 * 2);
-    assert!((2..=6).contains(&references), "{text}");
+        .collect();
+    assert_eq!(rows.len() - references.len(), 12 * 2);
+    assert!((2..=10).contains(&references.len()), "{text}");
+    assert!(references
+        .iter()
+        .all(|r| r[column("integrator")] == "verlet"));
     let number = |row: &[&str], name: &str| row[column(name)].parse::<f64>().unwrap();
     for row in &rows {
         assert_eq!(&row[..3], ["small.fld", "4800", "fluidanimate"]);
@@ -460,34 +475,34 @@ fn stability_reports_each_run_and_maps_them() {
     let report = stdout(&output);
     let lines: Vec<&str> = report.lines().collect();
     assert!(
-        lines[0].starts_with("course simd, ppm 100, dt 0.001 s: failed at step "),
+        lines[0].starts_with("course simd leapfrog, ppm 100, dt 0.001 s: failed at step "),
         "{report}"
     );
     assert!(
-        lines[1].starts_with("course simd, ppm 100, dt 0.002 s: failed at step "),
+        lines[1].starts_with("course simd leapfrog, ppm 100, dt 0.002 s: failed at step "),
         "{report}"
     );
     assert!(
-        lines[2].starts_with("course simd, ppm 100, adaptive C 0.3: "),
+        lines[2].starts_with("course simd leapfrog, ppm 100, adaptive C 0.3: "),
         "{report}"
     );
     assert_eq!(
         lines[3],
-        "fluidanimate simd, ppm 100, dt 0.001 s: stable for 30 steps (0.030 s)"
+        "fluidanimate simd leapfrog, ppm 100, dt 0.001 s: stable for 30 steps (0.030 s)"
     );
     assert_eq!(
         lines[4],
-        "fluidanimate simd, ppm 100, dt 0.002 s: stable for 15 steps (0.030 s)"
+        "fluidanimate simd leapfrog, ppm 100, dt 0.002 s: stable for 15 steps (0.030 s)"
     );
     assert!(
-        lines[5].starts_with("fluidanimate simd, ppm 100, adaptive C 0.3: stable for "),
+        lines[5].starts_with("fluidanimate simd leapfrog, ppm 100, adaptive C 0.3: stable for "),
         "{report}"
     );
     let text = std::fs::read_to_string(dir.path().join("stability.csv")).unwrap();
     assert_eq!(text.lines().next(), Some(fluid::lab::stability::CSV_HEADER));
     assert_eq!(text.lines().count(), 7);
     assert!(
-        text.contains(",fluidanimate,simd,100,fixed,0.001,,845,0.03,30,,,stable,\n"),
+        text.contains(",fluidanimate,simd,100,fixed,0.001,,845,0.03,30,,,stable,,leapfrog\n"),
         "{text}"
     );
     for name in ["stability-map.png", "stability-map.svg"] {

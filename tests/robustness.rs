@@ -1173,7 +1173,7 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 }
 
 /// The offset of the last step's length in a checkpoint's encoding (after the magic,
-/// step, input CRC, ppm, time, the four names and the time step's value).
+/// step, input CRC, ppm, time, the five names and the time step's value).
 fn last_step_offset(decoded: &Checkpoint) -> usize {
     let state = &decoded.state;
     let rule = match state.time_step {
@@ -1186,6 +1186,7 @@ fn last_step_offset(decoded: &Checkpoint) -> usize {
         state.method.kernel.name(),
         rule,
         limit,
+        state.integrator.name(),
     ];
     36 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
 }
@@ -1225,7 +1226,7 @@ proptest! {
         magic in any::<bool>(),
         tail in prop::collection::vec(any::<u8>(), 0..300),
     ) {
-        let mut bytes = if magic { b"FLUIDCK4".to_vec() } else { Vec::new() };
+        let mut bytes = if magic { b"FLUIDCK5".to_vec() } else { Vec::new() };
         bytes.extend(tail);
         check_checkpoint(&bytes)?;
     }

@@ -171,7 +171,7 @@ fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
     assert!(!job_script.contains("--exclusive"), "{job_script}");
     assert_eq!(
         read(&job_dir.join("points.txt")),
-        "course simd8, ppm 100, 0.001\ncourse simd8, ppm 100, 0.004\n"
+        "course simd8 leapfrog, ppm 100, 0.001\ncourse simd8 leapfrog, ppm 100, 0.004\n"
             .replace("simd8", fluid::Kernel::NATIVE.name())
     );
     // The same folder takes no second job.
@@ -330,6 +330,8 @@ fn an_accuracy_array_runs_its_reference_after_the_methods_and_merges_as_the_swee
             "1,2",
             "--adaptive",
             "",
+            "--integrators",
+            "leapfrog,verlet",
             "--times",
             "0.002,0.004",
             "--budget",
@@ -355,16 +357,16 @@ fn an_accuracy_array_runs_its_reference_after_the_methods_and_merges_as_the_swee
     let said = stdout(&output);
     assert!(
         said.contains(
-            "submitted job 77: accuracy points 0-3 of 5 as array tasks (a node each); folder"
+            "submitted job 77: accuracy points 0-7 of 9 as array tasks (a node each); folder"
         ),
         "{said}"
     );
-    assert!(said.contains("submitted job 77: accuracy points 4 of 5 as array tasks (a node each), after job 77 has succeeded"), "{said}");
+    assert!(said.contains("submitted job 77: accuracy points 8 of 9 as array tasks (a node each), after job 77 has succeeded"), "{said}");
     let calls = slurm.sbatch_calls();
-    assert!(calls[0].starts_with("--parsable --array=0-3 "), "{calls:?}");
+    assert!(calls[0].starts_with("--parsable --array=0-7 "), "{calls:?}");
     assert!(
         calls[1]
-            .starts_with("--parsable --array=4 --dependency=afterok:77 --kill-on-invalid-dep=yes "),
+            .starts_with("--parsable --array=8 --dependency=afterok:77 --kill-on-invalid-dep=yes "),
         "{calls:?}"
     );
     assert!(read(&job_dir.join("points.txt"))
@@ -374,19 +376,19 @@ fn an_accuracy_array_runs_its_reference_after_the_methods_and_merges_as_the_swee
         .starts_with("the reference"));
 
     let task = |index: &str| task_of_job_77(&job_dir, index, "node-a");
-    for index in ["0", "1", "2"] {
+    for index in ["0", "1", "2", "3", "4", "5", "6"] {
         let output = task(index);
         assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     }
-    let early = task("4");
+    let early = task("8");
     assert_eq!(exit_code(&early), 1);
     assert!(
         stderr(&early)
-            .contains("the reference needs every method's times, and points 3 have no shard"),
+            .contains("the reference needs every method's times, and points 7 have no shard"),
         "{}",
         stderr(&early)
     );
-    for index in ["3", "4"] {
+    for index in ["7", "8"] {
         let output = task(index);
         assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     }
@@ -423,7 +425,7 @@ fn an_accuracy_array_runs_its_reference_after_the_methods_and_merges_as_the_swee
     let ours = read(&out.join("accuracy.csv"));
     assert_eq!(
         column(&ours, "slurm_array_index")[0],
-        "4",
+        "8",
         "the reference first"
     );
     let theirs = read(&local.join("accuracy.csv"));
@@ -441,7 +443,7 @@ fn an_accuracy_array_runs_its_reference_after_the_methods_and_merges_as_the_swee
     };
     let ours = measured(without_slurm_columns(&ours));
     let theirs = measured(without_slurm_columns(&theirs));
-    assert_eq!(ours.len(), 1 + 5 * 2);
+    assert_eq!(ours.len(), 1 + 9 * 2);
     assert_eq!(ours, theirs);
 }
 

@@ -1,32 +1,32 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCK4`; the step count (u64); the CRC-32 of the
+//! Layout (little-endian): the magic `FLUIDCK5`; the step count (u64); the CRC-32 of the
 //! input file the run started from (u32, so a resume from another input is refused);
 //! particles per
-//! metre and the time (f64); the model, kernel, time-step rule and last step's limit as
-//! length-prefixed names (u8 length), the time step's value (f64: dt or the Courant
-//! constant), the last step's length (f64, NaN before the first step); what the model
-//! keeps of itself ([`crate::sim::model::Dynamics::saved`]: a count, u8, then that many
-//! f64; the weakly compressible model's sound speed, none for the others); the sparse
-//! flag (u8); the particle count n (u64); then n ids (u32) and, per particle field p, hv,
-//! v, a (x, y, z) and rho, n f64 each; last, the CRC-32 of every byte before it (u32), so
-//! a corrupted checkpoint is refused. Version 3 (before the models kept their own state)
-//! held the sound speed as one f64 in that place, NaN for the other models; it is
-//! refused, with a message that says so.
+//! metre and the time (f64); the model, kernel, time-step rule, last step's limit and
+//! integrator as length-prefixed names (u8 length), the time step's value (f64: dt or the
+//! Courant constant), the last step's length (f64, NaN before the first step); what the
+//! model keeps of itself ([`crate::sim::model::Dynamics::saved`]: a count, u64, then that
+//! many f64; the weakly compressible model's sound speed and settings, and under the
+//! velocity Verlet its last density rates; none for the others); the sparse flag (u8);
+//! the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a (x,
+//! y, z) and rho, n f64 each; last, the CRC-32 of every byte before it (u32), so a
+//! corrupted checkpoint is refused. Versions 1-4 (before the integrators; version 3
+//! before the models kept their own state) are refused, with a message that says so.
 
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
 use crate::sim::particles::Particles;
 use crate::sim::simulation::Resumable;
-use crate::sim::timestep::{Limit, TimeStep};
+use crate::sim::timestep::{Integrator, Limit, TimeStep};
 
-/// The first bytes of every checkpoint (format version 4).
-const MAGIC: &[u8; 8] = b"FLUIDCK4";
+/// The first bytes of every checkpoint (format version 5).
+const MAGIC: &[u8; 8] = b"FLUIDCK5";
 
 /// The first bytes of a checkpoint of an earlier format, which is refused.
-const OLDER: [&[u8; 8]; 3] = [b"FLUIDCK1", b"FLUIDCK2", b"FLUIDCK3"];
+const OLDER: [&[u8; 8]; 4] = [b"FLUIDCK1", b"FLUIDCK2", b"FLUIDCK3", b"FLUIDCK4"];
 
 /// A checkpoint's content: the steps run and the state after them.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,9 +40,9 @@ pub struct Checkpoint {
 }
 
 /// At least the size of a checkpoint of `particles` particles (for the room reserved
-/// before a run).
+/// before a run): a model may keep a value per particle.
 pub fn size_bound(particles: usize) -> u64 {
-    (256 + particles * (4 + 13 * 8)) as u64
+    (256 + particles * (4 + 14 * 8)) as u64
 }
 
 /// Encodes a checkpoint.
@@ -68,14 +68,14 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
         state.method.kernel.name(),
         rule,
         last_limit,
+        state.integrator.name(),
     ] {
         bytes.push(name.len() as u8);
         bytes.extend_from_slice(name.as_bytes());
     }
     bytes.extend_from_slice(&value.to_le_bytes());
     bytes.extend_from_slice(&last_dt.to_le_bytes());
-    let kept = u8::try_from(state.model_state.len()).expect("a model keeps at most 255 values");
-    bytes.push(kept);
+    bytes.extend_from_slice(&(state.model_state.len() as u64).to_le_bytes());
     for value in &state.model_state {
         bytes.extend_from_slice(&value.to_le_bytes());
     }
@@ -113,7 +113,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         ));
     }
     if magic != Some(&MAGIC[..]) {
-        return Err("it is not a fluid checkpoint (version 4)".into());
+        return Err("it is not a fluid checkpoint (version 5)".into());
     }
     let (body, checksum) = bytes.split_at(bytes.len().saturating_sub(4).max(MAGIC.len()));
     if checksum.len() != 4 || crc32fast::hash(body).to_le_bytes() != checksum {
@@ -127,7 +127,12 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     let input = reader.u32()?;
     let ppm = reader.f64()?;
     let time = reader.f64()?;
-    let [model, kernel, rule, limit] = [(); 4].map(|()| reader.name());
+    let [model, kernel, rule, limit, integrator] = [(); 5].map(|()| reader.name());
+    let integrator = integrator?;
+    let integrator = *Integrator::ALL
+        .iter()
+        .find(|i| i.name() == integrator)
+        .ok_or("unknown integrator")?;
     let model = model?;
     let model = *Model::ALL
         .iter()
@@ -145,7 +150,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         _ => return Err("unknown time-step rule".into()),
     };
     let last_dt = reader.f64()?;
-    let kept = reader.take(1)?[0];
+    let kept = reader.u64()?;
     let model_state = (0..kept)
         .map(|_| reader.f64())
         .collect::<Result<Vec<f64>, String>>()?;
@@ -217,6 +222,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
             ppm,
             method: Method { model, kernel },
             time_step,
+            integrator,
             time,
             last_step,
             sparse,
@@ -312,7 +318,7 @@ mod tests {
         wrong_magic[6] = b'X';
         assert_eq!(
             decode(&wrong_magic).unwrap_err(),
-            "it is not a fluid checkpoint (version 4)"
+            "it is not a fluid checkpoint (version 5)"
         );
         let mut older = bytes.clone();
         older[7] = b'3';

@@ -12,7 +12,7 @@ use crate::sim::model::Model;
 use crate::sim::params::{FLUID_DENSITY, TIME_STEP};
 use crate::sim::particles::{vector_at, AxisArrays, Particles};
 use crate::sim::simulation::Simulation;
-use crate::sim::timestep::{Limit, TimeStep};
+use crate::sim::timestep::{Integrator, Limit, TimeStep};
 use glam::DVec3;
 use std::fmt::Write;
 
@@ -94,6 +94,8 @@ pub struct Candidate {
     pub time_step: TimeStep,
     /// The skin of reused neighbour lists, in smoothing lengths (none: rebuilt every step).
     pub skin: Option<f64>,
+    /// How each step advances the state.
+    pub integrator: Integrator,
 }
 
 impl Candidate {
@@ -105,12 +107,17 @@ impl Candidate {
             kernel: Kernel::NATIVE,
             time_step: model.default_time_step(),
             skin: None,
+            integrator: Integrator::default(),
         }
     }
 
-    /// A short label: `simd dt 0.5 ms`, `mixed C 0.3 skin 0.2h`, `reference dt 23.93 µs`.
+    /// A short label: `simd dt 0.5 ms`, `mixed C 0.3 skin 0.2h`, `simd dt 1 ms verlet`,
+    /// `reference dt 23.93 µs verlet` (the integrator named unless it is the leapfrog).
     pub fn label(&self) -> String {
-        let skin = self.skin.map_or(String::new(), |s| format!(" skin {s}h"));
+        let mut skin = self.skin.map_or(String::new(), |s| format!(" skin {s}h"));
+        if self.integrator != Integrator::Leapfrog {
+            skin = format!("{skin} {}", self.integrator.name());
+        }
         let rule = match self.time_step {
             TimeStep::Fixed(dt) if dt < 1e-4 => {
                 format!("{} dt {:.2} µs", self.kernel.name(), dt * 1e6)
@@ -124,24 +131,26 @@ impl Candidate {
         rule + &skin
     }
 
-    /// The CSV cells `time_step,dt_s,courant,skin_h`.
+    /// The CSV cells `time_step,dt_s,courant,skin_h,integrator`.
     fn time_step_cells(&self) -> String {
         let skin = self.skin.map_or(String::new(), |s| s.to_string());
+        let integrator = self.integrator.name();
         match self.time_step {
-            TimeStep::Fixed(dt) => format!("fixed,{dt:e},,{skin}"),
-            TimeStep::Adaptive { courant } => format!("adaptive,,{courant},{skin}"),
+            TimeStep::Fixed(dt) => format!("fixed,{dt:e},,{skin},{integrator}"),
+            TimeStep::Adaptive { courant } => format!("adaptive,,{courant},{skin},{integrator}"),
         }
     }
 
     /// Every kernel with every fixed step and every adaptive constant, each with lists
-    /// rebuilt every step and with each of `skins`; `model`'s default first (added if the
-    /// lists leave it out).
+    /// rebuilt every step and with each of `skins`, on each of `integrators`; `model`'s
+    /// default first (added if the lists leave it out).
     pub fn product(
         model: Model,
         kernels: &[Kernel],
         fixed: &[f64],
         courants: &[f64],
         skins: &[f64],
+        integrators: &[Integrator],
     ) -> Vec<Candidate> {
         let rules = fixed.iter().map(|&dt| TimeStep::Fixed(dt)).chain(
             courants
@@ -152,16 +161,19 @@ impl Candidate {
             .chain(skins.iter().copied().map(Some))
             .collect();
         let mut candidates = vec![Candidate::default_for(model)];
-        for time_step in rules {
-            for &kernel in kernels {
-                for &skin in &skins {
-                    let candidate = Candidate {
-                        kernel,
-                        time_step,
-                        skin,
-                    };
-                    if !candidates.contains(&candidate) {
-                        candidates.push(candidate);
+        for &integrator in integrators {
+            for time_step in rules.clone() {
+                for &kernel in kernels {
+                    for &skin in &skins {
+                        let candidate = Candidate {
+                            kernel,
+                            time_step,
+                            skin,
+                            integrator,
+                        };
+                        if !candidates.contains(&candidate) {
+                            candidates.push(candidate);
+                        }
                     }
                 }
             }
@@ -393,6 +405,7 @@ fn run(
         })
         .map_err(|error| format!("the {} model: {error}", model.name()))?;
     simulation.set_time_step(candidate.time_step);
+    simulation.set_integrator(candidate.integrator);
     let h = simulation.params().h;
     simulation
         .set_skin(candidate.skin.map(|fraction| fraction * h))
@@ -487,9 +500,10 @@ pub fn sampled_times(runs: &[Run]) -> Vec<f64> {
     sampled
 }
 
-/// Runs the reference (the compensated kernel at the fixed `step`) on `model` from
-/// `start`, landing on every one of `sampled` (ascending), calling `observe` with each
-/// state; a reference that fails is an error.
+/// Runs the reference (the compensated kernel at the fixed `step`, on the second-order
+/// velocity Verlet, whose own error then falls fastest) on `model` from `start`, landing
+/// on every one of `sampled` (ascending), calling `observe` with each state; a reference
+/// that fails is an error.
 pub fn run_reference(
     start: &Simulation,
     model: Model,
@@ -501,6 +515,7 @@ pub fn run_reference(
         kernel: Kernel::Reference,
         time_step: TimeStep::Fixed(step),
         skin: None,
+        integrator: Integrator::Verlet,
     };
     let reference = run(start, model, candidate, sampled, Sampling::Landing, observe)?;
     match reference.failure {
@@ -573,7 +588,7 @@ fn same_time(a: f64, b: f64) -> bool {
 
 /// The CSV header of the accuracy sweep.
 pub const CSV_HEADER: &str = "scene,particles,model,method,kernel,time_step,dt_s,courant,skin_h,\
-     requested_time_s,time_s,steps,cpu_s,cpu_s_per_simulated_s,shortest_step_s,pairs_tested,pairs_within_h,\
+     integrator,requested_time_s,time_s,steps,cpu_s,cpu_s_per_simulated_s,shortest_step_s,pairs_tested,pairs_within_h,\
      heap_bytes,median_error_m,max_error_m,centre_error_m,kinetic_error,mean_density_error,\
      max_density_error,front_error_m,failure,host,cpu_model,commit";
 
@@ -659,6 +674,89 @@ impl Run {
             _ => f64::INFINITY,
         }
     }
+}
+
+/// The convergence of one family of methods: a kernel and an integrator on fixed steps
+/// (lists rebuilt every step), its error at the last time against the step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Convergence {
+    /// The pair-loop implementation.
+    pub kernel: Kernel,
+    /// The integrator.
+    pub integrator: Integrator,
+    /// (dt, error) of each step that reached the last time, by increasing dt.
+    pub points: Vec<(f64, f64)>,
+    /// The least-squares slope of ln(error) against ln(dt): the order observed, if at
+    /// least two steps have a positive error.
+    pub order: Option<f64>,
+}
+
+impl Sweep {
+    /// Each kernel's and integrator's error by `metric` at the sweep's last time against
+    /// its fixed steps, with the order fitted; families with fewer than two such runs
+    /// are left out.
+    pub fn convergence(&self, metric: Metric) -> Vec<Convergence> {
+        let mut families: Vec<Convergence> = Vec::new();
+        let last = self
+            .runs
+            .iter()
+            .map(|run| run.samples.len())
+            .max()
+            .unwrap_or(0);
+        for run in &self.runs {
+            let (TimeStep::Fixed(dt), None) = (run.candidate.time_step, run.candidate.skin) else {
+                continue;
+            };
+            let at_end = run
+                .samples
+                .get(last.wrapping_sub(1))
+                .filter(|_| run.failure.is_none());
+            let Some(error) = at_end.and_then(|sample| Some(metric.of(&sample.errors?))) else {
+                continue;
+            };
+            let (kernel, integrator) = (run.candidate.kernel, run.candidate.integrator);
+            let family = match families
+                .iter_mut()
+                .position(|f| f.kernel == kernel && f.integrator == integrator)
+            {
+                Some(k) => &mut families[k],
+                None => {
+                    families.push(Convergence {
+                        kernel,
+                        integrator,
+                        points: Vec::new(),
+                        order: None,
+                    });
+                    families.last_mut().expect("just pushed")
+                }
+            };
+            family.points.push((dt, error));
+        }
+        families.retain(|family| family.points.len() >= 2);
+        for family in &mut families {
+            family.points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            family.order = fitted_slope(&family.points);
+        }
+        families
+    }
+}
+
+/// The least-squares slope of ln(y) against ln(x) over the points with positive, finite
+/// x and y, if at least two such points have different x.
+pub fn fitted_slope(points: &[(f64, f64)]) -> Option<f64> {
+    let logs: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+        .map(|(x, y)| (x.ln(), y.ln()))
+        .collect();
+    let count = logs.len() as f64;
+    let (mean_x, mean_y) = logs.iter().fold((0.0, 0.0), |(sx, sy), (x, y)| {
+        (sx + x / count, sy + y / count)
+    });
+    let (covariance, variance) = logs.iter().fold((0.0, 0.0), |(c, v), (x, y)| {
+        (c + (x - mean_x) * (y - mean_y), v + (x - mean_x).powi(2))
+    });
+    (logs.len() >= 2 && variance > 0.0).then(|| covariance / variance)
 }
 
 /// The points of `points` (cost, error) that no other point beats on both: the Pareto
@@ -799,10 +897,13 @@ pub fn read_runs(text: &str) -> Result<Vec<Run>, String> {
             },
             other => return Err(bad(format!("unknown time_step {other:?}"))),
         };
+        let integrator = Integrator::from_str(cell("integrator"), false)
+            .map_err(|_| bad(format!("unknown integrator {:?}", cell("integrator"))))?;
         let candidate = Candidate {
             kernel,
             time_step,
             skin: optional("skin_h")?,
+            integrator,
         };
         let heap_bytes = count("heap_bytes")? as usize;
         let k = match runs.iter().position(|run| run.candidate == candidate) {
@@ -904,9 +1005,15 @@ mod tests {
             &[5e-4, TIME_STEP],
             &[0.3],
             &[],
+            &Integrator::ALL,
         );
         assert_eq!(candidates[0], Candidate::default_for(Model::Fluidanimate));
-        assert_eq!(candidates.len(), 6, "{candidates:?}");
+        // Each integrator: 2 kernels x 3 rules, the leapfrog's simd at 1 ms the default.
+        assert_eq!(candidates.len(), 12, "{candidates:?}");
+        assert_eq!(
+            candidates[7].label(),
+            format!("{} dt 0.5 ms verlet", Kernel::NATIVE.name())
+        );
         let labels: Vec<String> = candidates.iter().map(Candidate::label).collect();
         assert!(
             labels.contains(&"mixed dt 0.5 ms".to_string()),
@@ -917,11 +1024,20 @@ mod tests {
             kernel: Kernel::Reference,
             time_step: TimeStep::Fixed(2.5e-5),
             skin: None,
+            integrator: Integrator::Leapfrog,
         };
         assert_eq!(fine.label(), "reference dt 25.00 µs");
         // The native kernel is the default, so that it is not added again.
         let native = Kernel::NATIVE;
-        let skins = Candidate::product(Model::Course, &[native], &[TIME_STEP], &[], &[0.2]);
+        let leapfrog = [Integrator::Leapfrog];
+        let skins = Candidate::product(
+            Model::Course,
+            &[native],
+            &[TIME_STEP],
+            &[],
+            &[0.2],
+            &leapfrog,
+        );
         assert_eq!(skins.len(), 2, "{skins:?}");
         assert_eq!(
             skins[1].label(),
@@ -929,11 +1045,12 @@ mod tests {
         );
         // Without the default in the lists, it is added.
         assert_eq!(
-            Candidate::product(Model::Course, &[Kernel::Mixed], &[], &[0.3], &[])[0],
+            Candidate::product(Model::Course, &[Kernel::Mixed], &[], &[0.3], &[], &leapfrog)[0],
             Candidate::default_for(Model::Course)
         );
         // The weakly compressible model's default is its CFL step.
-        let stiff = Candidate::product(Model::Wcsph, &[Kernel::Mixed], &[1e-5], &[], &[]);
+        let stiff =
+            Candidate::product(Model::Wcsph, &[Kernel::Mixed], &[1e-5], &[], &[], &leapfrog);
         assert_eq!(stiff[0].time_step, TimeStep::Adaptive { courant: 0.2 });
     }
 
@@ -1000,6 +1117,75 @@ mod tests {
         assert!(pareto_front(&[]).is_empty());
     }
 
+    /// The orders the sweep fits for `model` on a block collapsing in the box's corner
+    /// (`count` particles at 150 per metre) over the fixed `steps` to `until`, each on
+    /// both integrators: (leapfrog, verlet).
+    fn orders(model: Model, count: usize, steps: &[f64], until: f64, reference: f64) -> (f64, f64) {
+        let particles = crate::lab::scene::corner_block(150.0, count).unwrap();
+        let method = Method {
+            model,
+            kernel: Kernel::NATIVE,
+        };
+        let start = Simulation::with_method(150.0, particles, method).unwrap();
+        let candidates =
+            Candidate::product(model, &[Kernel::NATIVE], steps, &[], &[], &Integrator::ALL);
+        let sweep = sweep(&start, model, &candidates, &[until], Some(reference)).unwrap();
+        let convergence = sweep.convergence(Metric::Median);
+        let order = |integrator| {
+            let family = convergence
+                .iter()
+                .find(|f| f.integrator == integrator)
+                .expect("a family per integrator");
+            assert_eq!(family.points.len(), steps.len(), "{family:?}");
+            family.order.unwrap()
+        };
+        (order(Integrator::Leapfrog), order(Integrator::Verlet))
+    }
+
+    #[test]
+    fn the_verlet_is_second_order_and_the_leapfrog_first() {
+        // fluidanimate, 0.25-2 ms to 16 ms; the weakly compressible model, 25-100 us to
+        // 8 ms (its CFL step is near 0.2 ms here): the median error against the
+        // reference falls with dt at a fitted slope of about 1 for the leapfrog and at
+        // least 1.8 for the velocity Verlet.
+        for (model, steps, until, reference) in [
+            (
+                Model::Fluidanimate,
+                vec![2.5e-4, 5e-4, 1e-3, 2e-3],
+                0.016,
+                1.5625e-5,
+            ),
+            (Model::Wcsph, vec![2.5e-5, 5e-5, 1e-4], 0.008, 3.125e-6),
+        ] {
+            let (leapfrog, verlet) = orders(model, 300, &steps, until, reference);
+            println!(
+                "{}: leapfrog {leapfrog:.2}, verlet {verlet:.2}",
+                model.name()
+            );
+            assert!(
+                (0.8..1.3).contains(&leapfrog),
+                "{} {leapfrog}",
+                model.name()
+            );
+            assert!(verlet >= 1.8, "{} {verlet}", model.name());
+        }
+    }
+
+    #[test]
+    fn a_fitted_slope_is_the_power_of_a_power_law() {
+        let points: Vec<(f64, f64)> = [1e-4, 2e-4, 4e-4]
+            .iter()
+            .map(|&x| (x, 3.0 * x * x))
+            .collect();
+        assert!((fitted_slope(&points).unwrap() - 2.0).abs() < 1e-12);
+        assert_eq!(fitted_slope(&points[..1]), None);
+        assert_eq!(
+            fitted_slope(&[(1e-3, 0.0), (2e-3, 1.0)]),
+            None,
+            "an exact run"
+        );
+    }
+
     #[test]
     fn the_sweep_measures_methods_against_a_finer_reference_at_equal_times() {
         let particles = crate::lab::scene::corner_block(150.0, 300).unwrap();
@@ -1009,6 +1195,7 @@ mod tests {
             kernel: Kernel::NATIVE,
             time_step,
             skin: None,
+            integrator: Integrator::Leapfrog,
         };
         let candidates = [
             simd(TimeStep::Fixed(1e-3)),
@@ -1017,6 +1204,7 @@ mod tests {
                 kernel: Kernel::Mixed,
                 time_step: TimeStep::Fixed(1e-3),
                 skin: None,
+                integrator: Integrator::Leapfrog,
             },
             simd(TimeStep::Adaptive { courant: 0.3 }),
         ];
@@ -1142,6 +1330,7 @@ mod tests {
             kernel: Kernel::Simd,
             time_step: TimeStep::Adaptive { courant: 0.3 },
             skin: None,
+            integrator: Integrator::Leapfrog,
         };
         let to_1_ms = |start: &Simulation, candidate| {
             let sampling = Sampling::Unperturbed;

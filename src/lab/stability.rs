@@ -8,7 +8,7 @@ use crate::lab::diagnostics::{self, Checks, Failure, Vitals};
 use crate::lab::scene::{self, SceneKind};
 use crate::sim::method::Method;
 use crate::sim::simulation::Simulation;
-use crate::sim::timestep::TimeStep;
+use crate::sim::timestep::{Integrator, TimeStep};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -16,7 +16,8 @@ use std::error::Error;
 
 /// The CSV header of [`Outcome::csv_row`].
 pub const CSV_HEADER: &str = "scene,model,kernel,ppm,time_step,dt_s,courant,particles,\
-                              duration_s,steps,failed_step,failed_time_s,reason,detail";
+                              duration_s,steps,failed_step,failed_time_s,reason,detail,\
+                              integrator";
 
 /// How one run ended.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,6 +30,8 @@ pub struct Outcome {
     pub ppm: f64,
     /// How its steps' lengths were chosen.
     pub time_step: TimeStep,
+    /// How its steps advanced the state.
+    pub integrator: Integrator,
     /// Particles in the scene.
     pub particles: usize,
     /// Simulated seconds asked for.
@@ -64,23 +67,26 @@ impl Outcome {
             TimeStep::Adaptive { courant } => format!("adaptive,,{courant}"),
         };
         format!(
-            "{},{},{},{},{rule},{},{},{},{step},{time},{reason},{detail}",
+            "{},{},{},{},{rule},{},{},{},{step},{time},{reason},{detail},{}",
             self.scene.name(),
             self.method.model.name(),
             self.method.kernel.name(),
             self.ppm,
             self.particles,
             self.duration,
-            self.steps
+            self.steps,
+            self.integrator.name()
         )
     }
 
-    /// One line for people: `course simd, ppm 150, dt 0.001: failed at step 3 (0.003 s): ...`.
+    /// One line for people: `course simd leapfrog, ppm 150, dt 0.001: failed at step 3
+    /// (0.003 s): ...`.
     pub fn summary(&self) -> String {
         let run = format!(
-            "{} {}, ppm {}, {}",
+            "{} {} {}, ppm {}, {}",
             self.method.model.name(),
             self.method.kernel.name(),
+            self.integrator.name(),
             self.ppm,
             match self.time_step {
                 TimeStep::Fixed(dt) => format!("dt {dt} s"),
@@ -148,11 +154,13 @@ pub fn read_csv(text: &str) -> Result<Vec<Outcome>, String> {
                 Failure::parse(reason, cell(13)).ok_or_else(|| named(12))?,
             )),
         };
+        let integrator = Integrator::from_str(cell(14), false).map_err(|_| named(14))?;
         outcomes.push(Outcome {
             scene,
             method: Method { model, kernel },
             ppm: number(3)?,
             time_step,
+            integrator,
             particles: count(7)? as usize,
             duration: number(8)?,
             steps: count(9)?,
@@ -162,13 +170,13 @@ pub fn read_csv(text: &str) -> Result<Vec<Outcome>, String> {
     Ok(outcomes)
 }
 
-/// Runs `scene` (seed `seed`) at `ppm` with `method` and `time_step` until it has
-/// simulated `duration` seconds (finite and positive), checking every step; an adaptive
-/// step below `shortest_step` seconds fails it (step-collapsed).
+/// Runs `scene` (seed `seed`) at `ppm` with `method`, `integrator` and `time_step` until
+/// it has simulated `duration` seconds (finite and positive), checking every step; an
+/// adaptive step below `shortest_step` seconds fails it (step-collapsed).
 pub fn watch(
     scene: SceneKind,
     seed: u64,
-    method: Method,
+    (method, integrator): (Method, Integrator),
     ppm: f64,
     time_step: TimeStep,
     duration: f64,
@@ -182,6 +190,7 @@ pub fn watch(
     let mut simulation =
         Simulation::with_method(ppm, particles, method).map_err(|error| error.to_string())?;
     simulation.set_time_step(time_step);
+    simulation.set_integrator(integrator);
     let checks = Checks::from(&Vitals::of(&simulation));
     let (mut steps, mut failure) = (0, None);
     while !simulation.has_reached(duration) {
@@ -201,6 +210,7 @@ pub fn watch(
         method,
         ppm,
         time_step,
+        integrator,
         particles: count,
         duration,
         steps,
@@ -212,7 +222,7 @@ pub fn watch(
 const HEIGHT: u32 = 520;
 const COLUMN_WIDTH: u32 = 72;
 
-/// The outcomes as one grid per model and kernel (columns: fixed time steps, then
+/// The outcomes as one grid per model, kernel and integrator (columns: fixed time steps, then
 /// adaptive constants; rows: ppm), each cell green if stable, else red, darker the sooner
 /// it failed, with the failure step, time and reason: `stability-map.png` and `.svg`
 /// through [`crate::lab::chart::render`], [`StabilityMap::size`] pixels.
@@ -232,12 +242,12 @@ impl StabilityMap<'_> {
     }
 }
 
-/// The distinct methods of `outcomes`, in their order.
-fn methods(outcomes: &[Outcome]) -> Vec<Method> {
-    let mut methods: Vec<Method> = Vec::new();
+/// The distinct methods (with their integrators) of `outcomes`, in their order.
+fn methods(outcomes: &[Outcome]) -> Vec<(Method, Integrator)> {
+    let mut methods: Vec<(Method, Integrator)> = Vec::new();
     for outcome in outcomes {
-        if !methods.contains(&outcome.method) {
-            methods.push(outcome.method);
+        if !methods.contains(&(outcome.method, outcome.integrator)) {
+            methods.push((outcome.method, outcome.integrator));
         }
     }
     methods
@@ -302,9 +312,14 @@ where
     let panel_w = (width as i32 - left - 40) / methods.len().max(1) as i32;
     let cell_w = (panel_w - 30) / rules.len().max(1) as i32;
     let centred = Pos::new(HPos::Center, VPos::Center);
-    for (m, method) in methods.iter().enumerate() {
+    for (m, &(method, integrator)) in methods.iter().enumerate() {
         let x0 = left + m as i32 * panel_w;
-        let title = format!("{} {}", method.model.name(), method.kernel.name());
+        let title = format!(
+            "{} {} {}",
+            method.model.name(),
+            method.kernel.name(),
+            integrator.name()
+        );
         root.draw(&Text::new(title, (x0, top - 40), ("sans-serif", 18)))?;
         for (c, rule) in rules.iter().enumerate() {
             let x = x0 + c as i32 * cell_w;
@@ -324,10 +339,11 @@ where
                         style,
                     ))?;
                 }
-                let Some(outcome) = outcomes
-                    .iter()
-                    .find(|o| o.method == *method && o.time_step == *rule && o.ppm == *ppm)
-                else {
+                let Some(outcome) = outcomes.iter().find(|o| {
+                    (o.method, o.integrator) == (method, integrator)
+                        && o.time_step == *rule
+                        && o.ppm == *ppm
+                }) else {
                     continue;
                 };
                 let (colour, lines) = match &outcome.failure {
@@ -393,11 +409,21 @@ mod tests {
         model: Model::Course,
         kernel: Kernel::Simd,
     };
+    const LEAPFROG: Integrator = Integrator::Leapfrog;
 
     #[test]
     fn the_course_model_fails_where_the_stable_one_does_not() {
         let fixed = TimeStep::Fixed(1e-3);
-        let course = watch(SceneKind::DamBreak, 1, SIMD, 100.0, fixed, 0.05, 1e-5).unwrap();
+        let course = watch(
+            SceneKind::DamBreak,
+            1,
+            (SIMD, LEAPFROG),
+            100.0,
+            fixed,
+            0.05,
+            1e-5,
+        )
+        .unwrap();
         let (step, time, failure) = course.failure.expect("the course model fails");
         assert!(step <= 50, "{}", course.summary());
         assert!((time - step as f64 * 1e-3).abs() < 1e-12);
@@ -410,7 +436,7 @@ mod tests {
         let stable = watch(
             SceneKind::DamBreak,
             1,
-            stable_method,
+            (stable_method, LEAPFROG),
             100.0,
             fixed,
             0.05,
@@ -420,7 +446,7 @@ mod tests {
         assert_eq!(stable.failure, None, "{}", stable.summary());
         assert_eq!(stable.steps, 50);
         assert!(
-            stable.csv_row().ends_with(",0.05,50,,,stable,"),
+            stable.csv_row().ends_with(",0.05,50,,,stable,,leapfrog"),
             "{}",
             stable.csv_row()
         );
@@ -437,7 +463,16 @@ mod tests {
             model: Model::Fluidanimate,
             ..SIMD
         };
-        let outcome = watch(SceneKind::DamBreak, 1, method, 100.0, adaptive, 0.02, 1e-5).unwrap();
+        let outcome = watch(
+            SceneKind::DamBreak,
+            1,
+            (method, LEAPFROG),
+            100.0,
+            adaptive,
+            0.02,
+            1e-5,
+        )
+        .unwrap();
         assert_eq!(outcome.failure, None, "{}", outcome.summary());
         assert!(outcome.steps > 1, "{}", outcome.summary());
         assert!(outcome.summary().contains("adaptive C 0.3"));
@@ -446,7 +481,7 @@ mod tests {
             assert!(watch(
                 SceneKind::DamBreak,
                 1,
-                method,
+                (method, LEAPFROG),
                 100.0,
                 adaptive,
                 duration,
@@ -458,7 +493,7 @@ mod tests {
         let once = watch(
             SceneKind::DamBreak,
             1,
-            method,
+            (method, LEAPFROG),
             100.0,
             TimeStep::Fixed(1e3),
             0.5,
@@ -467,7 +502,16 @@ mod tests {
         assert_eq!(once.unwrap().steps, 1);
         // An adaptive step below the limit: the course model's viscosity at 100 particles
         // per metre allows 0.12 ms at C 0.3, so a limit of 1 ms fails it at once.
-        let short = watch(SceneKind::DamBreak, 1, SIMD, 100.0, adaptive, 0.01, 1e-3).unwrap();
+        let short = watch(
+            SceneKind::DamBreak,
+            1,
+            (SIMD, LEAPFROG),
+            100.0,
+            adaptive,
+            0.01,
+            1e-3,
+        )
+        .unwrap();
         let (step, _, failure) = short.failure.expect("the step is below the limit");
         assert_eq!(
             (step, failure),
@@ -481,7 +525,18 @@ mod tests {
     fn the_map_is_a_valid_png_and_svg() {
         let outcomes: Vec<Outcome> = [TimeStep::Fixed(1e-3), TimeStep::Adaptive { courant: 0.5 }]
             .iter()
-            .map(|&rule| watch(SceneKind::DamBreak, 1, SIMD, 100.0, rule, 0.01, 1e-5).unwrap())
+            .map(|&rule| {
+                watch(
+                    SceneKind::DamBreak,
+                    1,
+                    (SIMD, LEAPFROG),
+                    100.0,
+                    rule,
+                    0.01,
+                    1e-5,
+                )
+                .unwrap()
+            })
             .collect();
         let dir = tempfile::tempdir().unwrap();
         let map = StabilityMap {
@@ -495,7 +550,7 @@ mod tests {
         assert_eq!((info.info().width, info.info().height), size);
         let text = std::fs::read_to_string(&svg).unwrap();
         let document = roxmltree::Document::parse(&text).unwrap();
-        for label in ["course simd", "C 0.5", "0.001"] {
+        for label in ["course simd leapfrog", "C 0.5", "0.001"] {
             assert!(
                 document
                     .descendants()
@@ -515,6 +570,7 @@ mod tests {
             },
             ppm,
             time_step,
+            integrator: Integrator::Verlet,
             particles: 1234,
             duration: 0.5,
             steps: 77,

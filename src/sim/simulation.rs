@@ -13,8 +13,8 @@ use crate::sim::neighbours::{Tile, TileSearch};
 use crate::sim::params::Params;
 use crate::sim::particles::Particles;
 use crate::sim::skin::Skin;
-use crate::sim::stages::Stage;
-use crate::sim::timestep::{Leapfrog, Limit, TimeStep};
+use crate::sim::stages::{self, Stage};
+use crate::sim::timestep::{Integrator, Leapfrog, Limit, TimeStep};
 
 /// Everything a simulation needs to go on exactly as it would have (a checkpoint): its
 /// particles in their slot order, and the state the next step reads besides them.
@@ -26,6 +26,8 @@ pub struct Resumable {
     pub method: Method,
     /// How steps' lengths are chosen.
     pub time_step: TimeStep,
+    /// How steps advance the state.
+    pub integrator: Integrator,
     /// Physical time simulated so far (s).
     pub time: f64,
     /// The last step's length and what set it.
@@ -70,6 +72,8 @@ pub struct Simulation {
     last_step: Option<(f64, Limit)>,
     /// Lists reused with a skin, if the run asked for them.
     skin: Option<Skin>,
+    /// How each step advances the state.
+    integrator: Integrator,
 }
 
 impl Simulation {
@@ -182,6 +186,7 @@ impl Simulation {
             time: 0.0,
             last_step: None,
             skin: None,
+            integrator: Integrator::default(),
         }
     }
 
@@ -313,6 +318,7 @@ impl Simulation {
             ppm: self.params.ppm,
             method: self.method,
             time_step: self.time_step,
+            integrator: self.integrator,
             time: self.time,
             last_step: self.last_step,
             sparse: self.cells.is_sparse(),
@@ -332,10 +338,22 @@ impl Simulation {
         let mut simulation = Self::unplaced(params, grid, state.method, dynamics, state.particles);
         simulation.dynamics.restore(&params, &state.model_state)?;
         simulation.set_time_step(state.time_step);
+        simulation.integrator = state.integrator;
         simulation.cells = CellOrder::resumed(state.sparse);
         simulation.time = state.time;
         simulation.last_step = state.last_step;
         Ok(simulation)
+    }
+
+    /// Changes how the steps advance the state (before the first step: the integrators
+    /// keep their state differently).
+    pub fn set_integrator(&mut self, integrator: Integrator) {
+        self.integrator = integrator;
+    }
+
+    /// How the steps advance the state.
+    pub fn integrator(&self) -> Integrator {
+        self.integrator
     }
 
     /// Changes how the following steps' lengths are chosen (a fixed step also becomes the
@@ -429,6 +447,10 @@ impl Simulation {
     /// than 1e-9 relative: placement, the model's pair passes, the step's length, and the
     /// model's walls and motion.
     fn step_within(&mut self, longest: f64) {
+        if let (Integrator::Verlet, Some((previous, _))) = (self.integrator, self.last_step) {
+            // While the last step's accelerations are at hand.
+            stages::predict_velocities(previous / 2.0, &mut self.particles);
+        }
         self.reposition();
         let (dynamics, mut context) = self.model_and_context();
         dynamics.interact(&mut context);
@@ -457,10 +479,15 @@ impl Simulation {
         }
     }
 
-    /// The leapfrog of a step of `dt` after the last one.
+    /// The leapfrog of a step of `dt` after the last one (the first step: after one of
+    /// the same length, or for the velocity Verlet a half kick).
     fn leapfrog(&self, dt: f64) -> Leapfrog {
-        let previous = self.last_step.map_or(dt, |(previous, _)| previous);
-        Leapfrog::after(previous, dt)
+        let first = match self.integrator {
+            Integrator::Leapfrog => dt,
+            Integrator::Verlet => 0.0,
+        };
+        let previous = self.last_step.map_or(first, |(previous, _)| previous);
+        Leapfrog::after(self.integrator, previous, dt)
     }
 
     /// The model, and the context it computes in: the current step's parameters,
@@ -473,6 +500,8 @@ impl Simulation {
             clusters: self.clusters_built.then_some(&self.clusters),
             walls: self.cells.walls(),
             placement: self.placement,
+            integrator: self.integrator,
+            previous_step: self.last_step.map(|(previous, _)| previous),
             particles: &mut self.particles,
         };
         (&mut *self.dynamics, context)

@@ -232,13 +232,14 @@ pub fn interact_with_boundary(walls: &Walls, particles: &mut Particles) {
 
 /// Stages 6, 7 and 8 in one pass over each axis (each stage is per particle and per axis,
 /// so the result is that of the three stages in turn), for a step of `step.dt` (the wall
-/// stage judges positions after it) after one of `step.sync`.
+/// stage judges positions [`Leapfrog::lookahead`] after its start) after one of
+/// `step.sync`.
 pub fn advance(walls: &Walls, step: Leapfrog, particles: &mut Particles) {
-    let (n, dt) = (particles.len(), step.dt);
+    let n = particles.len();
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
         for_each_group(n, walls.bits(), axis, fields, |masks, [p, hv, v, a]| {
-            let a = collide(axis, masks, dt, [p, hv, v, a]);
+            let a = collide(axis, masks, step.lookahead(), [p, hv, v, a]);
             let [p, hv, v] = bounce(axis, masks, motion(step, [p, hv, v, a]));
             [p, hv, v, a]
         });
@@ -262,6 +263,19 @@ pub fn advance_within_box(step: Leapfrog, particles: &mut Particles) {
             let [p, hv, v] = bounce(axis, EVERY_WALL, motion(step, [p, hv, v, a]));
             [p, hv, v, a]
         });
+    }
+}
+
+/// The velocities the forces of a step read under the velocity Verlet: each particle's
+/// v predicted to the step's start from its half-step velocity and the last step's
+/// acceleration, v = hv + a `half` (`half` the last step's length over 2).
+pub fn predict_velocities(half: f64, particles: &mut Particles) {
+    let n = particles.len();
+    for axis in 0..3 {
+        let (hv, a) = (&particles.hv[axis][..n], &particles.a[axis][..n]);
+        for ((v, &hv), &a) in particles.v[axis][..n].iter_mut().zip(hv).zip(a) {
+            *v = hv + a * half;
+        }
     }
 }
 

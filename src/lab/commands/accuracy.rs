@@ -5,7 +5,7 @@
 use super::simulation_args::{parse_courants, Courants};
 use crate::io::fld;
 use crate::io::output::OutputFile;
-use crate::lab::accuracy::{self, Candidate, Errors, Metric, Observed, Run, Sweep};
+use crate::lab::accuracy::{self, Candidate, Convergence, Errors, Metric, Observed, Run, Sweep};
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
 use crate::sim::kernel::Kernel;
@@ -13,7 +13,7 @@ use crate::sim::method::Method;
 use crate::sim::model::Model;
 use crate::sim::params::TIME_STEP;
 use crate::sim::simulation::Simulation;
-use crate::sim::timestep::TimeStep;
+use crate::sim::timestep::{Integrator, TimeStep};
 use clap::Args;
 use plotters::chart::SeriesLabelPosition;
 use std::error::Error;
@@ -42,6 +42,9 @@ pub struct AccuracyArgs {
     /// Courant constants of the adaptive time step ("" for none).
     #[arg(long, allow_negative_numbers = true, default_value = "0.2,0.3,0.4", num_args = 1.., value_parser = parse_courants)]
     adaptive: Vec<Courants>,
+    /// Integrators, each with every kernel and time-step rule.
+    #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = Integrator::ALL)]
+    integrators: Vec<Integrator>,
     /// Skins of reused neighbour lists, in smoothing lengths, each method also run with
     /// (default: none, lists rebuilt every step).
     #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
@@ -105,6 +108,7 @@ impl AccuracyArgs {
             &fixed,
             &Courants::all(&self.adaptive),
             &self.skins,
+            &self.integrators,
         ))
     }
 }
@@ -307,13 +311,31 @@ impl AccuracyArgs {
         let metric = self.metric;
         let scene = &start.file_name;
         let footer = footer(sweep, scene, start.particles, self.model, cpu_model, commit);
-        for chart in [
-            speed_chart(sweep, &times, metric, scene, &footer),
-            time_chart(sweep, metric, scene, &footer),
-        ] {
-            for path in chart::render(&chart, &self.output_dir, chart::SIZE)? {
+        let convergence = sweep.convergence(metric);
+        let charts = [
+            Some(speed_chart(sweep, &times, metric, scene, &footer)),
+            Some(time_chart(sweep, metric, scene, &footer)),
+            (!convergence.is_empty())
+                .then(|| convergence_chart(&convergence, &times, metric, scene, &footer)),
+        ];
+        for chart in charts.iter().flatten() {
+            for path in chart::render(chart, &self.output_dir, chart::SIZE)? {
                 writeln!(stdout, "wrote {}", path.display())?;
             }
+        }
+        for family in &convergence {
+            let order = family
+                .order
+                .map_or("none".to_string(), |order| format!("{order:.2}"));
+            writeln!(
+                stdout,
+                "order {} {}: {order} ({} error at {} ms against {} fixed steps)",
+                family.kernel.name(),
+                family.integrator.name(),
+                metric.name(),
+                times.last().map_or(0.0, |t| t * 1e3),
+                family.points.len()
+            )?;
         }
         for (run, why) in sweep
             .runs
@@ -592,6 +614,47 @@ fn speed_chart(
                 Some((x, y, format!("  {}", run.candidate.label())))
             })
             .collect(),
+        footer: footer.to_string(),
+    }
+}
+
+/// The error by `metric` at the last time against the fixed step, log-log, a line per
+/// kernel and integrator with its fitted order in the legend.
+fn convergence_chart(
+    families: &[Convergence],
+    times: &[f64],
+    metric: Metric,
+    scene: &str,
+    footer: &str,
+) -> PointChart {
+    let at = times.last().map_or(0.0, |t| t * 1e3);
+    PointChart {
+        name: "convergence",
+        title: format!("Error against time step at {at} ms, {scene}"),
+        x_label: "time step (ms)".into(),
+        x_log: true,
+        y_log: true,
+        y_label: format!("{} position error (m)", metric.name()),
+        measured: 0,
+        series: families
+            .iter()
+            .map(|family| {
+                let order = family
+                    .order
+                    .map_or("no slope".to_string(), |order| format!("slope {order:.2}"));
+                let label = format!(
+                    "{} {}: {order}",
+                    family.kernel.name(),
+                    family.integrator.name()
+                );
+                let points = family.points.iter().map(|&(dt, e)| (dt * 1e3, e));
+                (label, points.collect())
+            })
+            .collect(),
+        fronts: Vec::new(),
+        lines: true,
+        legend: SeriesLabelPosition::LowerRight,
+        notes: Vec::new(),
         footer: footer.to_string(),
     }
 }

@@ -52,7 +52,7 @@ pub struct RunArgs {
 
 /// Reads the checkpoint at `path` and checks that it continues the run `simulation`
 /// starts from the input whose CRC-32 is `input` (same input, model, kernel, time-step
-/// rule and model settings).
+/// rule, integrator and model settings).
 fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint, String> {
     let shown = path.display();
     let bytes = read_regular(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
@@ -67,8 +67,11 @@ fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint
         Some("model or kernel")
     } else if state.time_step != simulation.time_step() {
         Some("time step")
-    } else if state.model_state != simulation.model_state() {
-        // The same input and model start from the same state: the settings differ.
+    } else if state.integrator != simulation.integrator() {
+        Some("integrator")
+    } else if !state.model_state.starts_with(&simulation.model_state()) {
+        // The same input and model start from the same state, with which what a model
+        // keeps begins: the settings differ.
         Some("setting of its model")
     } else {
         None

@@ -9,7 +9,7 @@ use crate::sim::method::Method;
 use crate::sim::model::wcsph::{Settings, WallFriction};
 use crate::sim::model::{Dynamics, Model, Wcsph};
 use crate::sim::simulation::Simulation;
-use crate::sim::timestep::{Limit, TimeStep};
+use crate::sim::timestep::{Integrator, Limit, TimeStep};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::error::Error;
@@ -49,6 +49,9 @@ pub struct SimulationArgs {
     /// The neighbour structure of the SIMD pair loops on dense scenes.
     #[arg(long, value_enum, default_value_t = PairStructure::default())]
     pub pairs: PairStructure,
+    /// How each step advances the state.
+    #[arg(long, value_enum, default_value_t = Integrator::default())]
+    pub integrator: Integrator,
     /// The weakly compressible model's choices.
     #[command(flatten)]
     pub water: WaterArgs,
@@ -172,6 +175,7 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     let dynamics = args.water.dynamics(args.model)?;
     let mut simulation = scene.into_simulation_with(method, dynamics, &name)?;
     simulation.set_time_step(args.time_step());
+    simulation.set_integrator(args.integrator);
     simulation.set_pair_structure(args.pairs);
     let h = simulation.params().h;
     simulation

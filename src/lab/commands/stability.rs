@@ -11,7 +11,7 @@ use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
 use crate::sim::params::TIME_STEP;
-use crate::sim::timestep::TimeStep;
+use crate::sim::timestep::{Integrator, TimeStep};
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
@@ -35,6 +35,9 @@ pub struct StabilityArgs {
     /// Kernels to run each model with (their precision is part of the method).
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = [Kernel::NATIVE])]
     kernels: Vec<Kernel>,
+    /// Integrators to run each model and kernel with.
+    #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = [Integrator::Leapfrog])]
+    integrators: Vec<Integrator>,
     /// Particles per metre of the scene.
     #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., default_values_t = [100.0, 150.0, 200.0, 300.0])]
     ppms: Vec<f64>,
@@ -54,8 +57,8 @@ pub struct StabilityArgs {
     shortest_step: f64,
 }
 
-/// One run of the map: its method, particles per metre and time-step rule.
-type Cell = (Method, f64, TimeStep);
+/// One run of the map: its method, integrator, particles per metre and time-step rule.
+type Cell = (Method, Integrator, f64, TimeStep);
 
 impl StabilityArgs {
     /// The runs asked for, checked: every cell, in the map's order.
@@ -94,9 +97,11 @@ impl StabilityArgs {
         let mut cells = Vec::new();
         for &model in &self.models {
             for &kernel in &self.kernels {
-                for &ppm in &self.ppms {
-                    for &rule in &rules {
-                        cells.push((Method { model, kernel }, ppm, rule));
+                for &integrator in &self.integrators {
+                    for &ppm in &self.ppms {
+                        for &rule in &rules {
+                            cells.push((Method { model, kernel }, integrator, ppm, rule));
+                        }
                     }
                 }
             }
@@ -105,11 +110,11 @@ impl StabilityArgs {
     }
 
     /// Watches one run.
-    fn watch(&self, (method, ppm, rule): Cell) -> Result<Outcome, String> {
+    fn watch(&self, (method, integrator, ppm, rule): Cell) -> Result<Outcome, String> {
         stability::watch(
             self.scene,
             self.seed,
-            method,
+            (method, integrator),
             ppm,
             rule,
             self.duration,
@@ -122,11 +127,12 @@ impl StabilityArgs {
         Ok(self
             .cells()?
             .into_iter()
-            .map(|(method, ppm, rule)| {
+            .map(|(method, integrator, ppm, rule)| {
                 format!(
-                    "{} {}, ppm {ppm}, {}",
+                    "{} {} {}, ppm {ppm}, {}",
                     method.model.name(),
                     method.kernel.name(),
+                    integrator.name(),
                     rule_name(rule)
                 )
             })

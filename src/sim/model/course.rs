@@ -128,6 +128,7 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
             walls,
             placement,
             ref mut particles,
+            ..
         } = *context;
         let n = particles.len();
         match stage {
@@ -184,6 +185,7 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::timestep::Integrator;
 
     type Spec = Course<false>;
 
@@ -300,6 +302,8 @@ mod tests {
                     clusters: None,
                     walls: sim.cells().walls(),
                     placement,
+                    integrator: Integrator::Leapfrog,
+                    previous_step: None,
                     particles,
                 };
                 course.run_stage(stage, &mut context);

@@ -20,7 +20,7 @@ use crate::sim::neighbours::Tile;
 use crate::sim::params::Params;
 use crate::sim::particles::Particles;
 use crate::sim::stages::Stage;
-use crate::sim::timestep::{Leapfrog, Limit, TimeStep};
+use crate::sim::timestep::{Integrator, Leapfrog, Limit, TimeStep};
 
 /// The physical model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
@@ -93,6 +93,10 @@ pub struct Context<'a> {
     /// A new number each time the particles are placed (stage 1) or the kernel changes:
     /// what a model found in an earlier placement is stale.
     pub placement: u64,
+    /// How the step advances the state.
+    pub integrator: Integrator,
+    /// The last step's length (none before the first step).
+    pub previous_step: Option<f64>,
     /// The particles, in cell order and padded.
     pub particles: &'a mut Particles,
 }
@@ -126,7 +130,9 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// The per-particle state of a fresh start (not of a resumed or traced one).
     fn initial_state(&self, _params: &Params, _particles: &mut Particles) {}
 
-    /// What a checkpoint keeps of the model beyond the particles.
+    /// What a checkpoint keeps of the model beyond the particles: first what it holds
+    /// from its start (its settings and what it chose for its particles), then what its
+    /// steps added, so that a run's start is a prefix of each of its checkpoints'.
     fn saved(&self) -> Vec<f64> {
         Vec::new()
     }

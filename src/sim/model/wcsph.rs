@@ -40,7 +40,7 @@ use crate::sim::kernel::{Packed, Rates, State, WcsphConstants, WeaklyCompressibl
 use crate::sim::params::{Params, BOX_MIN, FLUID_DENSITY, GRAVITY};
 use crate::sim::particles::{AxisArrays, Particles, PADDING};
 use crate::sim::stages::{self, Stage};
-use crate::sim::timestep::{largest_acceleration_and_speed, Leapfrog, Limit, TimeStep};
+use crate::sim::timestep::{largest_acceleration_and_speed, Integrator, Leapfrog, Limit, TimeStep};
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
@@ -222,8 +222,16 @@ pub struct Wcsph {
     pressure_terms: Vec<f64>,
     /// drho/dt of each slot (padded).
     rates: Vec<f64>,
-    /// The velocities the pair pass reads (padded): [`predicted_velocity`].
+    /// The velocities the pair pass reads (padded): [`predicted_velocity`], or under the
+    /// velocity Verlet the particles' own (predicted to the step's start).
     velocities: AxisArrays,
+    /// The densities the pair pass reads under the velocity Verlet (padded): the
+    /// half-step ones predicted to the step's start ([`Self::predicted_densities`]).
+    densities: Vec<f64>,
+    /// Under the velocity Verlet, the last step's drho/dt of each particle, by id
+    /// (empty before the first step, and under the leapfrog): a state of the run,
+    /// which checkpoints keep.
+    last_rates: Vec<f64>,
     /// The copies by place of the pair pass on clusters.
     packed: Packed,
 }
@@ -306,6 +314,23 @@ impl Wcsph {
         particles.rho[..n].copy_from_slice(&densities);
     }
 
+    /// Under the velocity Verlet, the densities the pair pass reads: each particle's
+    /// half-step density predicted to the step's start by the last step's rate,
+    /// rho_{n-1/2} + (drho/dt)_{n-1} dt_{n-1} / 2 (the densities as they are before the
+    /// first step, which are those at t = 0).
+    fn predicted_densities(&mut self, previous_step: Option<f64>, particles: &Particles) {
+        let n = particles.len();
+        let half = previous_step.map_or(0.0, |dt| dt / 2.0);
+        self.densities.clear();
+        self.densities.extend_from_slice(&particles.rho[..n]);
+        if self.last_rates.len() == n {
+            for (rho, &id) in self.densities.iter_mut().zip(&particles.id[..n]) {
+                *rho += self.last_rates[id as usize] * half;
+            }
+        }
+        self.densities.resize(n + PADDING, 0.0);
+    }
+
     /// The CFL time step of a state whose accelerations are computed: C times the
     /// smaller of the force criterion sqrt(h / |a|) and the acoustic one
     /// h / (c_0 + |hv|), of the particles with the largest acceleration and half-step
@@ -351,22 +376,26 @@ impl Dynamics for Wcsph {
         self.settle_densities(params.ppm, particles);
     }
 
-    /// The sound speed, then the settings.
+    /// The sound speed, the settings, then (under the velocity Verlet, after a step) the
+    /// last step's density rates by particle id.
     fn saved(&self) -> Vec<f64> {
         let mut saved = vec![self.constants.sound_speed];
         saved.extend(self.settings.to_values());
+        saved.extend(&self.last_rates);
         saved
     }
 
     fn restore(&mut self, params: &Params, saved: &[f64]) -> Result<(), String> {
-        let [sound_speed, ref settings @ ..] = *saved else {
+        let [sound_speed, ref rest @ ..] = *saved else {
             return Err("it keeps no sound speed".into());
         };
         if !(sound_speed.is_finite() && sound_speed > 0.0) {
             return Err("its sound speed is not a positive number".into());
         }
+        let (settings, last_rates) = rest.split_at(rest.len().min(Settings::VALUES));
         let settings = Settings::from_values(settings)?;
         *self = Wcsph::with_settings(settings, params.ppm, sound_speed);
+        self.last_rates = last_rates.to_vec();
         Ok(())
     }
 
@@ -376,13 +405,18 @@ impl Dynamics for Wcsph {
         let particles = &mut *context.particles;
         let n = particles.len();
         let padded = n + PADDING;
+        let verlet = context.integrator == Integrator::Verlet;
+        if verlet {
+            self.predicted_densities(context.previous_step, particles);
+        }
         let mut pressure_terms = std::mem::take(&mut self.pressure_terms);
+        let rho = if verlet {
+            &self.densities
+        } else {
+            &particles.rho
+        };
         pressure_terms.clear();
-        pressure_terms.extend(
-            particles.rho[..n]
-                .iter()
-                .map(|&rho| self.pressure(rho) / (rho * rho)),
-        );
+        pressure_terms.extend(rho[..n].iter().map(|&rho| self.pressure(rho) / (rho * rho)));
         pressure_terms.resize(padded, 0.0);
         self.pressure_terms = pressure_terms;
         self.rates.clear();
@@ -390,10 +424,15 @@ impl Dynamics for Wcsph {
         for (axis, velocities) in self.velocities.iter_mut().enumerate() {
             let (hv, v) = (&particles.hv[axis][..n], &particles.v[axis][..n]);
             velocities.clear();
-            velocities.extend(hv.iter().zip(v).map(|(&hv, &v)| predicted_velocity(hv, v)));
+            if verlet {
+                velocities.extend_from_slice(v);
+            } else {
+                velocities.extend(hv.iter().zip(v).map(|(&hv, &v)| predicted_velocity(hv, v)));
+            }
             velocities.resize(padded, 0.0);
         }
         let Particles { id, p, rho, a, .. } = particles;
+        let rho = if verlet { &self.densities } else { rho };
         context.kernel.run(WeaklyCompressible {
             constants: &self.constants,
             tiles: context.tiles,
@@ -417,11 +456,24 @@ impl Dynamics for Wcsph {
         self.time_step(particles, courant)
     }
 
-    /// The leapfrog within the box's walls, and the densities advanced by their rates.
+    /// The leapfrog within the box's walls, and the densities advanced by their rates:
+    /// by a whole step (the leapfrog), or kicked as the half-step velocities are (the
+    /// velocity Verlet, which keeps the rates for the next step's prediction).
     fn advance(&mut self, step: Leapfrog, _walls: &Walls, particles: &mut Particles) {
         stages::advance_within_box(step, particles);
         let n = particles.len();
-        advance_densities(step.dt, &self.rates[..n], &mut particles.rho[..n]);
+        match step.integrator {
+            Integrator::Leapfrog => {
+                advance_densities(step.dt, &self.rates[..n], &mut particles.rho[..n]);
+            }
+            Integrator::Verlet => {
+                advance_densities(step.kick, &self.rates[..n], &mut particles.rho[..n]);
+                self.last_rates.resize(n, 0.0);
+                for (&id, &rate) in particles.id[..n].iter().zip(&self.rates) {
+                    self.last_rates[id as usize] = rate;
+                }
+            }
+        }
     }
 
     /// One pair stage, [`Stage::TransferAccelerations`], which computes the accelerations
@@ -445,6 +497,8 @@ impl Dynamics for Wcsph {
         let axes: usize = self.velocities.iter().map(crate::sim::heap_bytes).sum();
         crate::sim::heap_bytes(&self.pressure_terms)
             + crate::sim::heap_bytes(&self.rates)
+            + crate::sim::heap_bytes(&self.densities)
+            + crate::sim::heap_bytes(&self.last_rates)
             + axes
             + self.packed.heap_bytes()
     }
