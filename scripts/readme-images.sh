@@ -20,6 +20,7 @@ echo "method: $lab render, accuracy, stability and validate (plotters, embedded 
 # Accuracy against speed, and where each method fails (CSV, PNG and SVG in each folder).
 scripts/accuracy-sweeps.sh docs/accuracy
 "$lab" stability --kernels simd,mixed --output-dir docs/stability
+"$lab" stability --kernels simd8 --integrators leapfrog,verlet --output-dir docs/stability/integrators
 "$lab" validate dam-break --models course,fluidanimate,wcsph --ppms 200,300,400,600 --width 0.026 \
     --until 3.65 --output-dir docs/validation | tee docs/validation/summary.txt
 scripts/water-settings.sh target/water-settings >docs/validation/settings.md

@@ -605,10 +605,21 @@ impl Sweep {
     /// The fastest run (least CPU time per simulated second at the last time) whose
     /// position error by `metric` stays within `budget` (m) at every time, if any does.
     pub fn fastest_within(&self, budget: f64, metric: Metric) -> Option<&Run> {
+        self.fastest_on(None, budget, metric)
+    }
+
+    /// As [`Self::fastest_within`], among the runs of `integrator` if one is given.
+    pub fn fastest_on(
+        &self,
+        integrator: Option<Integrator>,
+        budget: f64,
+        metric: Metric,
+    ) -> Option<&Run> {
         // A run without a failure reached every time.
         self.runs
             .iter()
             .filter(|run| run.failure.is_none())
+            .filter(|run| integrator.is_none_or(|i| run.candidate.integrator == i))
             .filter(|run| {
                 run.samples
                     .iter()
@@ -686,10 +697,15 @@ pub struct Convergence {
     pub integrator: Integrator,
     /// (dt, error) of each step that reached the last time, by increasing dt.
     pub points: Vec<(f64, f64)>,
-    /// The least-squares slope of ln(error) against ln(dt): the order observed, if at
-    /// least two steps have a positive error.
+    /// The least-squares slope of ln(error) against ln(dt) over the [`ORDER_STEPS`]
+    /// shortest steps: the order observed, if at least two steps have a positive error.
     pub order: Option<f64>,
 }
+
+/// How many of the shortest fixed steps the order is fitted over: the asymptotic range,
+/// where the error follows dt^order (the longest steps of a sweep are near the stability
+/// limit, where it grows faster).
+pub const ORDER_STEPS: usize = 3;
 
 impl Sweep {
     /// Each kernel's and integrator's error by `metric` at the sweep's last time against
@@ -735,7 +751,8 @@ impl Sweep {
         families.retain(|family| family.points.len() >= 2);
         for family in &mut families {
             family.points.sort_by(|a, b| a.0.total_cmp(&b.0));
-            family.order = fitted_slope(&family.points);
+            let shortest = family.points.len().min(ORDER_STEPS);
+            family.order = fitted_slope(&family.points[..shortest]);
         }
         families
     }

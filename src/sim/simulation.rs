@@ -447,9 +447,11 @@ impl Simulation {
     /// than 1e-9 relative: placement, the model's pair passes, the step's length, and the
     /// model's walls and motion.
     fn step_within(&mut self, longest: f64) {
-        if let (Integrator::Verlet, Some((previous, _))) = (self.integrator, self.last_step) {
-            // While the last step's accelerations are at hand.
-            stages::predict_velocities(previous / 2.0, &mut self.particles);
+        if self.integrator == Integrator::Verlet {
+            // While the last step's accelerations are at hand; before the first step, the
+            // half-step velocities are the velocities at t = 0 (v = hv).
+            let half = self.last_step.map_or(0.0, |(previous, _)| previous / 2.0);
+            stages::predict_velocities(half, &mut self.particles);
         }
         self.reposition();
         let (dynamics, mut context) = self.model_and_context();

@@ -89,7 +89,8 @@ pub enum Integrator {
     /// (and a carried density) predicted to t_n from the last step's rates,
     /// hv_{n-1/2} + a_{n-1} dt_{n-1} / 2, the walls judge the positions at t_n, carried
     /// densities are staggered as the velocities are, and the first step kicks by half
-    /// a step (the input's velocities taken as those at t = 0). Second order in dt, for
+    /// a step (the input's half-step velocities taken as those at t = 0). Second order
+    /// in dt, for
     /// the cost of one pass over the particles a step.
     Verlet,
 }

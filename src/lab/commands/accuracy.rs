@@ -67,6 +67,10 @@ pub struct AccuracyArgs {
     /// The position error the budgets and the charts use.
     #[arg(long, value_enum, default_value_t = Metric::Median)]
     metric: Metric,
+    /// Run nothing: draw the charts and report the orders and choices of this
+    /// accuracy.csv, written by an earlier sweep of the same arguments.
+    #[arg(long, value_name = "CSV")]
+    from_csv: Option<PathBuf>,
 }
 
 impl AccuracyArgs {
@@ -88,8 +92,9 @@ impl AccuracyArgs {
         let factors = self.dt_factors.clone().unwrap_or_else(|| match self.model {
             Model::Course => vec![0.125, 0.25, 0.5, 1.0],
             Model::Fluidanimate => vec![0.25, 0.5, 1.0, 2.0, 4.0],
-            // The stiff model's CFL step is near 0.1 ms at 300 per metre.
-            Model::Wcsph => vec![0.025, 0.05, 0.1, 0.2],
+            // The stiff model's CFL step is near 0.1 ms at 300 per metre; 0.3 ms is
+            // beyond the leapfrog's stability on its dam break at 150, not the Verlet's.
+            Model::Wcsph => vec![0.025, 0.05, 0.1, 0.2, 0.3],
         });
         let fixed: Vec<f64> = factors.iter().map(|f| f * TIME_STEP).collect();
         if !fixed.iter().all(|&dt| dt.is_finite() && dt > 0.0) {
@@ -329,12 +334,13 @@ impl AccuracyArgs {
                 .map_or("none".to_string(), |order| format!("{order:.2}"));
             writeln!(
                 stdout,
-                "order {} {}: {order} ({} error at {} ms against {} fixed steps)",
+                "order {} {}: {order} ({} error at {} ms against the {} shortest of its \
+                 fixed steps)",
                 family.kernel.name(),
                 family.integrator.name(),
                 metric.name(),
                 times.last().map_or(0.0, |t| t * 1e3),
-                family.points.len()
+                family.points.len().min(accuracy::ORDER_STEPS)
             )?;
         }
         for (run, why) in sweep
@@ -426,10 +432,13 @@ impl States {
 }
 
 /// Runs every method against the reference and writes the CSV, the charts and the
-/// choices within the budgets.
+/// choices within the budgets (or, with `--from-csv`, only the charts and choices).
 pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let (times, candidates) = args.plan()?;
     super::create_output_dir(&args.output_dir)?;
+    if let Some(csv) = &args.from_csv {
+        return args.chart(csv, stdout);
+    }
     // The CSV is opened before the runs, so an unwritable folder fails first.
     let csv_path = args.csv_path();
     let csv_file = OutputFile::create(&csv_path)?;
@@ -532,8 +541,42 @@ fn choice(sweep: &Sweep, budget: &Budget, h: f64, metric: Metric) -> String {
         ),
         _ => String::new(),
     };
+    let mut integrators: Vec<Integrator> = Vec::new();
+    for run in &sweep.runs {
+        if !integrators.contains(&run.candidate.integrator) {
+            integrators.push(run.candidate.integrator);
+        }
+    }
+    // With several integrators, the fastest of each, against the leapfrog's.
+    let leapfrog = sweep.fastest_on(Some(Integrator::Leapfrog), metres, metric);
+    let each: String = match integrators.len() > 1 {
+        false => String::new(),
+        true => integrators
+            .iter()
+            .map(|&integrator| {
+                let name = integrator.name();
+                match sweep.fastest_on(Some(integrator), metres, metric) {
+                    None => format!("; {name}: none"),
+                    Some(best) => {
+                        let speed = match leapfrog {
+                            Some(first) if integrator != Integrator::Leapfrog => format!(
+                                ", {:.2}x the leapfrog's",
+                                first.final_cost() / best.final_cost()
+                            ),
+                            _ => String::new(),
+                        };
+                        format!(
+                            "; {name}: {} ({:.3}{speed})",
+                            best.candidate.label(),
+                            best.final_cost()
+                        )
+                    }
+                }
+            })
+            .collect(),
+    };
     format!(
-        "{within}: {} ({cost:.3} CPU s per simulated s{against})",
+        "{within}: {} ({cost:.3} CPU s per simulated s{against}){each}",
         run.candidate.label()
     )
 }
@@ -619,7 +662,7 @@ fn speed_chart(
 }
 
 /// The error by `metric` at the last time against the fixed step, log-log, a line per
-/// kernel and integrator with its fitted order in the legend.
+/// kernel and integrator with its fitted order (over its shortest steps) in the legend.
 fn convergence_chart(
     families: &[Convergence],
     times: &[f64],
@@ -639,9 +682,12 @@ fn convergence_chart(
         series: families
             .iter()
             .map(|family| {
-                let order = family
-                    .order
-                    .map_or("no slope".to_string(), |order| format!("slope {order:.2}"));
+                let order = family.order.map_or("no slope".to_string(), |order| {
+                    format!(
+                        "slope {order:.2} (shortest {} steps)",
+                        accuracy::ORDER_STEPS
+                    )
+                });
                 let label = format!(
                     "{} {}: {order}",
                     family.kernel.name(),
