@@ -637,6 +637,8 @@ fn a_real_slurm_cancels_the_reference_when_a_method_fails_and_resubmits_both() {
         "1,2".as_ref(),
         "--adaptive".as_ref(),
         "".as_ref(),
+        "--integrators".as_ref(),
+        "leapfrog".as_ref(),
         "--times".as_ref(),
         "0.002".as_ref(),
         "--output-dir".as_ref(),

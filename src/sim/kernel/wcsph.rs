@@ -948,6 +948,15 @@ mod tests {
     use crate::sim::stages::Stage;
     use std::f64::consts::PI;
 
+    /// The place (x, y, z counts) of `slot` in a lattice block of `size`, x fastest.
+    fn lattice_place(slot: usize, size: [usize; 3]) -> [usize; 3] {
+        [
+            slot % size[0],
+            slot / size[0] % size[1],
+            slot / (size[0] * size[1]),
+        ]
+    }
+
     /// A jittered block of `size` particles a spacing (1 / `ppm`) apart from `corner`,
     /// with random velocities and densities within 1% of rest.
     fn block(ppm: f64, size: [usize; 3], corner: DVec3, seed: u64) -> Particles {
@@ -955,11 +964,7 @@ mod tests {
         let n = size[0] * size[1] * size[2];
         let mut particles = Particles::zeroed(n);
         for slot in 0..n {
-            let k = [
-                slot % size[0],
-                slot / size[0] % size[1],
-                slot / (size[0] * size[1]),
-            ];
+            let k = lattice_place(slot, size);
             for axis in 0..3 {
                 let offset = (k[axis] as f64 + 0.5 + 0.3 * (random.f64() - 0.5)) / ppm;
                 particles.p[axis][slot] = corner[axis] + offset;
@@ -1109,11 +1114,7 @@ mod tests {
         let n = size[0] * size[1] * size[2];
         let mut particles = Particles::zeroed(n);
         for slot in 0..n {
-            let k = [
-                slot % size[0],
-                slot / size[0] % size[1],
-                slot / (size[0] * size[1]),
-            ];
+            let k = lattice_place(slot, size);
             let p = corner + DVec3::from_array(k.map(|k| (k as f64 + 0.5) / ppm));
             let v = velocity(p);
             for axis in 0..3 {
