@@ -35,11 +35,12 @@ pub struct Resumable {
     /// Whether the last sort found the particles sparse (see [`CellOrder::is_sparse`]).
     pub sparse: bool,
     /// What the model keeps beyond the particles ([`Dynamics::saved`]: the weakly
-    /// compressible model's sound speed, chosen at its start, and its settings; nothing
-    /// for the others).
+    /// compressible model's sound speed, chosen at its start, its settings and, under the
+    /// velocity Verlet, its last density rates; nothing for the others).
     pub model_state: Vec<f64>,
-    /// The particles, in slot order, unpadded (with the densities the next step reads,
-    /// for a model whose densities are a state).
+    /// The particles, in slot order, unpadded (with the densities of a model whose
+    /// densities are a state: those of the step's start, or under the velocity Verlet
+    /// those of the half step, which the next step predicts on).
     pub particles: Particles,
 }
 
@@ -303,7 +304,8 @@ impl Simulation {
     }
 
     /// What the model keeps beyond the particles ([`Dynamics::saved`]): for the weakly
-    /// compressible model, its sound speed and settings.
+    /// compressible model, its sound speed and settings, then (under the velocity
+    /// Verlet) its last density rates.
     pub fn model_state(&self) -> Vec<f64> {
         self.dynamics.saved()
     }
@@ -402,7 +404,9 @@ impl Simulation {
     /// A copy whose densities are those of the current positions (stage 1 and the model's
     /// density stages run on the copy), with the copy's cell order and tiles (found even
     /// where its pair passes run on clusters): for looking at a state without disturbing
-    /// the run. A model whose densities are states of their own is only placed (stage 1).
+    /// the run. A model whose densities are states of their own is placed (stage 1), its
+    /// densities those it predicts for the current time (the velocity Verlet keeps them at
+    /// the half step).
     pub fn with_fresh_densities(&self) -> Simulation {
         let mut copy = self.clone();
         copy.reposition();

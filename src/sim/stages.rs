@@ -73,8 +73,9 @@ fn wall_masks(bits: [WallBits; LANES], axis: usize) -> (f64x4, f64x4) {
 }
 
 /// Stage 6 on one axis of four particles: the acceleration after the wall repulsion and
-/// damping of their blocks' walls, judged by where each particle would be after dt at
-/// its half-step velocity (SPEC.md erratum 5). Lanes off the walls keep `a` unchanged.
+/// damping of their blocks' walls, judged by where each particle would be after `dt` at
+/// its half-step velocity (SPEC.md erratum 5: dt the step; 0 under the velocity Verlet,
+/// [`Leapfrog::lookahead`]). Lanes off the walls keep `a` unchanged.
 #[inline(always)]
 fn collide(axis: usize, walls: (f64x4, f64x4), dt: f64, [p, hv, v, a]: [f64x4; 4]) -> f64x4 {
     let (low, high) = walls;

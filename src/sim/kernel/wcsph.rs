@@ -4,7 +4,9 @@
 //! delta-SPH diffusion), added to both particles. A particle
 //! within one support radius of a wall also meets the mirror images of its partners
 //! across that wall (and across two or three walls at an edge or corner) and its own:
-//! free-slip walls. An image of j is within the support of i only if j is within the
+//! free-slip walls, or no-slip ones, whose images move at -v in the viscous terms (then
+//! j's terms with the image of i take their own velocity difference,
+//! [`partner_differences`]). An image of j is within the support of i only if j is within the
 //! support of i and both are near that wall (|p_i - M p_j| >= |p_i - p_j| when both are
 //! on the wall's side), so the images need no search of their own: each candidate pair
 //! whose first particle is near a wall is also evaluated mirrored, and the image's
@@ -152,7 +154,8 @@ impl PairPass for WeaklyCompressible<'_> {
 pub struct State<'a> {
     /// Positions.
     pub p: &'a AxisArrays,
-    /// Velocities: [`crate::sim::model::wcsph::predicted_velocity`].
+    /// Velocities: [`crate::sim::model::wcsph::predicted_velocity`] (the leapfrog), or
+    /// the particles' own predicted to the step's start (the velocity Verlet).
     pub v: &'a AxisArrays,
     /// Densities.
     pub rho: &'a [f64],

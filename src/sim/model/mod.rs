@@ -153,7 +153,8 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     fn interact(&mut self, context: &mut Context);
 
     /// The densities of the current positions, where they are not a state (stages 3 and
-    /// 4): for looking at a state.
+    /// 4), or those a state of densities predicts for the current time (the velocity
+    /// Verlet's, kept at the half step): for looking at a state.
     fn refresh_densities(&mut self, _context: &mut Context) {}
 
     /// The adaptive step of the state after [`Self::interact`], C = `courant`, and the

@@ -365,6 +365,16 @@ impl Dynamics for Wcsph {
         true
     }
 
+    /// Under the velocity Verlet, the half-step densities predicted to the current time
+    /// (as the next step predicts them); under the leapfrog they are the current ones.
+    fn refresh_densities(&mut self, context: &mut Context) {
+        if context.integrator == Integrator::Verlet {
+            self.predicted_densities(context.previous_step, context.particles);
+            let n = context.particles.len();
+            context.particles.rho[..n].copy_from_slice(&self.densities[..n]);
+        }
+    }
+
     /// The sound speed for the height of the highest particle.
     fn prepare(&mut self, params: &Params, particles: &Particles) {
         let sound_speed = self.settings.sound_speed_for(params.ppm, particles);
@@ -704,6 +714,65 @@ mod tests {
             .map(|slot| p.velocity(slot).length())
             .fold(0.0, f64::max);
         (ratios, fastest)
+    }
+
+    #[test]
+    fn a_verlet_state_is_looked_at_with_its_densities_of_the_current_time() {
+        // Under the velocity Verlet the densities are kept at the half step; a fresh copy
+        // predicts them to the current time (by the last step's rate, as the next step
+        // does). The kept ones half a step before and after it average to the density at
+        // that time: the copy's are closer to that than the kept ones (0.43 of their
+        // largest distance here; the rate itself changes within a step).
+        use crate::sim::kernel::Kernel;
+        use crate::sim::method::Method;
+        use crate::sim::model::Model;
+        use crate::sim::simulation::Simulation;
+        use crate::sim::timestep::{Integrator, TimeStep};
+        let ppm = 150.0;
+        // A column 8 x 12 x 8 spacings in the box's low corner, released.
+        let mut particles = Particles::zeroed(8 * 12 * 8);
+        for slot in 0..particles.len() {
+            let k = [slot % 8, slot / 8 % 12, slot / 96];
+            for axis in 0..3 {
+                particles.p[axis][slot] = BOX_MIN[axis] + (k[axis] as f64 + 0.5) / ppm;
+            }
+        }
+        let method = Method {
+            model: Model::Wcsph,
+            kernel: Kernel::NATIVE,
+        };
+        let mut sim = Simulation::with_method(ppm, particles, method).unwrap();
+        sim.set_integrator(Integrator::Verlet);
+        sim.set_time_step(TimeStep::Fixed(2e-4));
+        sim.run(10);
+        let by_id = |p: &Particles| {
+            let mut rho = vec![0.0; p.len()];
+            for slot in 0..p.len() {
+                rho[p.id[slot] as usize] = p.rho[slot];
+            }
+            rho
+        };
+        let before = by_id(sim.particles());
+        let fresh = by_id(sim.with_fresh_densities().particles());
+        sim.step();
+        let after = by_id(sim.particles());
+        let middle: Vec<f64> = before
+            .iter()
+            .zip(&after)
+            .map(|(a, b)| (a + b) / 2.0)
+            .collect();
+        let error = |rho: &[f64]| {
+            rho.iter()
+                .zip(&middle)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
+        };
+        let (kept, predicted) = (error(&before), error(&fresh));
+        println!("largest distance from the mean: kept {kept:.3e}, fresh {predicted:.3e}");
+        assert!(
+            kept > 0.0 && predicted < 0.6 * kept,
+            "{predicted} against {kept}"
+        );
     }
 
     #[test]
