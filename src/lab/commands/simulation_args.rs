@@ -59,7 +59,7 @@ pub struct SimulationArgs {
 
 /// The weakly compressible model's choices (`--model wcsph`), each defaulting to the
 /// validated setting.
-#[derive(Debug, Clone, Default, Args)]
+#[derive(Debug, Clone, Default, PartialEq, Args)]
 pub struct WaterArgs {
     /// The walls' friction in the viscous terms (wcsph) [default: the validated one]
     #[arg(long, value_enum)]
@@ -84,18 +84,9 @@ pub struct WaterArgs {
 }
 
 impl WaterArgs {
-    /// Whether any choice was given.
+    /// Whether any choice was given (every field is `None` when none is).
     fn any(&self) -> bool {
-        self.walls.is_some()
-            || [
-                self.artificial_viscosity,
-                self.laminar_viscosity,
-                self.smoothing,
-                self.sound_speed,
-                self.density_diffusion,
-            ]
-            .iter()
-            .any(Option::is_some)
+        *self != WaterArgs::default()
     }
 
     /// The settings asked for, the validated ones where none is given.
