@@ -63,11 +63,12 @@ impl Wing {
 /// The layers of `sim/`'s modules, lowest first. Outside its tests (which may set up a
 /// whole simulation), a module of `sim/` uses only modules of lower layers, those of its
 /// own folder and the wing's root (`sim/mod.rs`); a module of `sim/` in no layer is refused.
-const SIM_LAYERS: [&[&str]; 8] = [
-    &["params"],
+const SIM_LAYERS: [&[&str]; 9] = [
+    &["params", "isa"],
     &["particles", "grid"],
     &["timestep", "cells"],
     &["neighbours", "clusters", "skin", "stages"],
+    &["lists"],
     &["kernel"],
     &["model"],
     &["method"],

@@ -33,8 +33,12 @@ pub enum PairStructure {
     /// Clusters of 4 along x-sorted rows of cells and their windows (`sim::clusters`),
     /// on dense scenes, for every model on the simd, simd8 and mixed kernels (tiles
     /// elsewhere).
-    #[default]
     Clusters,
+    /// Each particle's list of partners closer than h (`sim::lists`), on dense scenes,
+    /// for the course models on the simd, simd8 and mixed kernels (the weakly
+    /// compressible model runs on clusters; tiles elsewhere).
+    #[default]
+    Lists,
 }
 
 /// Places per cluster: an `f64x4` register, half an `f64x8` one.

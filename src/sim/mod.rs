@@ -16,7 +16,9 @@
 pub mod cells;
 pub mod clusters;
 pub mod grid;
+pub mod isa;
 pub mod kernel;
+pub mod lists;
 pub mod method;
 pub mod model;
 pub mod neighbours;

@@ -7,6 +7,8 @@
 use crate::sim::cells::{CellOrder, SENTINELS};
 use crate::sim::clusters::{Clusters, PairStructure};
 use crate::sim::grid::{Grid, GridSizeError};
+use crate::sim::isa::InstructionSet;
+use crate::sim::lists::NeighbourLists;
 use crate::sim::method::Method;
 use crate::sim::model::{Context, Dynamics};
 use crate::sim::neighbours::{Tile, TileSearch};
@@ -61,6 +63,9 @@ pub struct Simulation {
     /// The clusters of the current placement, if built ([`Self::build_clusters`]).
     clusters: Clusters,
     clusters_built: bool,
+    /// The neighbour lists of the current placement, if built ([`Self::build_lists`]).
+    lists: NeighbourLists,
+    lists_built: bool,
     /// Counts the placements and kernel changes ([`Context::placement`]).
     placement: u64,
     /// Buffer reused by the reordering.
@@ -181,6 +186,8 @@ impl Simulation {
             structure: PairStructure::default(),
             clusters: Clusters::default(),
             clusters_built: false,
+            lists: NeighbourLists::default(),
+            lists_built: false,
             placement: 0,
             spare: Particles::default(),
             time_step,
@@ -229,6 +236,7 @@ impl Simulation {
             + self.cells.heap_bytes()
             + self.search.heap_bytes()
             + self.clusters.heap_bytes()
+            + self.lists.heap_bytes()
             + self.dynamics.heap_bytes()
             + self.skin.as_ref().map_or(0, Skin::heap_bytes)
     }
@@ -238,6 +246,11 @@ impl Simulation {
     /// [`Self::with_fresh_densities`]'s copies).
     pub fn tiles(&self) -> &[Tile] {
         self.search.tiles()
+    }
+
+    /// The neighbour lists of the current placement, where its pair passes run on them.
+    pub fn lists(&self) -> Option<&NeighbourLists> {
+        self.lists_built.then_some(&self.lists)
     }
 
     /// The clusters of the current placement, where its pair passes run on them.
@@ -251,12 +264,19 @@ impl Simulation {
     /// clusters, 16 per cluster pair (each cluster with itself and with each cluster of
     /// its windows); on the tiles, each first slot's partner range rounded up to whole
     /// groups of the kernel's lanes (1 per pair on the scalar and reference kernels).
+    /// On the lists, each slot's list rounded up to whole groups of the kernel's lanes.
     /// The density pass of the course models is such a pass.
     pub fn pair_lanes(&self) -> u64 {
         if self.clusters_built {
             return self.clusters.candidate_lanes();
         }
         let lanes = self.method.kernel.lanes();
+        if self.lists_built {
+            let groups: usize = (0..self.lists.slots())
+                .map(|slot| self.lists.range(slot).len().div_ceil(lanes))
+                .sum();
+            return (groups * lanes) as u64;
+        }
         let groups: usize = self
             .search
             .tiles()
@@ -294,10 +314,11 @@ impl Simulation {
         }
         copy.method = method;
         copy.placement += 1;
-        if copy.clusters_built {
+        if copy.clusters_built || copy.lists_built {
             // Until the next build (with a skin, when it goes stale), the copy's passes
             // run on the tiles of the same cell order.
             copy.clusters_built = false;
+            copy.lists_built = false;
             copy.find_tiles();
         }
         Ok(copy)
@@ -379,6 +400,15 @@ impl Simulation {
     /// reference outputs hold on either; only the order of the sums differs).
     pub fn set_pair_structure(&mut self, structure: PairStructure) {
         self.structure = structure;
+    }
+
+    /// Builds and runs the neighbour lists with `isa` from the next placement on (the
+    /// detected one by default).
+    ///
+    /// # Panics
+    /// If this CPU does not run it.
+    pub fn set_instruction_set(&mut self, isa: InstructionSet) {
+        self.lists.set_instruction_set(isa);
     }
 
     /// How steps' lengths are chosen.
@@ -504,6 +534,7 @@ impl Simulation {
             kernel: self.method.kernel,
             tiles: self.search.tiles(),
             clusters: self.clusters_built.then_some(&self.clusters),
+            lists: self.lists_built.then_some(&self.lists),
             walls: self.cells.walls(),
             placement: self.placement,
             integrator: self.integrator,
@@ -561,30 +592,41 @@ impl Simulation {
         self.find_neighbours();
     }
 
-    /// The neighbour structure of the placement: its clusters where the pair passes run
-    /// on them ([`Self::build_clusters`]), else its tiles.
+    /// The neighbour structure of the placement: its lists or clusters where the pair
+    /// passes run on them ([`Self::build_lists`], [`Self::build_clusters`]), else its
+    /// tiles.
     fn find_neighbours(&mut self) {
-        self.build_clusters();
-        if !self.clusters_built {
+        let on_lanes = self.method.kernel.runs_on_clusters() && !self.cells.is_sparse();
+        let on_lists = self.structure == PairStructure::Lists && self.dynamics.runs_on_lists();
+        self.lists_built = on_lanes && on_lists;
+        self.clusters_built = on_lanes && !on_lists && self.structure != PairStructure::Tiles;
+        if self.lists_built {
+            self.build_lists();
+        } else if self.clusters_built {
+            self.build_clusters();
+        } else {
             self.find_tiles();
         }
     }
 
-    /// Clusters of the placement's cell order at the current positions, where they were
-    /// asked for, the scene is dense (not mostly lone particles) and the kernel has loops
-    /// on clusters.
+    /// The lists of the placement's tiles at the current positions, within the cut-off
+    /// (plus the skin where kept over steps).
+    fn build_lists(&mut self) {
+        self.find_tiles();
+        let skin = self.skin.as_ref().map_or(0.0, Skin::width);
+        let reach = self.params.h + skin;
+        let (tiles, n) = (self.search.tiles(), self.particles.len());
+        self.lists.build(tiles, &self.particles.p, n, reach);
+    }
+
+    /// Clusters of the placement's cell order at the current positions.
     fn build_clusters(&mut self) {
-        self.clusters_built = self.structure == PairStructure::Clusters
-            && self.method.kernel.runs_on_clusters()
-            && !self.cells.is_sparse();
-        if self.clusters_built {
-            let keys = self.cells.keys();
-            let paired = &keys[..keys.len() - SENTINELS];
-            let layout = self.cells.layout();
-            let skin = self.skin.as_ref().map_or(0.0, Skin::width);
-            let reach = self.params.h + skin;
-            self.clusters.build(paired, layout, &self.particles, reach);
-        }
+        let keys = self.cells.keys();
+        let paired = &keys[..keys.len() - SENTINELS];
+        let layout = self.cells.layout();
+        let skin = self.skin.as_ref().map_or(0.0, Skin::width);
+        let reach = self.params.h + skin;
+        self.clusters.build(paired, layout, &self.particles, reach);
     }
 
     /// Stage 2: accelerations to gravity, and densities to zero unless they are states.
@@ -769,6 +811,12 @@ mod tests {
     /// windows), else of its tiles.
     fn candidate_pairs(sim: &Simulation) -> Vec<(usize, usize)> {
         use crate::sim::clusters::{CLUSTER, EMPTY};
+        if sim.lists_built {
+            let lists = &sim.lists;
+            let listed = (0..lists.slots())
+                .flat_map(|i| lists.partners(i).iter().map(move |&j| (i, j as usize)));
+            return listed.collect();
+        }
         if !sim.clusters_built {
             return tile_pairs(sim).collect();
         }
@@ -834,8 +882,12 @@ mod tests {
         }
         let largest = largest_distance(&sim, &rebuilt);
         assert!(sim.heap_bytes() > rebuilt.heap_bytes());
-        let on_clusters = structure == PairStructure::Clusters && !sim.cells.is_sparse();
-        assert_eq!(sim.clusters_built, on_clusters);
+        let dense = !sim.cells.is_sparse();
+        assert_eq!(
+            sim.clusters_built,
+            structure == PairStructure::Clusters && dense
+        );
+        assert_eq!(sim.lists_built, structure == PairStructure::Lists && dense);
         (sim.skin().unwrap().builds(), largest)
     }
 
@@ -885,6 +937,7 @@ mod tests {
         };
         let mut sim =
             Simulation::with_method(150.0, splashing_block(), method(Kernel::Simd)).unwrap();
+        sim.set_pair_structure(PairStructure::Clusters);
         sim.set_skin(Some(0.3 * sim.params().h)).unwrap();
         sim.step();
         assert!(sim.clusters_built);
@@ -903,8 +956,12 @@ mod tests {
         // The lists go stale now and then, not every step.
         let block = splashing_block();
         // The same pairs, the same physics: only the order of the sums differs, on the
-        // tiles and on clusters with their lists kept.
-        for structure in [PairStructure::Tiles, PairStructure::Clusters] {
+        // tiles, on clusters with their windows kept and on the neighbour lists kept.
+        for structure in [
+            PairStructure::Tiles,
+            PairStructure::Clusters,
+            PairStructure::Lists,
+        ] {
             let (builds, largest) = run_with_and_without_a_skin(block.clone(), structure);
             assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
             assert!(largest < 1e-9, "{structure:?}: {largest}");
@@ -925,9 +982,11 @@ mod tests {
                 cloud.p[axis][slot] = cloud.p[axis][partner] + 0.006;
             }
         }
-        let (builds, largest) = run_with_and_without_a_skin(cloud, PairStructure::Clusters);
-        assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
-        assert!(largest < 1e-9, "{largest}");
+        for structure in [PairStructure::Clusters, PairStructure::Lists] {
+            let (builds, largest) = run_with_and_without_a_skin(cloud.clone(), structure);
+            assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
+            assert!(largest < 1e-9, "{largest}");
+        }
     }
 
     #[test]

@@ -24,6 +24,8 @@
 //! clusters for those particles, without testing the others again.
 
 mod clustered;
+pub mod floor;
+mod listed;
 mod narrowed;
 mod reference;
 mod scalar;
@@ -35,6 +37,8 @@ use simd::{F64x4, F64x8, MixedF32x8};
 pub use wcsph::{NearWalls, Rates, State, WcsphConstants, WeaklyCompressible};
 
 use crate::sim::clusters::Clusters;
+use crate::sim::isa::Record;
+use crate::sim::lists::NeighbourLists;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::Params;
 use crate::sim::particles::AxisArrays;
@@ -221,6 +225,13 @@ pub struct Packed {
     rates: Vec<f64>,
     /// The mixed kernel's values narrowed once per placement.
     narrowed: Narrowed,
+    /// On [`NeighbourLists`], a record per slot of what the pass reads of a partner:
+    /// positions (and the densities or, in the density pass, the partners' sums).
+    records: Vec<Record>,
+    /// On [`NeighbourLists`], velocities and the densities' reciprocals by slot.
+    velocities: Vec<Record>,
+    /// On [`NeighbourLists`], the partners' acceleration sums by slot.
+    sums: Vec<Record>,
 }
 
 /// What the mixed kernel's loops on [`Clusters`] read, narrowed to f32: per cluster, a
@@ -262,6 +273,9 @@ impl Packed {
             + crate::sim::heap_bytes(&self.pressure_terms)
             + crate::sim::heap_bytes(&self.rates)
             + self.narrowed.heap_bytes()
+            + crate::sim::heap_bytes(&self.records)
+            + crate::sim::heap_bytes(&self.velocities)
+            + crate::sim::heap_bytes(&self.sums)
     }
 }
 
@@ -305,6 +319,9 @@ pub struct Densities<'a> {
     pub tiles: &'a [Tile],
     /// The clusters of the same placement, which the SIMD kernels run on where given.
     pub clusters: Option<&'a Clusters>,
+    /// The neighbour lists of the same placement, which the SIMD kernels run on where
+    /// given (before clusters).
+    pub lists: Option<&'a NeighbourLists>,
     /// Positions.
     pub p: &'a AxisArrays,
     /// Each slot's particle: the order of the reference kernel's sums.
@@ -324,18 +341,19 @@ impl PairPass for Densities<'_> {
     }
     fn lanes<L: Lanes>(self) {
         self.close.clear();
-        match self.clusters {
-            Some(clusters) => clustered::increment_densities::<L>(self, clusters),
-            None => simd::increment_densities::<L>(self),
+        match (self.lists, self.clusters) {
+            (Some(lists), _) => listed::increment_densities::<L>(self, lists),
+            (None, Some(clusters)) => clustered::increment_densities::<L>(self, clusters),
+            (None, None) => simd::increment_densities::<L>(self),
         }
     }
     fn mixed(self) {
-        match self.clusters {
-            Some(clusters) => {
+        match (self.lists, self.clusters) {
+            (None, Some(clusters)) => {
                 self.close.clear();
                 narrowed::increment_densities(self, clusters);
             }
-            None => self.lanes::<MixedF32x8>(),
+            _ => self.lanes::<MixedF32x8>(),
         }
     }
     fn reference(self) {
@@ -363,6 +381,9 @@ pub struct Accelerations<'a, const FLUIDANIMATE: bool> {
     pub candidates: Candidates<'a>,
     /// The clusters of the same placement, which the SIMD kernels run on where given.
     pub clusters: Option<&'a Clusters>,
+    /// The neighbour lists of the same placement, which the SIMD kernels run on where
+    /// given (before clusters).
+    pub lists: Option<&'a NeighbourLists>,
     /// Positions.
     pub p: &'a AxisArrays,
     /// Velocities.
@@ -382,15 +403,20 @@ impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
         scalar::transfer_accelerations(self);
     }
     fn lanes<L: Lanes>(self) {
-        match self.clusters {
-            Some(clusters) => clustered::transfer_accelerations::<L, FLUIDANIMATE>(self, clusters),
-            None => simd::transfer_accelerations::<L, FLUIDANIMATE>(self),
+        match (self.lists, self.clusters) {
+            (Some(lists), _) => listed::transfer_accelerations::<L, FLUIDANIMATE>(self, lists),
+            (None, Some(clusters)) => {
+                clustered::transfer_accelerations::<L, FLUIDANIMATE>(self, clusters)
+            }
+            (None, None) => simd::transfer_accelerations::<L, FLUIDANIMATE>(self),
         }
     }
     fn mixed(self) {
-        match self.clusters {
-            Some(clusters) => narrowed::transfer_accelerations::<FLUIDANIMATE>(self, clusters),
-            None => self.lanes::<MixedF32x8>(),
+        match (self.lists, self.clusters) {
+            (None, Some(clusters)) => {
+                narrowed::transfer_accelerations::<FLUIDANIMATE>(self, clusters)
+            }
+            _ => self.lanes::<MixedF32x8>(),
         }
     }
     fn reference(self) {
@@ -435,8 +461,12 @@ mod tests {
     fn mixed_precision_stays_within_1e_5_of_the_f64_kernels_on_a_dense_step() {
         let ppm = 292.0;
         // The weakly compressible model's kernels are compared in `wcsph`'s tests; the
-        // SIMD kernels run on both structures.
-        let structures = [PairStructure::Clusters, PairStructure::Tiles];
+        // SIMD kernels run on every structure.
+        let structures = [
+            PairStructure::Lists,
+            PairStructure::Clusters,
+            PairStructure::Tiles,
+        ];
         for (model, structure) in [Model::Course, Model::Fluidanimate]
             .into_iter()
             .flat_map(|model| structures.map(|structure| (model, structure)))
@@ -482,6 +512,32 @@ mod tests {
     }
 
     #[test]
+    fn every_instruction_set_runs_the_list_loops_to_the_same_bits() {
+        // The lists' build and passes on AVX-512, AVX2 and plain Rust, where this CPU runs
+        // them, on every SIMD kernel: the same lists, the same sums in the same order.
+        use crate::sim::isa::InstructionSet;
+        let ppm = 292.0;
+        for kernel in [Kernel::Simd, Kernel::Simd8, Kernel::Mixed] {
+            let step = |isa| {
+                let method = Method {
+                    model: Model::Fluidanimate,
+                    kernel,
+                };
+                let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
+                sim.set_instruction_set(isa);
+                sim.run(2);
+                assert!(sim.lists().is_some(), "a dense block runs on lists");
+                sim.particles().clone()
+            };
+            let portable = step(InstructionSet::Portable);
+            let available = InstructionSet::ALL.into_iter().filter(|isa| isa.is_available());
+            for isa in available {
+                assert!(step(isa) == portable, "{kernel:?} on {}", isa.name());
+            }
+        }
+    }
+
+    #[test]
     fn the_mixed_loops_on_clusters_find_every_pair_with_or_without_the_density_pass_s_list() {
         // The acceleration pass of the mixed kernel on clusters, after its density pass
         // (the clusters it recorded) and alone (every cluster of the windows, positions
@@ -492,7 +548,9 @@ mod tests {
             model: Model::Fluidanimate,
             kernel: Kernel::Mixed,
         };
-        let sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
+        let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
+        sim.set_pair_structure(PairStructure::Clusters);
+        sim.run_stage(Stage::Reposition);
         let clusters = sim.clusters().expect("a dense block runs on clusters");
         let placed = sim.particles();
         let params = sim.params();
@@ -502,6 +560,7 @@ mod tests {
             params,
             tiles: sim.tiles(),
             clusters: Some(clusters),
+            lists: None,
             p: &placed.p,
             id: &placed.id,
             rho: &mut rho,
@@ -520,6 +579,7 @@ mod tests {
                 params,
                 candidates,
                 clusters: Some(clusters),
+                lists: None,
                 p: &placed.p,
                 v: &placed.v,
                 rho: &rho,

@@ -15,6 +15,7 @@ use super::{Accelerations, Candidates, Densities, OVERFLOW_GROUP};
 
 /// The group bit that stands for every group from [`OVERFLOW_GROUP`] on.
 const OVERFLOW_BIT: u64 = 1 << OVERFLOW_GROUP;
+use crate::sim::isa::{Gathers, Record, Slots};
 use crate::sim::neighbours::Tile;
 use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::{AxisArrays, PADDING};
@@ -107,6 +108,19 @@ pub(crate) trait Lanes {
     /// # Safety
     /// As for [`Self::load`].
     unsafe fn subtract_from(values: &mut [f64], at: impl Into<Places>, terms: Self::V);
+    /// The f64 vector of as many lanes, in which fetched values are combined before the
+    /// pair terms (the lanes' own for the f64 kernels).
+    type F64: Copy + Add<Output = Self::F64> + Sub<Output = Self::F64>;
+    /// Every f64 lane `value`.
+    fn splat_f64(value: f64) -> Self::F64;
+    /// f64 lanes as the lanes the pair terms are computed in (narrowed by the mixed
+    /// kernel).
+    fn narrowed(values: Self::F64) -> Self::V;
+    /// The fields of the records at the first `LANES` slots of `at`, gathered on `isa`.
+    fn records<G: Gathers>(isa: G, records: &[Record], at: &Slots) -> [Self::F64; 4];
+    /// Adds field f of `terms` to field f of the records at the first `LANES` slots of
+    /// `at`, one slot after the other, in f64, on `isa`.
+    fn add_to_records<G: Gathers>(isa: G, records: &mut [Record], at: &Slots, terms: [Self::V; 4]);
     /// Adds `terms` to `sum`.
     fn accumulate(sum: &mut Self::Sum, terms: Self::V);
     /// The total of a sum's lanes.
@@ -186,12 +200,38 @@ pub(super) struct F64x4;
 pub(super) struct F64x8;
 
 macro_rules! f64_lanes {
-    ($name:ident, $type:ty, $lanes:literal) => {
+    ($name:ident, $type:ty, $lanes:literal, $records:ident, $add_to_records:ident) => {
         impl Lanes for $name {
             const LANES: usize = $lanes;
             type V = $type;
             type Sum = $type;
             const ZERO_SUM: $type = <$type>::ZERO;
+            type F64 = $type;
+
+            #[inline(always)]
+            fn splat_f64(value: f64) -> $type {
+                <$type>::splat(value)
+            }
+
+            #[inline(always)]
+            fn narrowed(values: $type) -> $type {
+                values
+            }
+
+            #[inline(always)]
+            fn records<G: Gathers>(isa: G, records: &[Record], at: &Slots) -> [$type; 4] {
+                isa.$records(records, at).map(<$type>::from)
+            }
+
+            #[inline(always)]
+            fn add_to_records<G: Gathers>(
+                isa: G,
+                records: &mut [Record],
+                at: &Slots,
+                terms: [$type; 4],
+            ) {
+                isa.$add_to_records(records, at, terms.map(<$type>::to_array));
+            }
 
             #[inline(always)]
             fn splat(value: f64) -> $type {
@@ -342,8 +382,8 @@ macro_rules! f64_lanes {
     };
 }
 
-f64_lanes!(F64x4, f64x4, 4);
-f64_lanes!(F64x8, f64x8, 8);
+f64_lanes!(F64x4, f64x4, 4, records4, add_to_records4);
+f64_lanes!(F64x8, f64x8, 8, records8, add_to_records8);
 
 /// Mixed precision: differences in f64, narrowed to f32; pair terms in `wide::f32x8`;
 /// sums in f64. A workbench method, never `fluid`'s.
@@ -366,6 +406,27 @@ impl Lanes for MixedF32x8 {
     type V = f32x8;
     type Sum = [f64x4; 2];
     const ZERO_SUM: [f64x4; 2] = [f64x4::ZERO; 2];
+    type F64 = f64x8;
+
+    #[inline(always)]
+    fn splat_f64(value: f64) -> f64x8 {
+        f64x8::splat(value)
+    }
+
+    #[inline(always)]
+    fn narrowed(values: f64x8) -> f32x8 {
+        narrow(values.to_array())
+    }
+
+    #[inline(always)]
+    fn records<G: Gathers>(isa: G, records: &[Record], at: &Slots) -> [f64x8; 4] {
+        isa.records8(records, at).map(f64x8::from)
+    }
+
+    #[inline(always)]
+    fn add_to_records<G: Gathers>(isa: G, records: &mut [Record], at: &Slots, terms: [f32x8; 4]) {
+        isa.add_to_records8(records, at, terms.map(widen));
+    }
 
     #[inline(always)]
     fn splat(value: f64) -> f32x8 {
@@ -698,29 +759,52 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
         if !L::any(close) {
             return None;
         }
-        let dist = L::sqrt(L::max(r2, self.min_distance_squared));
-        let q = self.h - dist;
         // SAFETY: guaranteed by the caller.
         let (inverse_rho_j, excess) = unsafe {
             let excess = L::excess_density(first.rho, self.rho, at);
             (L::load(self.inverse_rho, at), excess)
         };
-        let pressure = self.pressure_factor * q * q / dist * excess;
         // The divider, not the lanes, bounds this loop: the densities' reciprocals are
         // taken once per particle, not per pair and axis (a square root and a division
         // per group, not three divisions more).
         let per_density_product = L::halves(first.inverse_rho) * inverse_rho_j;
+        // SAFETY: guaranteed by the caller.
+        let difference = |axis: usize| unsafe { L::differences(self.v[axis], at, first.v[axis]) };
+        let dv = [difference(0), difference(1), difference(2)];
+        Some(self.terms(d, r2, close, excess, per_density_product, dv))
+    }
+
+    /// The acceleration terms of pairs at offsets `d` (first particle less partner),
+    /// `r2` apart, in the lanes of `close` (zero in the others), with `excess` the sum of
+    /// their densities less twice the rest density, `per_density_product` the product of
+    /// their densities' reciprocals and `dv` the partners' velocities less the first's.
+    #[inline(always)]
+    pub(super) fn terms(
+        &self,
+        d: [L::V; 3],
+        r2: L::V,
+        close: L::V,
+        excess: L::V,
+        per_density_product: L::V,
+        dv: [L::V; 3],
+    ) -> [L::V; 3] {
+        let dist = L::sqrt(L::max(r2, self.min_distance_squared));
+        let q = self.h - dist;
+        let pressure = self.pressure_factor * q * q / dist * excess;
         let term = |axis: usize| {
-            // SAFETY: guaranteed by the caller.
-            let dv = unsafe { L::differences(self.v[axis], at, first.v[axis]) };
-            let mut viscosity = dv * self.viscosity_factor;
+            let mut viscosity = dv[axis] * self.viscosity_factor;
             if FLUIDANIMATE {
                 viscosity = viscosity * q;
             }
             ((d[axis] * pressure + viscosity) * per_density_product) & close
         };
         // Three calls, not an array map: the map's closure is not always inlined.
-        Some([term(0), term(1), term(2)])
+        [term(0), term(1), term(2)]
+    }
+
+    /// The cut-off squared, in every lane.
+    pub(super) fn h2(&self) -> L::V {
+        self.h2
     }
 }
 

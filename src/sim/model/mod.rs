@@ -16,6 +16,7 @@ pub use wcsph::Wcsph;
 use crate::sim::cells::Walls;
 use crate::sim::clusters::Clusters;
 use crate::sim::kernel::Kernel;
+use crate::sim::lists::NeighbourLists;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::Params;
 use crate::sim::particles::Particles;
@@ -88,6 +89,9 @@ pub struct Context<'a> {
     /// The clusters of the same placement, where the driver built them (a dense scene,
     /// a kernel on lanes, clusters asked for).
     pub clusters: Option<&'a Clusters>,
+    /// The neighbour lists of the same placement, where the driver built them (a dense
+    /// scene, a kernel on lanes, lists asked for, a model that runs on them).
+    pub lists: Option<&'a NeighbourLists>,
     /// The walls of each slot's block (stage 1).
     pub walls: &'a Walls,
     /// A new number each time the particles are placed (stage 1) or the kernel changes:
@@ -116,6 +120,12 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// given: the cut-off unless the kernel's support is wider than h.
     fn smoothing_length(&self, params: &Params) -> f64 {
         params.h
+    }
+
+    /// Whether its SIMD pair passes run on [`NeighbourLists`] (else the driver builds
+    /// clusters where lists are asked for).
+    fn runs_on_lists(&self) -> bool {
+        true
     }
 
     /// Whether the densities are a state of their own, carried from step to step (moved

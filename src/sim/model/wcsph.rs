@@ -361,6 +361,11 @@ impl Dynamics for Wcsph {
         self.constants.h
     }
 
+    fn runs_on_lists(&self) -> bool {
+        // Its pass runs on clusters until it has a loop over lists.
+        false
+    }
+
     fn carries_densities(&self) -> bool {
         true
     }

@@ -1,0 +1,602 @@
+//! The instructions the neighbour-list loops need and `wide` does not offer: the
+//! left-pack (compress) of the slots a filter keeps, and the fetch of 4-field records by
+//! 32-bit slot indices, transposed into lanes (a load per slot and a register transpose:
+//! measured faster here than a gather per field, `_mm512_i32gather_pd`, and its scatter,
+//! `perf/README.md`), with the transposed add back. Each instruction set is a token type implementing
+//! [`Gathers`] that can only be made where its instructions run ([`Avx512`]: AVX-512F
+//! and VL; [`Avx2`]; [`Portable`]: plain Rust, on every CPU), so its methods are safe:
+//! every `unsafe` block here rests on the token's check and on the bounds its method
+//! asserts. [`InstructionSet`] names them, is chosen at run time
+//! ([`InstructionSet::detected`]) and runs a generic loop on the chosen token
+//! ([`InstructionSet::run`]), so one build serves every x86-64 CPU.
+
+/// An instruction set of the list loops.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum InstructionSet {
+    /// AVX-512F and AVX-512VL: 8-lane gathers and scatters, compress-stores.
+    Avx512,
+    /// AVX2: 4-lane gathers, a table-driven left-pack; scatters lane by lane.
+    Avx2,
+    /// Plain Rust, lane by lane: every CPU.
+    Portable,
+}
+
+impl InstructionSet {
+    /// Every instruction set, the widest first.
+    pub const ALL: [InstructionSet; 3] = [
+        InstructionSet::Avx512,
+        InstructionSet::Avx2,
+        InstructionSet::Portable,
+    ];
+
+    /// Its name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            InstructionSet::Avx512 => "avx512",
+            InstructionSet::Avx2 => "avx2",
+            InstructionSet::Portable => "portable",
+        }
+    }
+
+    /// The widest instruction set this CPU runs.
+    pub fn detected() -> InstructionSet {
+        Self::ALL
+            .into_iter()
+            .find(|isa| isa.is_available())
+            .unwrap_or(InstructionSet::Portable)
+    }
+
+    /// Whether this CPU runs it.
+    pub fn is_available(self) -> bool {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            InstructionSet::Avx512 => Avx512::new().is_some(),
+            #[cfg(target_arch = "x86_64")]
+            InstructionSet::Avx2 => Avx2::new().is_some(),
+            #[cfg(not(target_arch = "x86_64"))]
+            InstructionSet::Avx512 | InstructionSet::Avx2 => false,
+            InstructionSet::Portable => true,
+        }
+    }
+
+    /// Runs `work` on this instruction set's token.
+    ///
+    /// # Panics
+    /// If this CPU does not run it (see [`Self::is_available`]).
+    pub(crate) fn run<W: OnInstructionSet>(self, work: W) -> W::Output {
+        let unavailable = || -> ! { panic!("this CPU does not run {}", self.name()) };
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            InstructionSet::Avx512 => work.run(Avx512::new().unwrap_or_else(|| unavailable())),
+            #[cfg(target_arch = "x86_64")]
+            InstructionSet::Avx2 => work.run(Avx2::new().unwrap_or_else(|| unavailable())),
+            #[cfg(not(target_arch = "x86_64"))]
+            InstructionSet::Avx512 | InstructionSet::Avx2 => unavailable(),
+            InstructionSet::Portable => work.run(Portable),
+        }
+    }
+}
+
+impl Default for InstructionSet {
+    /// [`InstructionSet::detected`].
+    fn default() -> Self {
+        Self::detected()
+    }
+}
+
+/// A loop generic over the instruction set it runs on.
+pub(crate) trait OnInstructionSet {
+    /// What the loop returns.
+    type Output;
+    /// Runs the loop with the instructions of `isa`.
+    fn run<G: Gathers>(self, isa: G) -> Self::Output;
+}
+
+/// Eight slot indices, each checked below `bound` when made, so that fetches from any
+/// array of at least `bound` records stay inside it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Slots {
+    at: [u32; 8],
+    bound: usize,
+}
+
+impl Slots {
+    /// The slots `at`.
+    ///
+    /// # Panics
+    /// If any is not below `bound`.
+    #[inline(always)]
+    pub(crate) fn new(at: [u32; 8], bound: usize) -> Slots {
+        assert!(bound <= u32::MAX as usize);
+        let below = at
+            .iter()
+            .fold(true, |all, &slot| all & (slot < bound as u32));
+        assert!(below, "a slot index beyond its arrays");
+        Slots { at, bound }
+    }
+
+    /// The indices.
+    pub(crate) fn at(&self) -> [u32; 8] {
+        self.at
+    }
+}
+
+/// The left-pack and the records' fetch and add, on one instruction set.
+pub(crate) trait Gathers: Copy {
+    /// Writes to the front of `out` `values[k]` for each bit k set in `kept`, in order,
+    /// and returns how many (it may write anything to the 16 elements from there).
+    ///
+    /// # Panics
+    /// If `out` is shorter than 16.
+    fn left_pack(self, kept: u16, values: &[u32; 16], out: &mut [u32]) -> usize;
+    /// The records of the first 4 slots of `at`, transposed: row f holds field f of each.
+    fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4];
+    /// The records of the 8 slots of `at`, transposed: row f holds field f of each.
+    fn records8(self, records: &[Record], at: &Slots) -> [[f64; 8]; 4];
+    /// Adds `terms[f][k]` to field f of the record at slot k of `at`, for the first 4
+    /// slots, one slot after the other (a repeated slot receives every sum).
+    fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]);
+    /// As [`Self::add_to_records4`], for the 8 slots.
+    fn add_to_records8(self, records: &mut [Record], at: &Slots, terms: [[f64; 8]; 4]);
+}
+
+/// Four f64 fields of a slot kept together (a particle's position and density, say), so
+/// that a loop fetches them with one load and a transpose instead of four gathers.
+pub type Record = [f64; 4];
+
+/// Panics unless `records` holds every slot of `at`.
+#[inline(always)]
+fn check_records(records: &[Record], at: &Slots) {
+    assert!(records.len() >= at.bound, "gathering beyond an array");
+}
+
+/// The records at the first `N` slots of `at`, transposed, lane by lane.
+#[inline(always)]
+fn records_portable<const N: usize>(records: &[Record], at: &Slots) -> [[f64; N]; 4] {
+    check_records(records, at);
+    let rows: [Record; N] = std::array::from_fn(|k| records[at.at[k] as usize]);
+    std::array::from_fn(|field| std::array::from_fn(|k| rows[k][field]))
+}
+
+/// Adds the transposed `terms` to the records at the first `N` slots of `at`, lane by lane.
+#[inline(always)]
+fn add_to_records_portable<const N: usize>(
+    records: &mut [Record],
+    at: &Slots,
+    terms: [[f64; N]; 4],
+) {
+    check_records(records, at);
+    for k in 0..N {
+        let record = &mut records[at.at[k] as usize];
+        for (field, value) in record.iter_mut().enumerate() {
+            *value += terms[field][k];
+        }
+    }
+}
+
+/// Plain Rust, lane by lane.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Portable;
+
+impl Gathers for Portable {
+    #[inline(always)]
+    fn left_pack(self, kept: u16, values: &[u32; 16], out: &mut [u32]) -> usize {
+        let out = &mut out[..16];
+        let mut count = 0;
+        for (k, &value) in values.iter().enumerate() {
+            // Written whether kept or not, the cursor advancing only past the kept: no
+            // branch on the mask.
+            out[count] = value;
+            count += usize::from(kept >> k & 1);
+        }
+        count
+    }
+
+    #[inline(always)]
+    fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4] {
+        records_portable(records, at)
+    }
+
+    #[inline(always)]
+    fn records8(self, records: &[Record], at: &Slots) -> [[f64; 8]; 4] {
+        records_portable(records, at)
+    }
+
+    #[inline(always)]
+    fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]) {
+        add_to_records_portable(records, at, terms);
+    }
+
+    #[inline(always)]
+    fn add_to_records8(self, records: &mut [Record], at: &Slots, terms: [[f64; 8]; 4]) {
+        add_to_records_portable(records, at, terms);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use x86::{Avx2, Avx512};
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::{check_records, Gathers, Record, Slots};
+    use std::arch::x86_64::*;
+
+    /// AVX-512F and AVX-512VL (and AVX2), checked at run time.
+    #[derive(Debug, Clone, Copy)]
+    pub(crate) struct Avx512(());
+
+    impl Avx512 {
+        /// The token, where this CPU runs these instructions.
+        pub(crate) fn new() -> Option<Avx512> {
+            let runs = is_x86_feature_detected!("avx512f")
+                && is_x86_feature_detected!("avx512vl")
+                && is_x86_feature_detected!("avx2");
+            runs.then_some(Avx512(()))
+        }
+    }
+
+    /// AVX2, checked at run time.
+    #[derive(Debug, Clone, Copy)]
+    pub(crate) struct Avx2(());
+
+    impl Avx2 {
+        /// The token, where this CPU runs these instructions.
+        pub(crate) fn new() -> Option<Avx2> {
+            is_x86_feature_detected!("avx2").then_some(Avx2(()))
+        }
+    }
+
+    /// A record as a register.
+    ///
+    /// # Safety
+    /// AVX runs on this CPU.
+    #[inline(always)]
+    unsafe fn load_record(record: &Record) -> __m256d {
+        // SAFETY: an unaligned load of 4 f64 from a record of 4; AVX is the caller's.
+        unsafe { _mm256_loadu_pd(record.as_ptr()) }
+    }
+
+    /// The 4 records at the first 4 slots of `at`, transposed with AVX2.
+    ///
+    /// # Safety
+    /// AVX2 runs on this CPU.
+    #[inline(always)]
+    unsafe fn records4_avx2(records: &[Record], at: &Slots) -> [__m256d; 4] {
+        check_records(records, at);
+        let record = |k: usize| &records[at.at()[k] as usize];
+        // SAFETY: AVX2 is the caller's; the records are in bounds (indexed).
+        unsafe {
+            let [r0, r1, r2, r3] = [0, 1, 2, 3].map(|k| load_record(record(k)));
+            transpose4([r0, r1, r2, r3])
+        }
+    }
+
+    /// The transpose of 4 rows of 4 f64.
+    ///
+    /// # Safety
+    /// AVX runs on this CPU.
+    #[inline(always)]
+    unsafe fn transpose4([r0, r1, r2, r3]: [__m256d; 4]) -> [__m256d; 4] {
+        // SAFETY: register operations; AVX is the caller's.
+        unsafe {
+            let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
+            let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
+            [
+                _mm256_permute2f128_pd::<0x20>(t0, t2),
+                _mm256_permute2f128_pd::<0x20>(t1, t3),
+                _mm256_permute2f128_pd::<0x31>(t0, t2),
+                _mm256_permute2f128_pd::<0x31>(t1, t3),
+            ]
+        }
+    }
+
+    /// Adds the rows of `rows` (transposed fields) to the records at the first 4 slots
+    /// of `at`, one after the other.
+    ///
+    /// # Safety
+    /// AVX2 runs on this CPU.
+    #[inline(always)]
+    unsafe fn add_to_records4_avx2(records: &mut [Record], at: &Slots, rows: [[f64; 4]; 4]) {
+        check_records(records, at);
+        // SAFETY: AVX2 is the caller's; each record is in bounds (indexed) and holds 4 f64.
+        unsafe {
+            let fields = rows.map(|row| _mm256_loadu_pd(row.as_ptr()));
+            let sums = transpose4(fields);
+            for (k, sum) in sums.into_iter().enumerate() {
+                let record = &mut records[at.at()[k] as usize];
+                let total = _mm256_add_pd(load_record(record), sum);
+                _mm256_storeu_pd(record.as_mut_ptr(), total);
+            }
+        }
+    }
+
+    /// The permutations of AVX-512's 8 x 4 transpose: from two rows each holding fields
+    /// (a, b) of records k and k + 1 per 128-bit lane, the 8 records' field a; and b.
+    const LOW_FIELDS: [i64; 8] = [0, 1, 8, 9, 4, 5, 12, 13];
+    const HIGH_FIELDS: [i64; 8] = [2, 3, 10, 11, 6, 7, 14, 15];
+
+    impl Gathers for Avx512 {
+        #[inline(always)]
+        fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4] {
+            // SAFETY: the token exists only where AVX2 runs.
+            unsafe { std::mem::transmute(records4_avx2(records, at)) }
+        }
+
+        #[inline(always)]
+        fn records8(self, records: &[Record], at: &Slots) -> [[f64; 8]; 4] {
+            check_records(records, at);
+            let record = |k: usize| &records[at.at()[k] as usize];
+            // SAFETY: the token exists only where AVX-512F runs; every record is in
+            // bounds (indexed) and holds 4 f64.
+            unsafe {
+                // Records k and k + 4 in the halves of row k.
+                let row = |k: usize| {
+                    let low = _mm512_castpd256_pd512(load_record(record(k)));
+                    _mm512_insertf64x4::<1>(low, load_record(record(k + 4)))
+                };
+                let [r0, r1, r2, r3] = [row(0), row(1), row(2), row(3)];
+                let (t0, t1) = (_mm512_unpacklo_pd(r0, r1), _mm512_unpackhi_pd(r0, r1));
+                let (t2, t3) = (_mm512_unpacklo_pd(r2, r3), _mm512_unpackhi_pd(r2, r3));
+                let low = _mm512_loadu_epi64(LOW_FIELDS.as_ptr());
+                let high = _mm512_loadu_epi64(HIGH_FIELDS.as_ptr());
+                std::mem::transmute::<[__m512d; 4], [[f64; 8]; 4]>([
+                    _mm512_permutex2var_pd(t0, low, t2),
+                    _mm512_permutex2var_pd(t1, low, t3),
+                    _mm512_permutex2var_pd(t0, high, t2),
+                    _mm512_permutex2var_pd(t1, high, t3),
+                ])
+            }
+        }
+
+        #[inline(always)]
+        fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]) {
+            // SAFETY: the token exists only where AVX2 runs.
+            unsafe { add_to_records4_avx2(records, at, terms) }
+        }
+
+        #[inline(always)]
+        fn add_to_records8(self, records: &mut [Record], at: &Slots, terms: [[f64; 8]; 4]) {
+            check_records(records, at);
+            // SAFETY: the token exists only where AVX-512F runs; every record is in
+            // bounds (indexed) and holds 4 f64.
+            unsafe {
+                let [f0, f1, f2, f3] = terms.map(|row| _mm512_loadu_pd(row.as_ptr()));
+                let low = _mm512_loadu_epi64(LOW_FIELDS.as_ptr());
+                let high = _mm512_loadu_epi64(HIGH_FIELDS.as_ptr());
+                let (t0, t2) = (
+                    _mm512_permutex2var_pd(f0, low, f2),
+                    _mm512_permutex2var_pd(f0, high, f2),
+                );
+                let (t1, t3) = (
+                    _mm512_permutex2var_pd(f1, low, f3),
+                    _mm512_permutex2var_pd(f1, high, f3),
+                );
+                // Row k holds record k's sums in its low half, record k + 4's in its high.
+                let rows = [
+                    _mm512_unpacklo_pd(t0, t1),
+                    _mm512_unpackhi_pd(t0, t1),
+                    _mm512_unpacklo_pd(t2, t3),
+                    _mm512_unpackhi_pd(t2, t3),
+                ];
+                let sums: [__m256d; 8] = std::array::from_fn(|k| {
+                    if k < 4 {
+                        _mm512_castpd512_pd256(rows[k])
+                    } else {
+                        _mm512_extractf64x4_pd::<1>(rows[k - 4])
+                    }
+                });
+                for (k, sum) in sums.into_iter().enumerate() {
+                    let record = &mut records[at.at()[k] as usize];
+                    let total = _mm256_add_pd(load_record(record), sum);
+                    _mm256_storeu_pd(record.as_mut_ptr(), total);
+                }
+            }
+        }
+
+        #[inline(always)]
+        fn left_pack(self, kept: u16, values: &[u32; 16], out: &mut [u32]) -> usize {
+            let out = &mut out[..16];
+            // SAFETY: the token exists only where AVX-512F runs; the load reads the 16
+            // u32 of `values`, the store writes 16 u32 into `out`, which holds 16.
+            // Compressed in a register, then stored whole: a compress straight to memory
+            // is several times slower on AMD's Zen 4.
+            unsafe {
+                let values = _mm512_loadu_si512(values.as_ptr().cast());
+                let packed = _mm512_maskz_compress_epi32(kept, values);
+                _mm512_storeu_si512(out.as_mut_ptr().cast(), packed);
+            }
+            kept.count_ones() as usize
+        }
+    }
+
+    /// For each 8-bit mask, the lanes of its set bits in order, then zeros: AVX2's
+    /// left-pack is a permutation by this table.
+    static LEFT_PACK: [[u32; 8]; 256] = {
+        let mut table = [[0; 8]; 256];
+        let mut mask = 0;
+        while mask < 256 {
+            let (mut lane, mut count) = (0, 0);
+            while lane < 8 {
+                if mask >> lane & 1 != 0 {
+                    table[mask][count] = lane as u32;
+                    count += 1;
+                }
+                lane += 1;
+            }
+            mask += 1;
+        }
+        table
+    };
+
+    impl Gathers for Avx2 {
+        #[inline(always)]
+        fn left_pack(self, kept: u16, values: &[u32; 16], out: &mut [u32]) -> usize {
+            let out = &mut out[..16];
+            let [low, high] = kept.to_le_bytes();
+            let low_count = low.count_ones() as usize;
+            // SAFETY: the token exists only where AVX2 runs; the loads read the table's
+            // rows of 8 u32 and the halves of `values`' 16, the stores write 8 u32 each
+            // into `out` from 0 and from `low_count` <= 8, which `out`'s 16 hold.
+            unsafe {
+                for (half, mask, at) in [(0, low, 0), (8, high, low_count)] {
+                    let order = _mm256_loadu_si256(LEFT_PACK[usize::from(mask)].as_ptr().cast());
+                    let half = _mm256_loadu_si256(values[half..].as_ptr().cast());
+                    let packed = _mm256_permutevar8x32_epi32(half, order);
+                    _mm256_storeu_si256(out[at..].as_mut_ptr().cast(), packed);
+                }
+            }
+            kept.count_ones() as usize
+        }
+
+        #[inline(always)]
+        fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4] {
+            // SAFETY: the token exists only where AVX2 runs.
+            unsafe { std::mem::transmute(records4_avx2(records, at)) }
+        }
+
+        #[inline(always)]
+        fn records8(self, records: &[Record], at: &Slots) -> [[f64; 8]; 4] {
+            let high_at = Slots {
+                at: std::array::from_fn(|k| at.at()[(k + 4) % 8]),
+                bound: at.bound,
+            };
+            // SAFETY: the token exists only where AVX2 runs.
+            let (low, high) =
+                unsafe { (records4_avx2(records, at), records4_avx2(records, &high_at)) };
+            // SAFETY: plain data of the same size.
+            let [low, high]: [[[f64; 4]; 4]; 2] = unsafe { std::mem::transmute([low, high]) };
+            std::array::from_fn(|field| {
+                std::array::from_fn(|k| {
+                    if k < 4 {
+                        low[field][k]
+                    } else {
+                        high[field][k - 4]
+                    }
+                })
+            })
+        }
+
+        #[inline(always)]
+        fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]) {
+            // SAFETY: the token exists only where AVX2 runs.
+            unsafe { add_to_records4_avx2(records, at, terms) }
+        }
+
+        #[inline(always)]
+        fn add_to_records8(self, records: &mut [Record], at: &Slots, terms: [[f64; 8]; 4]) {
+            let half = |from: usize| terms.map(|row| std::array::from_fn(|k| row[from + k]));
+            let high_at = Slots {
+                at: std::array::from_fn(|k| at.at()[(k + 4) % 8]),
+                bound: at.bound,
+            };
+            // SAFETY: the token exists only where AVX2 runs.
+            unsafe {
+                add_to_records4_avx2(records, at, half(0));
+                add_to_records4_avx2(records, &high_at, half(4));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Runs the checks on one instruction set.
+    struct Check;
+
+    impl OnInstructionSet for Check {
+        type Output = ();
+        fn run<G: Gathers>(self, isa: G) {
+            // Records, a repeated slot (17) among them.
+            let at = Slots::new([3, 39, 0, 17, 17, 8, 21, 5], 40);
+            let records: Vec<Record> = (0..40)
+                .map(|k| [k as f64, k as f64 + 0.25, -(k as f64), 100.0 + k as f64])
+                .collect();
+            let fields8 = isa.records8(&records, &at);
+            let fields4 = isa.records4(&records, &at);
+            for field in 0..4 {
+                for k in 0..8 {
+                    let expected = records[at.at()[k] as usize][field];
+                    assert_eq!(fields8[field][k], expected);
+                    if k < 4 {
+                        assert_eq!(fields4[field][k], expected);
+                    }
+                }
+            }
+            let terms8: [[f64; 8]; 4] =
+                std::array::from_fn(|f| std::array::from_fn(|k| (f * 8 + k) as f64 + 1.0));
+            let terms4: [[f64; 4]; 4] = std::array::from_fn(|f| [terms8[f][0] * 3.0; 4]);
+            let (mut sums8, mut sums4) = (records.clone(), records.clone());
+            isa.add_to_records8(&mut sums8, &at, terms8);
+            isa.add_to_records4(&mut sums4, &at, terms4);
+            let (mut expected8, mut expected4) = (records.clone(), records.clone());
+            for k in 0..8 {
+                for field in 0..4 {
+                    expected8[at.at()[k] as usize][field] += terms8[field][k];
+                    if k < 4 {
+                        expected4[at.at()[k] as usize][field] += terms4[field][k];
+                    }
+                }
+            }
+            assert_eq!(sums8, expected8);
+            assert_eq!(sums4, expected4);
+            let values: [u32; 16] = std::array::from_fn(|k| 7 * k as u32 + 100);
+            for kept in 0..=u16::MAX {
+                let mut out = [u32::MAX; 17];
+                let count = isa.left_pack(kept, &values, &mut out);
+                let expected: Vec<u32> = (0..16)
+                    .filter(|k| kept >> k & 1 != 0)
+                    .map(|k| values[k])
+                    .collect();
+                assert_eq!(count, expected.len());
+                let packed = &out[..count];
+                assert_eq!(packed, expected, "mask {kept:016b}");
+                assert_eq!(out[16], u32::MAX, "nothing written past 16");
+            }
+        }
+    }
+
+    #[test]
+    fn every_available_instruction_set_fetches_adds_and_packs_alike() {
+        let mut ran = 0;
+        for isa in InstructionSet::ALL {
+            if isa.is_available() {
+                isa.run(Check);
+                ran += 1;
+            } else {
+                println!("{} not run: this CPU lacks it", isa.name());
+            }
+        }
+        assert!(ran >= 1);
+        assert!(InstructionSet::detected().is_available());
+        assert!(InstructionSet::Portable.is_available());
+    }
+
+    #[test]
+    #[should_panic(expected = "beyond its arrays")]
+    fn a_slot_beyond_the_bound_is_refused() {
+        Slots::new([0, 1, 2, 3, 4, 5, 6, 8], 8);
+    }
+
+    #[test]
+    fn a_fetch_from_a_shorter_array_is_refused_on_every_instruction_set() {
+        for isa in InstructionSet::ALL
+            .into_iter()
+            .filter(|isa| isa.is_available())
+        {
+            let fetch = std::panic::catch_unwind(|| isa.run(FetchFrom(&[[1.0; 4]; 8])));
+            assert!(fetch.is_err(), "{}", isa.name());
+        }
+    }
+
+    /// Records fetched from an array shorter than the slots' bound.
+    struct FetchFrom<'a>(&'a [Record]);
+
+    impl OnInstructionSet for FetchFrom<'_> {
+        type Output = [[f64; 8]; 4];
+        fn run<G: Gathers>(self, isa: G) -> [[f64; 8]; 4] {
+            isa.records8(self.0, &Slots::new([0; 8], 16))
+        }
+    }
+}

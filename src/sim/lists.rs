@@ -1,0 +1,343 @@
+//! Neighbour lists: for each slot, the later slots of its tiles closer than a reach (the
+//! cut-off, plus a skin where lists are kept over steps), so that the pair loops fill
+//! every lane of a register with a pair instead of testing the candidates of whole cells
+//! (about one in six closer than h) in each pass.
+//!
+//! A list holds each pair once (a *half* list: the partners after a slot in its own cell
+//! and those of its 13 forward cells, as the tiles give them), as slot indices in cell
+//! order. The build is one SIMD filter over the tiles' contiguous slot ranges, 8
+//! candidates at a time, whose hits are left-packed into the list ([`Gathers::left_pack`]:
+//! a compress-store on AVX-512); the density and acceleration passes of the same
+//! placement share it. The last group of a list reads the slots after its end (the next
+//! lists', then [`TAIL`] zeros), which the loops mask.
+
+use crate::sim::isa::{Gathers, InstructionSet, OnInstructionSet};
+use crate::sim::neighbours::Tile;
+use crate::sim::particles::{AxisArrays, PADDING};
+use wide::f32x16;
+
+/// Entries after the last list, so that a group of 8 read from any list's start stays in
+/// the array.
+pub const TAIL: usize = 8;
+
+/// Candidates the build tests at once, in f32 lanes.
+const FILTER_LANES: usize = 16;
+
+/// The neighbour lists of one placement.
+#[derive(Debug, Clone, Default)]
+pub struct NeighbourLists {
+    /// Where each slot's partners start in `partners`, then the end of the last.
+    starts: Vec<u32>,
+    /// Every slot's partners, in slot order, then [`TAIL`] zeros (and spare room).
+    partners: Vec<u32>,
+    /// The slots the lists cover: every index is below it.
+    slots: usize,
+    /// The instruction set the lists are built and run with.
+    isa: InstructionSet,
+    /// The positions narrowed to f32 for the build's filter.
+    narrowed: [Vec<f32>; 3],
+    /// The build's candidates of one cell.
+    candidates: Candidates,
+}
+
+impl NeighbourLists {
+    /// Lists of the `slots` first slots: for each slot of each tile's first range, its
+    /// partners in the tile closer than `reach` at positions `p` (padded by [`PADDING`]).
+    pub fn build(&mut self, tiles: &[Tile], p: &AxisArrays, slots: usize, reach: f64) {
+        assert!(slots < u32::MAX as usize - 16, "too many slots to list");
+        assert!(p.iter().all(|axis| axis.len() >= slots + PADDING));
+        assert!(tiles.iter().all(|tile| tile.second_end as usize <= slots));
+        self.slots = slots;
+        self.starts.clear();
+        self.isa.run(Build {
+            lists: self,
+            tiles,
+            p,
+            reach,
+        });
+    }
+
+    /// The instruction set the lists are built and run with.
+    pub fn instruction_set(&self) -> InstructionSet {
+        self.isa
+    }
+
+    /// Builds and runs the lists with `isa` from the next build on.
+    ///
+    /// # Panics
+    /// If this CPU does not run it.
+    pub fn set_instruction_set(&mut self, isa: InstructionSet) {
+        assert!(isa.is_available(), "this CPU does not run {}", isa.name());
+        self.isa = isa;
+    }
+
+    /// The slots the lists cover.
+    pub fn slots(&self) -> usize {
+        self.slots
+    }
+
+    /// Where the partners of `slot` are in [`Self::entries`].
+    #[inline(always)]
+    pub fn range(&self, slot: usize) -> std::ops::Range<usize> {
+        self.starts[slot] as usize..self.starts[slot + 1] as usize
+    }
+
+    /// Every list, one after the other, then at least [`TAIL`] zeros.
+    pub fn entries(&self) -> &[u32] {
+        &self.partners
+    }
+
+    /// The partners of `slot`.
+    pub fn partners(&self, slot: usize) -> &[u32] {
+        &self.partners[self.range(slot)]
+    }
+
+    /// The pairs listed.
+    pub fn pairs(&self) -> usize {
+        self.starts.last().map_or(0, |&end| end as usize)
+    }
+
+    /// The bytes its buffers hold on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        use crate::sim::heap_bytes as bytes;
+        bytes(&self.starts)
+            + bytes(&self.partners)
+            + self.narrowed.iter().map(bytes).sum::<usize>()
+            + self.candidates.p.iter().map(bytes).sum::<usize>()
+            + bytes(&self.candidates.slots)
+    }
+}
+
+/// The build on one instruction set.
+struct Build<'a> {
+    lists: &'a mut NeighbourLists,
+    tiles: &'a [Tile],
+    p: &'a AxisArrays,
+    reach: f64,
+}
+
+impl OnInstructionSet for Build<'_> {
+    type Output = ();
+
+    fn run<G: Gathers>(self, isa: G) {
+        let Build {
+            lists,
+            tiles,
+            p,
+            reach,
+        } = self;
+        let NeighbourLists {
+            starts,
+            partners,
+            slots,
+            narrowed,
+            candidates,
+            ..
+        } = lists;
+        let n = *slots;
+        // The positions narrowed once; rounding moves each coordinate by at most half
+        // an f32 epsilon of the largest, a distance by less than two, and the squared
+        // distance's own rounding is a few epsilons more: within the limit below, no
+        // pair closer than the reach is missed.
+        let mut largest = 0.0f64;
+        for (copy, axis) in narrowed.iter_mut().zip(p) {
+            copy.clear();
+            copy.extend(axis[..n].iter().map(|&x| {
+                largest = largest.max(x.abs());
+                x as f32
+            }));
+        }
+        let epsilon = f64::from(f32::EPSILON);
+        let limit = (reach + 2.0 * epsilon * largest) * (1.0 + 4.0 * epsilon);
+        let limit2 = f32x16::splat((limit * limit) as f32);
+        let lane = f32x16::from(std::array::from_fn::<f32, FILTER_LANES, _>(|k| k as f32));
+        let [x, y, z] = &*narrowed;
+        // Room for the lists so far, a group more and the tail, grown as they fill.
+        let room = FILTER_LANES + TAIL;
+        if partners.len() < 2 * room {
+            partners.resize(2 * room + 4 * n, 0);
+        }
+        let mut end = 0;
+        for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
+            // The cell's candidates in one run: its own slots, then those of its
+            // forward neighbours (all after its own); a particle's partners are the
+            // candidates after it.
+            let own = cell_tiles[0].firsts();
+            candidates.clear();
+            candidates.add(own.clone(), [x, y, z]);
+            for tile in cell_tiles.iter().filter(|tile| !tile.is_within_cell()) {
+                candidates.add(tile.second as usize..tile.second_end as usize, [x, y, z]);
+            }
+            candidates.pad();
+            for i in own.clone() {
+                // Slots without tiles (lone, or alone in a cell without forward
+                // neighbours) have empty lists.
+                starts.resize(i + 1, end as u32);
+                let first = [x[i], y[i], z[i]].map(f32x16::splat);
+                let position = (i - own.start) as f32;
+                for g in (0..candidates.len()).step_by(FILTER_LANES) {
+                    if partners.len() < end + room {
+                        partners.resize(2 * partners.len(), 0);
+                    }
+                    let [cx, cy, cz] = candidates.positions(g);
+                    let (dx, dy, dz) = (first[0] - cx, first[1] - cy, first[2] - cz);
+                    let r2 = dx * dx + dy * dy + dz * dz;
+                    let after = lane.simd_gt(f32x16::splat(position - g as f32));
+                    let kept = (r2.simd_lt(limit2) & after).to_bitmask() as u16;
+                    end += isa.left_pack(kept, candidates.slots(g), &mut partners[end..]);
+                }
+            }
+        }
+        starts.resize(n + 1, end as u32);
+        partners[end..end + TAIL].fill(0);
+    }
+}
+
+/// A cell's candidates during the build: narrowed positions and slots, padded to whole
+/// groups with candidates infinitely far.
+#[derive(Debug, Clone, Default)]
+struct Candidates {
+    p: [Vec<f32>; 3],
+    slots: Vec<u32>,
+}
+
+impl Candidates {
+    fn clear(&mut self) {
+        self.p.iter_mut().for_each(Vec::clear);
+        self.slots.clear();
+    }
+
+    /// Appends the slots of `range` with their positions `p`.
+    fn add(&mut self, range: std::ops::Range<usize>, p: [&Vec<f32>; 3]) {
+        for (copy, axis) in self.p.iter_mut().zip(p) {
+            copy.extend_from_slice(&axis[range.clone()]);
+        }
+        self.slots.extend(range.start as u32..range.end as u32);
+    }
+
+    /// Pads to whole groups.
+    fn pad(&mut self) {
+        let padded = self.slots.len().next_multiple_of(FILTER_LANES);
+        for copy in &mut self.p {
+            copy.resize(padded, f32::INFINITY);
+        }
+        self.slots.resize(padded, 0);
+    }
+
+    /// The candidates (padding included).
+    fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// The positions of the group from `g`.
+    #[inline(always)]
+    fn positions(&self, g: usize) -> [f32x16; 3] {
+        self.p.each_ref().map(|axis| {
+            f32x16::from(<[f32; FILTER_LANES]>::try_from(&axis[g..g + FILTER_LANES]).unwrap())
+        })
+    }
+
+    /// The slots of the group from `g`.
+    #[inline(always)]
+    fn slots(&self, g: usize) -> &[u32; FILTER_LANES] {
+        self.slots[g..g + FILTER_LANES].try_into().unwrap()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::cells::CellOrder;
+    use crate::sim::grid::Grid;
+    use crate::sim::neighbours::TileSearch;
+    use crate::sim::params::{Params, BOX_MIN};
+    use crate::sim::particles::Particles;
+
+    /// A jittered block of `side`^3 particles a spacing apart, in cell order, with its
+    /// tiles.
+    fn block(ppm: f64, side: usize) -> (Particles, TileSearch) {
+        let mut random = fastrand::Rng::with_seed(11);
+        let n = side * side * side;
+        let mut particles = Particles::zeroed(n);
+        for slot in 0..n {
+            let k = [slot % side, slot / side % side, slot / (side * side)];
+            for axis in 0..3 {
+                let jitter = 0.4 * (random.f64() - 0.5);
+                particles.p[axis][slot] = BOX_MIN[axis] + (k[axis] as f64 + 1.0 + jitter) / ppm;
+            }
+        }
+        let grid = Grid::new(Params::new(ppm).h).unwrap();
+        let mut cells = CellOrder::default();
+        cells.sort(&grid, &particles);
+        let mut placed = particles.permuted(cells.order());
+        placed.pad();
+        let mut search = TileSearch::default();
+        search.find(cells.keys(), cells.layout());
+        (placed, search)
+    }
+
+    #[test]
+    fn the_lists_hold_every_pair_closer_than_the_reach_once_on_every_instruction_set() {
+        let ppm = 200.0;
+        let h = Params::new(ppm).h;
+        let (particles, search) = block(ppm, 11);
+        let n = particles.len();
+        // Within the cells' side, which is at least h.
+        let reach = 0.999 * h;
+        let mut every = Vec::new();
+        for a in 0..n {
+            for b in a + 1..n {
+                let r2 = particles
+                    .position(a)
+                    .distance_squared(particles.position(b));
+                if r2 < reach * reach {
+                    every.push((a as u32, b as u32));
+                }
+            }
+        }
+        assert!(every.len() > 10 * n / 2, "{} pairs", every.len());
+        for isa in InstructionSet::ALL
+            .into_iter()
+            .filter(|isa| isa.is_available())
+        {
+            let mut lists = NeighbourLists::default();
+            lists.set_instruction_set(isa);
+            lists.build(search.tiles(), &particles.p, n, reach);
+            assert_eq!(lists.slots(), n);
+            let mut found: Vec<(u32, u32)> = (0..n)
+                .flat_map(|i| lists.partners(i).iter().map(move |&j| (i as u32, j)))
+                .map(|(i, j)| (i.min(j), i.max(j)))
+                .collect();
+            assert_eq!(found.len(), lists.pairs());
+            found.sort_unstable();
+            let count = found.len();
+            found.dedup();
+            assert_eq!(found.len(), count, "{}: a pair twice", isa.name());
+            // Every pair within the reach, and the few the f32 filter's margin lets in
+            // (within 1e-5 of it).
+            let far = |&(a, b): &(u32, u32)| {
+                let r2 = particles
+                    .position(a as usize)
+                    .distance_squared(particles.position(b as usize));
+                r2 >= reach * reach
+            };
+            let beyond: Vec<_> = found.iter().filter(|pair| far(pair)).copied().collect();
+            for &(a, b) in &beyond {
+                let r = particles
+                    .position(a as usize)
+                    .distance(particles.position(b as usize));
+                assert!(
+                    r < reach * (1.0 + 1e-5),
+                    "{}: {a}, {b} listed {r}",
+                    isa.name()
+                );
+            }
+            found.retain(|pair| !far(pair));
+            assert!(found == every, "{}: other pairs", isa.name());
+            assert!(lists.entries().len() >= lists.pairs() + TAIL);
+            assert!(lists.entries()[lists.pairs()..][..TAIL]
+                .iter()
+                .all(|&j| j == 0));
+        }
+    }
+}
