@@ -146,39 +146,42 @@ impl OnInstructionSet for Build<'_> {
                 largest = largest.max(x.abs());
                 x as f32
             }));
+            // Room for the candidates' copies, a group at a time.
+            copy.extend([0.0; FILTER_LANES]);
         }
         let epsilon = f64::from(f32::EPSILON);
         let limit = (reach + 2.0 * epsilon * largest) * (1.0 + 4.0 * epsilon);
         let limit2 = f32x16::splat((limit * limit) as f32);
         let lane = f32x16::from(std::array::from_fn::<f32, FILTER_LANES, _>(|k| k as f32));
         let [x, y, z] = &*narrowed;
-        // Room for the lists so far, a group more and the tail, grown as they fill.
-        let room = FILTER_LANES + TAIL;
-        if partners.len() < 2 * room {
-            partners.resize(2 * room + 4 * n, 0);
-        }
         let mut end = 0;
         for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
             // The cell's candidates in one run: its own slots, then those of its
             // forward neighbours (all after its own); a particle's partners are the
             // candidates after it.
             let own = cell_tiles[0].firsts();
-            candidates.clear();
+            let forward = cell_tiles.iter().filter(|tile| !tile.is_within_cell());
+            let most = forward.map(|tile| tile.second_end - tile.second).sum::<u32>();
+            candidates.clear(own.len() + most as usize);
             candidates.add(own.clone(), [x, y, z]);
             for tile in cell_tiles.iter().filter(|tile| !tile.is_within_cell()) {
                 candidates.add(tile.second as usize..tile.second_end as usize, [x, y, z]);
             }
             candidates.pad();
+            // Room for the cell's lists were every candidate kept, the last group's
+            // store of 16 and the tail, grown (doubling) before the cell, not in its loop.
+            let room = end + own.len() * candidates.len() + FILTER_LANES + TAIL;
+            if partners.len() < room {
+                partners.resize(room.max(2 * partners.len()), 0);
+            }
+            // Slots without tiles (lone, or alone in a cell without forward neighbours)
+            // have empty lists.
+            starts.resize(own.start, end as u32);
             for i in own.clone() {
-                // Slots without tiles (lone, or alone in a cell without forward
-                // neighbours) have empty lists.
-                starts.resize(i + 1, end as u32);
+                starts.push(end as u32);
                 let first = [x[i], y[i], z[i]].map(f32x16::splat);
                 let position = (i - own.start) as f32;
                 for g in (0..candidates.len()).step_by(FILTER_LANES) {
-                    if partners.len() < end + room {
-                        partners.resize(2 * partners.len(), 0);
-                    }
                     let [cx, cy, cz] = candidates.positions(g);
                     let (dx, dy, dz) = (first[0] - cx, first[1] - cy, first[2] - cz);
                     let r2 = dx * dx + dy * dy + dz * dz;
@@ -189,58 +192,83 @@ impl OnInstructionSet for Build<'_> {
             }
         }
         starts.resize(n + 1, end as u32);
+        partners.resize(partners.len().max(end + TAIL), 0);
         partners[end..end + TAIL].fill(0);
     }
 }
 
 /// A cell's candidates during the build: narrowed positions and slots, padded to whole
-/// groups with candidates infinitely far.
+/// groups with candidates infinitely far. Ranges are copied a group at a time (past
+/// their end into spare room, overwritten by the next), not by a copy call each.
 #[derive(Debug, Clone, Default)]
 struct Candidates {
     p: [Vec<f32>; 3],
     slots: Vec<u32>,
+    /// The candidates so far.
+    len: usize,
+}
+
+/// A group of `FILTER_LANES` from `at` of `values`.
+#[inline(always)]
+fn group_of<T>(values: &[T], at: usize) -> &[T; FILTER_LANES] {
+    values[at..at + FILTER_LANES].try_into().unwrap()
+}
+
+/// The same, to write.
+#[inline(always)]
+fn group_of_mut<T>(values: &mut [T], at: usize) -> &mut [T; FILTER_LANES] {
+    (&mut values[at..at + FILTER_LANES]).try_into().unwrap()
 }
 
 impl Candidates {
-    fn clear(&mut self) {
-        self.p.iter_mut().for_each(Vec::clear);
-        self.slots.clear();
+    /// Empties it, with room for `most` candidates (and the spare groups).
+    fn clear(&mut self, most: usize) {
+        let room = most + 2 * FILTER_LANES;
+        if self.slots.len() < room {
+            self.p.iter_mut().for_each(|axis| axis.resize(room, 0.0));
+            self.slots.resize(room, 0);
+        }
+        self.len = 0;
     }
 
-    /// Appends the slots of `range` with their positions `p`.
+    /// Appends the slots of `range` with their positions `p` (each padded by a group).
+    #[inline(always)]
     fn add(&mut self, range: std::ops::Range<usize>, p: [&Vec<f32>; 3]) {
-        for (copy, axis) in self.p.iter_mut().zip(p) {
-            copy.extend_from_slice(&axis[range.clone()]);
+        for offset in (0..range.len()).step_by(FILTER_LANES) {
+            let (from, to) = (range.start + offset, self.len + offset);
+            for (copy, axis) in self.p.iter_mut().zip(p) {
+                *group_of_mut(copy, to) = *group_of(axis, from);
+            }
+            *group_of_mut(&mut self.slots, to) = std::array::from_fn(|k| (from + k) as u32);
         }
-        self.slots.extend(range.start as u32..range.end as u32);
+        self.len += range.len();
     }
 
     /// Pads to whole groups.
     fn pad(&mut self) {
-        let padded = self.slots.len().next_multiple_of(FILTER_LANES);
         for copy in &mut self.p {
-            copy.resize(padded, f32::INFINITY);
+            *group_of_mut(copy, self.len) = [f32::INFINITY; FILTER_LANES];
         }
-        self.slots.resize(padded, 0);
+        self.len = self.len.next_multiple_of(FILTER_LANES);
     }
 
     /// The candidates (padding included).
     fn len(&self) -> usize {
-        self.slots.len()
+        self.len
     }
 
     /// The positions of the group from `g`.
     #[inline(always)]
     fn positions(&self, g: usize) -> [f32x16; 3] {
-        self.p.each_ref().map(|axis| {
-            f32x16::from(<[f32; FILTER_LANES]>::try_from(&axis[g..g + FILTER_LANES]).unwrap())
-        })
+        self.p
+            .each_ref()
+            .map(|axis| f32x16::from(*group_of(axis, g)))
     }
 
     /// The slots of the group from `g`.
     #[inline(always)]
     fn slots(&self, g: usize) -> &[u32; FILTER_LANES] {
-        self.slots[g..g + FILTER_LANES].try_into().unwrap()
+        group_of(&self.slots, g)
     }
 }
 
