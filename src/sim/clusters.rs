@@ -34,9 +34,8 @@ pub enum PairStructure {
     /// on dense scenes, for every model on the simd, simd8 and mixed kernels (tiles
     /// elsewhere).
     Clusters,
-    /// Each particle's list of partners closer than h (`sim::lists`), on dense scenes,
-    /// for the course models on the simd, simd8 and mixed kernels (the weakly
-    /// compressible model runs on clusters; tiles elsewhere).
+    /// Each particle's list of partners within the cut-off (`sim::lists`), on dense
+    /// scenes, for every model on the simd, simd8 and mixed kernels (tiles elsewhere).
     #[default]
     Lists,
 }

@@ -161,7 +161,9 @@ impl OnInstructionSet for Build<'_> {
             // candidates after it.
             let own = cell_tiles[0].firsts();
             let forward = cell_tiles.iter().filter(|tile| !tile.is_within_cell());
-            let most = forward.map(|tile| tile.second_end - tile.second).sum::<u32>();
+            let most = forward
+                .map(|tile| tile.second_end - tile.second)
+                .sum::<u32>();
             candidates.clear(own.len() + most as usize);
             candidates.add(own.clone(), [x, y, z]);
             for tile in cell_tiles.iter().filter(|tile| !tile.is_within_cell()) {

@@ -597,7 +597,7 @@ impl Simulation {
     /// tiles.
     fn find_neighbours(&mut self) {
         let on_lanes = self.method.kernel.runs_on_clusters() && !self.cells.is_sparse();
-        let on_lists = self.structure == PairStructure::Lists && self.dynamics.runs_on_lists();
+        let on_lists = self.structure == PairStructure::Lists;
         self.lists_built = on_lanes && on_lists;
         self.clusters_built = on_lanes && !on_lists && self.structure != PairStructure::Tiles;
         if self.lists_built {

@@ -78,7 +78,6 @@ impl<L: Lanes> OnInstructionSet for DensityLoop<'_, L> {
         let [x, y, z] = p;
         pack(records, n, |i| [x[i], y[i], z[i], 0.0]);
         let h2 = L::splat(params.h2);
-        let zero = L::splat(0.0);
         for i in 0..n {
             let range = lists.range(i);
             let mut sum = L::ZERO_SUM;
@@ -92,7 +91,7 @@ impl<L: Lanes> OnInstructionSet for DensityLoop<'_, L> {
                 let q = h2 - r2;
                 let t = (q * q * q) & close;
                 L::accumulate(&mut sum, t);
-                L::add_to_records(isa, records, &at, [zero, zero, zero, t]);
+                L::add_to_field(records, &at, 3, t);
             }
             rho[i] += L::total(sum);
         }

@@ -530,7 +530,9 @@ mod tests {
                 sim.particles().clone()
             };
             let portable = step(InstructionSet::Portable);
-            let available = InstructionSet::ALL.into_iter().filter(|isa| isa.is_available());
+            let available = InstructionSet::ALL
+                .into_iter()
+                .filter(|isa| isa.is_available());
             for isa in available {
                 assert!(step(isa) == portable, "{kernel:?} on {}", isa.name());
             }

@@ -63,7 +63,7 @@ pub(crate) trait Lanes {
     ///
     /// # Safety
     /// Every place `at` names for the lanes is within `values`.
-    unsafe fn load(values: &[f64], at: impl Into<Places>) -> Self::V;
+    unsafe fn load(values: &[f64], at: impl Site) -> Self::V;
     /// The first half of the lanes `halves.0[0]`, the second `halves.0[1]`.
     fn halves(halves: Halves) -> Self::V;
     /// On 8 lanes, each half holding the same cluster of 4 places: a mask of the places
@@ -78,36 +78,28 @@ pub(crate) trait Lanes {
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: impl Into<Halves>) -> Self::V;
+    unsafe fn offsets(values: &[f64], at: impl Site, center: impl Into<Halves>) -> Self::V;
     /// The lanes of `values` at `at` `- center`, subtracted in f64 (a center per half).
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn differences(
-        values: &[f64],
-        at: impl Into<Places>,
-        center: impl Into<Halves>,
-    ) -> Self::V;
+    unsafe fn differences(values: &[f64], at: impl Site, center: impl Into<Halves>) -> Self::V;
     /// `(rho + ` the lanes of `values` at `at` `) - 2 * FLUID_DENSITY`, computed in f64 (a
     /// `rho` per half).
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn excess_density(
-        rho: impl Into<Halves>,
-        values: &[f64],
-        at: impl Into<Places>,
-    ) -> Self::V;
+    unsafe fn excess_density(rho: impl Into<Halves>, values: &[f64], at: impl Site) -> Self::V;
     /// The lanes of `values` at `at` `+= terms`, in f64.
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn add_to(values: &mut [f64], at: impl Into<Places>, terms: Self::V);
+    unsafe fn add_to(values: &mut [f64], at: impl Site, terms: Self::V);
     /// The lanes of `values` at `at` `-= terms`, in f64.
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn subtract_from(values: &mut [f64], at: impl Into<Places>, terms: Self::V);
+    unsafe fn subtract_from(values: &mut [f64], at: impl Site, terms: Self::V);
     /// The f64 vector of as many lanes, in which fetched values are combined before the
     /// pair terms (the lanes' own for the f64 kernels).
     type F64: Copy + Add<Output = Self::F64> + Sub<Output = Self::F64>;
@@ -118,6 +110,9 @@ pub(crate) trait Lanes {
     fn narrowed(values: Self::F64) -> Self::V;
     /// The fields of the records at the first `LANES` slots of `at`, gathered on `isa`.
     fn records<G: Gathers>(isa: G, records: &[Record], at: &Slots) -> [Self::F64; 4];
+    /// Adds `terms` to field `field` of the records at the first `LANES` slots of `at`,
+    /// one slot after the other, in f64.
+    fn add_to_field(records: &mut [Record], at: &Slots, field: usize, terms: Self::V);
     /// Adds field f of `terms` to field f of the records at the first `LANES` slots of
     /// `at`, one slot after the other, in f64, on `isa`.
     fn add_to_records<G: Gathers>(isa: G, records: &mut [Record], at: &Slots, terms: [Self::V; 4]);
@@ -125,6 +120,40 @@ pub(crate) trait Lanes {
     fn accumulate(sum: &mut Self::Sum, terms: Self::V);
     /// The total of a sum's lanes.
     fn total(sum: Self::Sum) -> f64;
+}
+
+/// Where a group's lanes live in the arrays: each lane's place ([`Places`], contiguous
+/// runs; a `usize`, the lanes from it; [`Slots`], a neighbour list's slots).
+pub(crate) trait Site: Copy {
+    /// Whether no two lanes share a place, so that a group is read and written back
+    /// whole (else lane after lane, each adding to what the one before wrote).
+    const DISTINCT: bool;
+    /// The place of lane `lane`.
+    fn place(&self, lane: usize) -> usize;
+}
+
+impl Site for Places {
+    const DISTINCT: bool = true;
+    #[inline(always)]
+    fn place(&self, lane: usize) -> usize {
+        self.0[lane / 4] + lane % 4
+    }
+}
+
+impl Site for usize {
+    const DISTINCT: bool = true;
+    #[inline(always)]
+    fn place(&self, lane: usize) -> usize {
+        self + lane
+    }
+}
+
+impl Site for Slots {
+    const DISTINCT: bool = false;
+    #[inline(always)]
+    fn place(&self, lane: usize) -> usize {
+        self.at()[lane] as usize
+    }
 }
 
 /// Where a group of lanes lives in an array: the first place of each run of 4 lanes (a
@@ -169,10 +198,9 @@ fn by_halves<const N: usize>(Halves(values): Halves) -> [f64; N] {
 /// # Safety
 /// Every place `at` names for the `N` lanes is within `values`.
 #[inline(always)]
-unsafe fn read<const N: usize>(values: &[f64], at: Places) -> [f64; N] {
-    let Places(fours) = at;
+unsafe fn read<const N: usize>(values: &[f64], at: impl Site) -> [f64; N] {
     std::array::from_fn(|lane| {
-        let place = fours[lane / 4] + lane % 4;
+        let place = at.place(lane);
         debug_assert!(place < values.len());
         // SAFETY: guaranteed by the caller.
         unsafe { *values.get_unchecked(place) }
@@ -184,14 +212,39 @@ unsafe fn read<const N: usize>(values: &[f64], at: Places) -> [f64; N] {
 /// # Safety
 /// As for [`read`].
 #[inline(always)]
-unsafe fn write<const N: usize>(values: &mut [f64], at: Places, lanes: [f64; N]) {
-    let Places(fours) = at;
+unsafe fn write<const N: usize>(values: &mut [f64], at: impl Site, lanes: [f64; N]) {
     for (lane, value) in lanes.into_iter().enumerate() {
-        let place = fours[lane / 4] + lane % 4;
+        let place = at.place(lane);
         debug_assert!(place < values.len());
         // SAFETY: guaranteed by the caller.
         unsafe { *values.get_unchecked_mut(place) = value };
     }
+}
+
+/// Adds `sign` times `terms` to the `N` lanes of `values` at `at`, lane after lane (each
+/// lane adding to what the ones before wrote, for sites whose lanes may share a place).
+///
+/// # Safety
+/// As for [`read`].
+#[inline(always)]
+unsafe fn add_lane_by_lane<const N: usize>(
+    values: &mut [f64],
+    at: impl Site,
+    terms: [f64; N],
+    sign: f64,
+) {
+    for (lane, term) in terms.into_iter().enumerate() {
+        let place = at.place(lane);
+        debug_assert!(place < values.len());
+        // SAFETY: guaranteed by the caller.
+        unsafe { *values.get_unchecked_mut(place) += sign * term };
+    }
+}
+
+/// Whether the lanes of `at` have distinct places.
+#[inline(always)]
+fn distinct<S: Site>(_: &S) -> bool {
+    S::DISTINCT
 }
 
 /// The f64 lanes of `wide::f64x4`: the design card's kernel, portable.
@@ -216,6 +269,14 @@ macro_rules! f64_lanes {
             #[inline(always)]
             fn narrowed(values: $type) -> $type {
                 values
+            }
+
+            #[inline(always)]
+            fn add_to_field(records: &mut [Record], at: &Slots, field: usize, terms: $type) {
+                let slots = at.at();
+                for (k, term) in terms.to_array().into_iter().enumerate() {
+                    records[slots[k] as usize][field] += term;
+                }
             }
 
             #[inline(always)]
@@ -282,9 +343,9 @@ macro_rules! f64_lanes {
             }
 
             #[inline(always)]
-            unsafe fn load(values: &[f64], at: impl Into<Places>) -> $type {
+            unsafe fn load(values: &[f64], at: impl Site) -> $type {
                 // SAFETY: guaranteed by the caller.
-                <$type>::from(unsafe { read::<$lanes>(values, at.into()) })
+                <$type>::from(unsafe { read::<$lanes>(values, at) })
             }
 
             #[inline(always)]
@@ -325,11 +386,7 @@ macro_rules! f64_lanes {
             }
 
             #[inline(always)]
-            unsafe fn offsets(
-                values: &[f64],
-                at: impl Into<Places>,
-                center: impl Into<Halves>,
-            ) -> $type {
+            unsafe fn offsets(values: &[f64], at: impl Site, center: impl Into<Halves>) -> $type {
                 // SAFETY: guaranteed by the caller.
                 unsafe { Self::halves(center.into()) - Self::load(values, at) }
             }
@@ -337,7 +394,7 @@ macro_rules! f64_lanes {
             #[inline(always)]
             unsafe fn differences(
                 values: &[f64],
-                at: impl Into<Places>,
+                at: impl Site,
                 center: impl Into<Halves>,
             ) -> $type {
                 // SAFETY: guaranteed by the caller.
@@ -348,7 +405,7 @@ macro_rules! f64_lanes {
             unsafe fn excess_density(
                 rho: impl Into<Halves>,
                 values: &[f64],
-                at: impl Into<Places>,
+                at: impl Site,
             ) -> $type {
                 let twice_rest_density = <$type>::splat(2.0 * FLUID_DENSITY);
                 // SAFETY: guaranteed by the caller.
@@ -356,17 +413,23 @@ macro_rules! f64_lanes {
             }
 
             #[inline(always)]
-            unsafe fn add_to(values: &mut [f64], at: impl Into<Places>, terms: $type) {
-                let at = at.into();
-                // SAFETY: guaranteed by the caller.
-                unsafe { write(values, at, (Self::load(values, at) + terms).to_array()) }
+            unsafe fn add_to(values: &mut [f64], at: impl Site, terms: $type) {
+                // SAFETY (both): guaranteed by the caller.
+                if distinct(&at) {
+                    unsafe { write(values, at, (Self::load(values, at) + terms).to_array()) }
+                } else {
+                    unsafe { add_lane_by_lane(values, at, terms.to_array(), 1.0) }
+                }
             }
 
             #[inline(always)]
-            unsafe fn subtract_from(values: &mut [f64], at: impl Into<Places>, terms: $type) {
-                let at = at.into();
-                // SAFETY: guaranteed by the caller.
-                unsafe { write(values, at, (Self::load(values, at) - terms).to_array()) }
+            unsafe fn subtract_from(values: &mut [f64], at: impl Site, terms: $type) {
+                // SAFETY (both): guaranteed by the caller.
+                if distinct(&at) {
+                    unsafe { write(values, at, (Self::load(values, at) - terms).to_array()) }
+                } else {
+                    unsafe { add_lane_by_lane(values, at, terms.to_array(), -1.0) }
+                }
             }
 
             #[inline(always)]
@@ -416,6 +479,14 @@ impl Lanes for MixedF32x8 {
     #[inline(always)]
     fn narrowed(values: f64x8) -> f32x8 {
         narrow(values.to_array())
+    }
+
+    #[inline(always)]
+    fn add_to_field(records: &mut [Record], at: &Slots, field: usize, terms: f32x8) {
+        let slots = at.at();
+        for (k, term) in widen(terms).into_iter().enumerate() {
+            records[slots[k] as usize][field] += term;
+        }
     }
 
     #[inline(always)]
@@ -509,61 +580,47 @@ impl Lanes for MixedF32x8 {
     }
 
     #[inline(always)]
-    unsafe fn load(values: &[f64], at: impl Into<Places>) -> f32x8 {
+    unsafe fn load(values: &[f64], at: impl Site) -> f32x8 {
         // SAFETY: guaranteed by the caller.
-        narrow(unsafe { read::<8>(values, at.into()) })
+        narrow(unsafe { read::<8>(values, at) })
     }
 
     #[inline(always)]
-    unsafe fn offsets(values: &[f64], at: impl Into<Places>, center: impl Into<Halves>) -> f32x8 {
+    unsafe fn offsets(values: &[f64], at: impl Site, center: impl Into<Halves>) -> f32x8 {
         let center = by_halves::<8>(center.into());
         // SAFETY: guaranteed by the caller.
-        let values = unsafe { read::<8>(values, at.into()) };
+        let values = unsafe { read::<8>(values, at) };
         narrow(std::array::from_fn(|lane| center[lane] - values[lane]))
     }
 
     #[inline(always)]
-    unsafe fn differences(
-        values: &[f64],
-        at: impl Into<Places>,
-        center: impl Into<Halves>,
-    ) -> f32x8 {
+    unsafe fn differences(values: &[f64], at: impl Site, center: impl Into<Halves>) -> f32x8 {
         let center = by_halves::<8>(center.into());
         // SAFETY: guaranteed by the caller.
-        let values = unsafe { read::<8>(values, at.into()) };
+        let values = unsafe { read::<8>(values, at) };
         narrow(std::array::from_fn(|lane| values[lane] - center[lane]))
     }
 
     #[inline(always)]
-    unsafe fn excess_density(
-        rho: impl Into<Halves>,
-        values: &[f64],
-        at: impl Into<Places>,
-    ) -> f32x8 {
+    unsafe fn excess_density(rho: impl Into<Halves>, values: &[f64], at: impl Site) -> f32x8 {
         let rho = by_halves::<8>(rho.into());
         // SAFETY: guaranteed by the caller.
-        let values = unsafe { read::<8>(values, at.into()) };
+        let values = unsafe { read::<8>(values, at) };
         narrow(std::array::from_fn(|lane| {
             rho[lane] + values[lane] - 2.0 * FLUID_DENSITY
         }))
     }
 
     #[inline(always)]
-    unsafe fn add_to(values: &mut [f64], at: impl Into<Places>, terms: f32x8) {
-        let (at, terms) = (at.into(), widen(terms));
+    unsafe fn add_to(values: &mut [f64], at: impl Site, terms: f32x8) {
         // SAFETY: guaranteed by the caller.
-        let old = unsafe { read::<8>(values, at) };
-        // SAFETY: as above.
-        unsafe { write::<8>(values, at, std::array::from_fn(|k| old[k] + terms[k])) }
+        unsafe { add_lane_by_lane(values, at, widen(terms), 1.0) }
     }
 
     #[inline(always)]
-    unsafe fn subtract_from(values: &mut [f64], at: impl Into<Places>, terms: f32x8) {
-        let (at, terms) = (at.into(), widen(terms));
+    unsafe fn subtract_from(values: &mut [f64], at: impl Site, terms: f32x8) {
         // SAFETY: guaranteed by the caller.
-        let old = unsafe { read::<8>(values, at) };
-        // SAFETY: as above.
-        unsafe { write::<8>(values, at, std::array::from_fn(|k| old[k] - terms[k])) }
+        unsafe { add_lane_by_lane(values, at, widen(terms), -1.0) }
     }
 
     #[inline(always)]

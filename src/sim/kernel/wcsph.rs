@@ -24,9 +24,11 @@
 
 use super::clustered::unpack_add;
 use super::reference::Neumaier;
-use super::simd::{assert_padded, slots_used, Lanes, Places};
+use super::simd::{assert_padded, slots_used, Lanes, Places, Site};
 use super::{Packed, PairPass};
 use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
+use crate::sim::isa::Slots;
+use crate::sim::lists::NeighbourLists;
 use crate::sim::neighbours::Tile;
 use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY};
 use crate::sim::particles::{vector_at, AxisArrays};
@@ -123,6 +125,9 @@ pub struct WeaklyCompressible<'a> {
     pub tiles: &'a [Tile],
     /// The clusters of the same placement, which the SIMD kernels run on where given.
     pub clusters: Option<&'a Clusters>,
+    /// The neighbour lists of the same placement (within the support), which the SIMD
+    /// kernels run on where given (before clusters).
+    pub lists: Option<&'a NeighbourLists>,
     /// What the pass reads.
     pub state: State<'a>,
     /// Each slot's particle (one per particle): the order of the reference kernel's sums.
@@ -138,9 +143,10 @@ impl PairPass for WeaklyCompressible<'_> {
         scalar(self);
     }
     fn lanes<L: Lanes>(self) {
-        match self.clusters {
-            Some(clusters) => clustered::<L>(self, clusters),
-            None => lanes::<L>(self),
+        match (self.lists, self.clusters) {
+            (Some(lists), _) => listed::<L>(self, lists),
+            (None, Some(clusters)) => clustered::<L>(self, clusters),
+            (None, None) => lanes::<L>(self),
         }
     }
     fn reference(self) {
@@ -488,7 +494,7 @@ impl<L: Lanes> Pairs<'_, L> {
     unsafe fn group<const NO_SLIP: bool, const LAMINAR: bool>(
         &self,
         first: &First,
-        at: Places,
+        at: impl Site,
         lanes: L::V,
         set: u8,
     ) -> Option<GroupTerms<L>> {
@@ -669,7 +675,7 @@ impl<'a, L: Lanes> Pairs<'a, L> {
     /// # Safety
     /// Every place of `at` is within the positions.
     #[inline(always)]
-    unsafe fn close(&self, first: &First, at: Places, lanes: L::V) -> u32 {
+    unsafe fn close(&self, first: &First, at: impl Site, lanes: L::V) -> u32 {
         // SAFETY: guaranteed by the caller.
         let (_, r2) = unsafe { self.offsets(first, at, 0) };
         L::bitmask(L::lt(r2, self.support2) & lanes)
@@ -682,7 +688,7 @@ impl<'a, L: Lanes> Pairs<'a, L> {
     /// # Safety
     /// Every place of `at` is within the positions.
     #[inline(always)]
-    unsafe fn offsets(&self, first: &First, at: Places, set: u8) -> ([L::V; 3], L::V) {
+    unsafe fn offsets(&self, first: &First, at: impl Site, set: u8) -> ([L::V; 3], L::V) {
         let p = self.state.p;
         // SAFETY: guaranteed by the caller.
         let offset = |axis: usize| unsafe {
@@ -708,7 +714,7 @@ impl<'a, L: Lanes> Pairs<'a, L> {
     unsafe fn visit(
         &self,
         first: &First,
-        at: Places,
+        at: impl Site,
         lanes: L::V,
         sums: &mut [L::Sum; 4],
         targets: &mut [&mut [f64]; 4],
@@ -730,7 +736,7 @@ impl<'a, L: Lanes> Pairs<'a, L> {
     unsafe fn add_group(
         &self,
         first: &First,
-        at: Places,
+        at: impl Site,
         lanes: L::V,
         set: u8,
         sums: &mut [L::Sum; 4],
@@ -793,12 +799,61 @@ pub(super) fn lanes<L: Lanes>(pass: WeaklyCompressible) {
                     // SAFETY: j < partners.end <= slots_used(tiles), and assert_padded
                     // checked that every array holds slots_used(tiles) + PADDING
                     // elements, PADDING >= LANES - 1, so j + LANES <= len.
-                    unsafe { pairs.visit(&first, j.into(), lanes, &mut sums, &mut targets) };
+                    unsafe { pairs.visit(&first, j, lanes, &mut sums, &mut targets) };
                 }
             }
             for (target, sum) in targets.iter_mut().zip(sums) {
                 target[i] += L::total(sum);
             }
+        }
+    }
+    self_images(constants, state, n, rates);
+}
+
+/// The pair loop on `L` lanes over `lists`: each particle with its listed partners (and
+/// their images across its walls), a register of them at a time, the last group's lanes
+/// past the list masked; the partners' terms are added lane after lane (a masked lane
+/// may repeat a slot, and adds zero).
+pub(super) fn listed<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists) {
+    let WeaklyCompressible {
+        constants,
+        state,
+        id,
+        mut rates,
+        ..
+    } = pass;
+    let (rates, n) = (&mut rates, id.len());
+    let bound = lists.slots();
+    let ([x, y, z], [vx, vy, vz]) = (state.p, state.v);
+    let [ax, ay, az] = &mut *rates.a;
+    let arrays = [&x[..], y, z, vx, vy, vz, state.rho, state.pressure_terms];
+    assert!(arrays.iter().all(|array| array.len() >= bound));
+    assert!([&ax[..], ay, az, rates.rho]
+        .iter()
+        .all(|array| array.len() >= bound));
+    let pairs = Pairs::<L>::new(constants, state);
+    let mut targets = [&mut ax[..], ay, az, rates.rho];
+    let entries = lists.entries();
+    for i in 0..bound {
+        let range = lists.range(i);
+        if range.is_empty() {
+            continue;
+        }
+        let first = First::of(constants, &state, i);
+        let mut sums = [L::ZERO_SUM; 4];
+        for k in range.clone().step_by(L::LANES) {
+            let at = Slots::new(entries[k..k + 8].try_into().expect("8 entries"), bound);
+            let lanes = if k + L::LANES <= range.end {
+                L::all()
+            } else {
+                L::first(range.end - k)
+            };
+            // SAFETY: every slot of `at` is below `bound` (Slots::new), which every array
+            // of the state and of the targets holds (asserted above).
+            unsafe { pairs.visit(&first, at, lanes, &mut sums, &mut targets) };
+        }
+        for (target, sum) in targets.iter_mut().zip(sums) {
+            target[i] += L::total(sum);
         }
     }
     self_images(constants, state, n, rates);
@@ -895,8 +950,7 @@ pub(super) fn clustered<L: Lanes>(pass: WeaklyCompressible, clusters: &Clusters)
                     let lanes = L::lanes_between(0, (end - k) as usize * CLUSTER);
                     // SAFETY: k < end <= empty, so the places of k and k + 1 are within
                     // (empty + 1) * CLUSTER, which every array holds (asserted).
-                    let close =
-                        unsafe { pairs.close(&first, (k as usize * CLUSTER).into(), lanes) };
+                    let close = unsafe { pairs.close(&first, k as usize * CLUSTER, lanes) };
                     for c in 0..per_register {
                         found[count] = k + c as u32;
                         count += usize::from(close >> (c * CLUSTER) & 0b1111 != 0);
@@ -995,10 +1049,17 @@ mod tests {
         let mut sim = Simulation::with_method(ppm, particles.clone(), method).unwrap();
         sim.set_pair_structure(structure);
         sim.run_stage(Stage::Reposition);
-        let on_clusters = structure == PairStructure::Clusters && kernel.runs_on_clusters();
+        let on_lanes = kernel.runs_on_clusters();
+        let on_clusters = structure == PairStructure::Clusters && on_lanes;
         assert_eq!(
             sim.clusters().is_some(),
             on_clusters,
+            "{kernel:?} on {structure:?}"
+        );
+        let on_lists = structure == PairStructure::Lists && on_lanes;
+        assert_eq!(
+            sim.lists().is_some(),
+            on_lists,
             "{kernel:?} on {structure:?}"
         );
         let placed = sim.particles();
@@ -1028,6 +1089,7 @@ mod tests {
             constants: &model.constants,
             tiles: sim.tiles(),
             clusters: sim.clusters(),
+            lists: sim.lists(),
             state,
             id: &placed.id,
             rates: Rates {
@@ -1089,7 +1151,12 @@ mod tests {
                 (Kernel::Reference, 1e-12),
                 (Kernel::Mixed, 5e-6),
             ] {
-                for structure in [PairStructure::Tiles, PairStructure::Clusters] {
+                let structures = [
+                    PairStructure::Tiles,
+                    PairStructure::Clusters,
+                    PairStructure::Lists,
+                ];
+                for structure in structures {
                     let other = pass(kernel, structure, &model, ppm, &particles);
                     let (da, drate) = difference(&scalar, &other);
                     println!(

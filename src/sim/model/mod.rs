@@ -90,7 +90,7 @@ pub struct Context<'a> {
     /// a kernel on lanes, clusters asked for).
     pub clusters: Option<&'a Clusters>,
     /// The neighbour lists of the same placement, where the driver built them (a dense
-    /// scene, a kernel on lanes, lists asked for, a model that runs on them).
+    /// scene, a kernel on lanes, lists asked for).
     pub lists: Option<&'a NeighbourLists>,
     /// The walls of each slot's block (stage 1).
     pub walls: &'a Walls,
@@ -120,12 +120,6 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// given: the cut-off unless the kernel's support is wider than h.
     fn smoothing_length(&self, params: &Params) -> f64 {
         params.h
-    }
-
-    /// Whether its SIMD pair passes run on [`NeighbourLists`] (else the driver builds
-    /// clusters where lists are asked for).
-    fn runs_on_lists(&self) -> bool {
-        true
     }
 
     /// Whether the densities are a state of their own, carried from step to step (moved

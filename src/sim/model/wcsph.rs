@@ -361,11 +361,6 @@ impl Dynamics for Wcsph {
         self.constants.h
     }
 
-    fn runs_on_lists(&self) -> bool {
-        // Its pass runs on clusters until it has a loop over lists.
-        false
-    }
-
     fn carries_densities(&self) -> bool {
         true
     }
@@ -452,6 +447,7 @@ impl Dynamics for Wcsph {
             constants: &self.constants,
             tiles: context.tiles,
             clusters: context.clusters,
+            lists: context.lists,
             state: State {
                 p,
                 v: &self.velocities,
