@@ -12,17 +12,18 @@
 # loops, so it is an upper bound of the pair loops' own cost.
 #
 # Usage: scripts/pair-cost.sh [--steps N] [--every K] [--model M] [--pairs S] [INPUT] [KERNEL ...]
-#        defaults: --steps 1000 --every 10 --model fluidanimate --pairs clusters
+#        defaults: --steps 1000 --every 10 --model fluidanimate --pairs lists
 #                  data/in/large.fld simd simd8 mixed scalar
-# (--pairs tiles runs the SIMD kernels of every model on whole neighbour cells
-# instead of clusters; see `fluid-lab run --help`.)
+# (--pairs clusters or --pairs tiles runs the SIMD kernels of every model on clusters of
+# 4 or on whole neighbour cells instead of neighbour lists; see `fluid-lab run --help`.
+# On lists the useful fraction is that of the lists' lanes, rounded up per particle.)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 steps=1000
 every=10
 model=fluidanimate
-structure=clusters
+structure=lists
 while [ $# -gt 0 ]; do
     case "$1" in
     --steps) steps="$2"; shift 2 ;;

@@ -658,7 +658,7 @@ fn sim_modules_use_only_lower_layers() {
     assert_eq!(
         crate_with(&circle),
         [
-            "sim/params.rs: sim::params (sim layer 0) uses sim::simulation (sim layer 7) \
+            "sim/params.rs: sim::params (sim layer 0) uses sim::simulation (sim layer 8) \
           through crate::sim::simulation::Simulation"
         ]
     );
@@ -671,8 +671,8 @@ fn sim_modules_use_only_lower_layers() {
     assert_eq!(
         crate_with(&sideways),
         [
-            "sim/model/course.rs: sim::model::course (sim layer 5) uses sim::simulation \
-          (sim layer 7) through crate::sim::simulation::Simulation"
+            "sim/model/course.rs: sim::model::course (sim layer 6) uses sim::simulation \
+          (sim layer 8) through crate::sim::simulation::Simulation"
         ]
     );
     // Two modules of one layer use each other no more than a lower one uses a higher.

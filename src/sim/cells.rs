@@ -514,6 +514,35 @@ impl CellOrder {
     }
 }
 
+/// For tests: a block of `side`^3 particles a spacing (1 / `ppm`) apart from the box's
+/// low corner, each coordinate moved at random (seeded by `seed`) by up to half of
+/// `jitter` spacings, placed in cell order on the grid of the course model's h at `ppm`
+/// and padded, with its cell order and grid.
+#[cfg(test)]
+pub(crate) fn jittered_block(
+    ppm: f64,
+    side: usize,
+    jitter: f64,
+    seed: u64,
+) -> (Particles, CellOrder, Grid) {
+    let mut random = fastrand::Rng::with_seed(seed);
+    let n = side * side * side;
+    let mut particles = Particles::zeroed(n);
+    for slot in 0..n {
+        let k = [slot % side, slot / side % side, slot / (side * side)];
+        for axis in 0..3 {
+            let offset = k[axis] as f64 + 1.0 + jitter * (random.f64() - 0.5);
+            particles.p[axis][slot] = BOX_MIN[axis] + offset / ppm;
+        }
+    }
+    let grid = Grid::new(crate::sim::params::Params::new(ppm).h).unwrap();
+    let mut cells = CellOrder::default();
+    cells.sort(&grid, &particles);
+    let mut placed = particles.permuted(cells.order());
+    placed.pad();
+    (placed, cells, grid)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -283,35 +283,14 @@ impl Clusters {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::cells::CellOrder;
-    use crate::sim::grid::Grid;
-    use crate::sim::params::{Params, BOX_MIN};
-
-    /// A jittered block of `side`^3 particles a spacing apart (1 / ppm) from the box's
-    /// low corner, in cell order, with its cell order.
-    fn block(ppm: f64, side: usize) -> (Particles, CellOrder, Grid) {
-        let mut random = fastrand::Rng::with_seed(5);
-        let n = side * side * side;
-        let mut particles = Particles::zeroed(n);
-        for slot in 0..n {
-            let k = [slot % side, slot / side % side, slot / (side * side)];
-            for axis in 0..3 {
-                let jitter = 0.4 * (random.f64() - 0.5);
-                particles.p[axis][slot] = BOX_MIN[axis] + (k[axis] as f64 + 1.0 + jitter) / ppm;
-            }
-        }
-        let grid = Grid::new(Params::new(ppm).h).unwrap();
-        let mut cells = CellOrder::default();
-        cells.sort(&grid, &particles);
-        let placed = particles.permuted(cells.order());
-        (placed, cells, grid)
-    }
+    use crate::sim::cells::jittered_block;
+    use crate::sim::params::Params;
 
     #[test]
     fn the_cluster_pairs_hold_every_pair_closer_than_the_cutoff_once() {
         let ppm = 200.0;
         let h = Params::new(ppm).h;
-        let (particles, cells, _) = block(ppm, 12);
+        let (particles, cells, _) = jittered_block(ppm, 12, 0.4, 5);
         let n = particles.len();
         let mut clusters = Clusters::default();
         clusters.build(&cells.keys()[..n], cells.layout(), &particles, h);

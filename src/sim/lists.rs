@@ -277,30 +277,15 @@ impl Candidates {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::cells::CellOrder;
-    use crate::sim::grid::Grid;
+    use crate::sim::cells::jittered_block;
     use crate::sim::neighbours::TileSearch;
-    use crate::sim::params::{Params, BOX_MIN};
+    use crate::sim::params::Params;
     use crate::sim::particles::Particles;
 
     /// A jittered block of `side`^3 particles a spacing apart, in cell order, with its
     /// tiles.
     fn block(ppm: f64, side: usize) -> (Particles, TileSearch) {
-        let mut random = fastrand::Rng::with_seed(11);
-        let n = side * side * side;
-        let mut particles = Particles::zeroed(n);
-        for slot in 0..n {
-            let k = [slot % side, slot / side % side, slot / (side * side)];
-            for axis in 0..3 {
-                let jitter = 0.4 * (random.f64() - 0.5);
-                particles.p[axis][slot] = BOX_MIN[axis] + (k[axis] as f64 + 1.0 + jitter) / ppm;
-            }
-        }
-        let grid = Grid::new(Params::new(ppm).h).unwrap();
-        let mut cells = CellOrder::default();
-        cells.sort(&grid, &particles);
-        let mut placed = particles.permuted(cells.order());
-        placed.pad();
+        let (placed, cells, _) = jittered_block(ppm, side, 0.4, 11);
         let mut search = TileSearch::default();
         search.find(cells.keys(), cells.layout());
         (placed, search)

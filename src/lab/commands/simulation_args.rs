@@ -41,9 +41,11 @@ pub struct SimulationArgs {
     /// shorter of sqrt(h/|a|) and h/(c_0+|hv|) (C about 0.2, its default).
     #[arg(long, allow_negative_numbers = true, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
     pub adaptive: Option<f64>,
-    /// Reuse the cell order and tiles or clusters with a skin this many smoothing
-    /// lengths wide, rebuilding them when a particle has moved half the skin (the pairs
-    /// closer than h stay exactly those of a rebuild every step).
+    /// Reuse the cell order and neighbour lists (or tiles, or clusters) with a skin this
+    /// many smoothing lengths wide, rebuilding them when a particle has moved half the
+    /// skin (the pairs closer than h stay exactly those of a rebuild every step). Pays
+    /// for the weakly compressible model's short steps (0.02-0.05 on the dam break), not
+    /// for the course models' 1 ms steps (perf/README.md).
     #[arg(long, allow_negative_numbers = true, value_name = "FRACTION_OF_H", value_parser = parse_skin)]
     pub skin: Option<f64>,
     /// The neighbour structure of the SIMD pair loops on dense scenes.

@@ -148,10 +148,8 @@ impl PackedPairs {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::cells::CellOrder;
-    use crate::sim::grid::Grid;
+    use crate::sim::cells::jittered_block;
     use crate::sim::neighbours::TileSearch;
-    use crate::sim::params::BOX_MIN;
 
     #[test]
     fn the_floor_sums_the_terms_of_the_scalar_kernel() {
@@ -159,23 +157,14 @@ mod tests {
         // the floor's sums against the pairs' terms summed one by one.
         let ppm = 200.0;
         let params = Params::new(ppm);
+        let (mut placed, cells, _) = jittered_block(ppm, 9, 0.3, 3);
         let mut random = fastrand::Rng::with_seed(3);
-        let side = 9;
-        let mut particles = Particles::zeroed(side * side * side);
-        for slot in 0..particles.len() {
-            let k = [slot % side, slot / side % side, slot / (side * side)];
+        for slot in 0..placed.len() {
             for axis in 0..3 {
-                let jitter = 0.3 * (random.f64() - 0.5);
-                particles.p[axis][slot] = BOX_MIN[axis] + (k[axis] as f64 + 1.0 + jitter) / ppm;
-                particles.v[axis][slot] = random.f64() - 0.5;
+                placed.v[axis][slot] = random.f64() - 0.5;
             }
-            particles.rho[slot] = FLUID_DENSITY * (1.0 + 0.1 * random.f64());
+            placed.rho[slot] = FLUID_DENSITY * (1.0 + 0.1 * random.f64());
         }
-        let grid = Grid::new(params.h).unwrap();
-        let mut cells = CellOrder::default();
-        cells.sort(&grid, &particles);
-        let mut placed = particles.permuted(cells.order());
-        placed.pad();
         let mut search = TileSearch::default();
         search.find(cells.keys(), cells.layout());
         let mut lists = NeighbourLists::default();
