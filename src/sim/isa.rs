@@ -131,13 +131,9 @@ pub(crate) trait Gathers: Copy {
     fn left_pack(self, kept: u16, values: &[u32; 16], out: &mut [u32]) -> usize;
     /// The records of the first 4 slots of `at`, transposed: row f holds field f of each.
     fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4];
-    /// The records of the 8 slots of `at`, transposed: row f holds field f of each.
-    fn records8(self, records: &[Record], at: &Slots) -> [[f64; 8]; 4];
     /// Adds `terms[f][k]` to field f of the record at slot k of `at`, for the first 4
     /// slots, one slot after the other (a repeated slot receives every sum).
     fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]);
-    /// As [`Self::add_to_records4`], for the 8 slots.
-    fn add_to_records8(self, records: &mut [Record], at: &Slots, terms: [[f64; 8]; 4]);
 }
 
 /// Four f64 fields of a slot kept together (a particle's position and density, say), so
@@ -150,17 +146,21 @@ fn check_records(records: &[Record], at: &Slots) {
     assert!(records.len() >= at.bound, "gathering beyond an array");
 }
 
-/// The records at the first `N` slots of `at`, transposed, lane by lane.
+/// The records at the first `N` slots of `at`, transposed, lane by lane: a scalar load
+/// per field and lane. Every instruction set's 8-lane fetch: on AMD's Zen 4 it measured
+/// faster than AVX-512's (four 256-bit loads with inserts, two rounds of shuffles) and
+/// than gathers (`perf/README.md`, round four).
 #[inline(always)]
-fn records_portable<const N: usize>(records: &[Record], at: &Slots) -> [[f64; N]; 4] {
+pub(crate) fn fetch_records<const N: usize>(records: &[Record], at: &Slots) -> [[f64; N]; 4] {
     check_records(records, at);
     let rows: [Record; N] = std::array::from_fn(|k| records[at.at[k] as usize]);
     std::array::from_fn(|field| std::array::from_fn(|k| rows[k][field]))
 }
 
-/// Adds the transposed `terms` to the records at the first `N` slots of `at`, lane by lane.
+/// Adds the transposed `terms` to the records at the first `N` slots of `at`, lane by
+/// lane (a repeated slot receives every sum); every instruction set's 8-lane add.
 #[inline(always)]
-fn add_to_records_portable<const N: usize>(
+pub(crate) fn add_records<const N: usize>(
     records: &mut [Record],
     at: &Slots,
     terms: [[f64; N]; 4],
@@ -194,22 +194,12 @@ impl Gathers for Portable {
 
     #[inline(always)]
     fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4] {
-        records_portable(records, at)
-    }
-
-    #[inline(always)]
-    fn records8(self, records: &[Record], at: &Slots) -> [[f64; 8]; 4] {
-        records_portable(records, at)
+        fetch_records(records, at)
     }
 
     #[inline(always)]
     fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]) {
-        add_to_records_portable(records, at, terms);
-    }
-
-    #[inline(always)]
-    fn add_to_records8(self, records: &mut [Record], at: &Slots, terms: [[f64; 8]; 4]) {
-        add_to_records_portable(records, at, terms);
+        add_records(records, at, terms);
     }
 }
 
@@ -310,11 +300,6 @@ mod x86 {
         }
     }
 
-    /// The permutations of AVX-512's 8 x 4 transpose: from two rows each holding fields
-    /// (a, b) of records k and k + 1 per 128-bit lane, the 8 records' field a; and b.
-    const LOW_FIELDS: [i64; 8] = [0, 1, 8, 9, 4, 5, 12, 13];
-    const HIGH_FIELDS: [i64; 8] = [2, 3, 10, 11, 6, 7, 14, 15];
-
     impl Gathers for Avx512 {
         #[inline(always)]
         fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4] {
@@ -323,74 +308,9 @@ mod x86 {
         }
 
         #[inline(always)]
-        fn records8(self, records: &[Record], at: &Slots) -> [[f64; 8]; 4] {
-            check_records(records, at);
-            let record = |k: usize| &records[at.at()[k] as usize];
-            // SAFETY: the token exists only where AVX-512F runs; every record is in
-            // bounds (indexed) and holds 4 f64.
-            unsafe {
-                // Records k and k + 4 in the halves of row k.
-                let row = |k: usize| {
-                    let low = _mm512_castpd256_pd512(load_record(record(k)));
-                    _mm512_insertf64x4::<1>(low, load_record(record(k + 4)))
-                };
-                let [r0, r1, r2, r3] = [row(0), row(1), row(2), row(3)];
-                let (t0, t1) = (_mm512_unpacklo_pd(r0, r1), _mm512_unpackhi_pd(r0, r1));
-                let (t2, t3) = (_mm512_unpacklo_pd(r2, r3), _mm512_unpackhi_pd(r2, r3));
-                let low = _mm512_loadu_epi64(LOW_FIELDS.as_ptr());
-                let high = _mm512_loadu_epi64(HIGH_FIELDS.as_ptr());
-                std::mem::transmute::<[__m512d; 4], [[f64; 8]; 4]>([
-                    _mm512_permutex2var_pd(t0, low, t2),
-                    _mm512_permutex2var_pd(t1, low, t3),
-                    _mm512_permutex2var_pd(t0, high, t2),
-                    _mm512_permutex2var_pd(t1, high, t3),
-                ])
-            }
-        }
-
-        #[inline(always)]
         fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]) {
             // SAFETY: the token exists only where AVX2 runs.
             unsafe { add_to_records4_avx2(records, at, terms) }
-        }
-
-        #[inline(always)]
-        fn add_to_records8(self, records: &mut [Record], at: &Slots, terms: [[f64; 8]; 4]) {
-            check_records(records, at);
-            // SAFETY: the token exists only where AVX-512F runs; every record is in
-            // bounds (indexed) and holds 4 f64.
-            unsafe {
-                let [f0, f1, f2, f3] = terms.map(|row| _mm512_loadu_pd(row.as_ptr()));
-                let low = _mm512_loadu_epi64(LOW_FIELDS.as_ptr());
-                let high = _mm512_loadu_epi64(HIGH_FIELDS.as_ptr());
-                let (t0, t2) = (
-                    _mm512_permutex2var_pd(f0, low, f2),
-                    _mm512_permutex2var_pd(f0, high, f2),
-                );
-                let (t1, t3) = (
-                    _mm512_permutex2var_pd(f1, low, f3),
-                    _mm512_permutex2var_pd(f1, high, f3),
-                );
-                // Row k holds record k's sums in its low half, record k + 4's in its high.
-                let rows = [
-                    _mm512_unpacklo_pd(t0, t1),
-                    _mm512_unpackhi_pd(t0, t1),
-                    _mm512_unpacklo_pd(t2, t3),
-                    _mm512_unpackhi_pd(t2, t3),
-                ];
-                let sums: [__m256d; 8] = std::array::from_fn(|k| {
-                    if k < 4 {
-                        _mm512_castpd512_pd256(rows[k])
-                    } else {
-                        _mm512_extractf64x4_pd::<1>(rows[k - 4])
-                    }
-                });
-                for (k, sum) in sums.into_iter().enumerate() {
-                    let record = &mut records[at.at()[k] as usize];
-                    let total = _mm256_add_pd(load_record(record), sum);
-                    _mm256_storeu_pd(record.as_mut_ptr(), total);
-                }
-            }
         }
 
         #[inline(always)]
@@ -455,45 +375,9 @@ mod x86 {
         }
 
         #[inline(always)]
-        fn records8(self, records: &[Record], at: &Slots) -> [[f64; 8]; 4] {
-            let high_at = Slots {
-                at: std::array::from_fn(|k| at.at()[(k + 4) % 8]),
-                bound: at.bound,
-            };
-            // SAFETY: the token exists only where AVX2 runs.
-            let (low, high) =
-                unsafe { (records4_avx2(records, at), records4_avx2(records, &high_at)) };
-            // SAFETY: plain data of the same size.
-            let [low, high]: [[[f64; 4]; 4]; 2] = unsafe { std::mem::transmute([low, high]) };
-            std::array::from_fn(|field| {
-                std::array::from_fn(|k| {
-                    if k < 4 {
-                        low[field][k]
-                    } else {
-                        high[field][k - 4]
-                    }
-                })
-            })
-        }
-
-        #[inline(always)]
         fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]) {
             // SAFETY: the token exists only where AVX2 runs.
             unsafe { add_to_records4_avx2(records, at, terms) }
-        }
-
-        #[inline(always)]
-        fn add_to_records8(self, records: &mut [Record], at: &Slots, terms: [[f64; 8]; 4]) {
-            let half = |from: usize| terms.map(|row| std::array::from_fn(|k| row[from + k]));
-            let high_at = Slots {
-                at: std::array::from_fn(|k| at.at()[(k + 4) % 8]),
-                bound: at.bound,
-            };
-            // SAFETY: the token exists only where AVX2 runs.
-            unsafe {
-                add_to_records4_avx2(records, at, half(0));
-                add_to_records4_avx2(records, &high_at, half(4));
-            }
         }
     }
 }
@@ -513,7 +397,7 @@ mod tests {
             let records: Vec<Record> = (0..40)
                 .map(|k| [k as f64, k as f64 + 0.25, -(k as f64), 100.0 + k as f64])
                 .collect();
-            let fields8 = isa.records8(&records, &at);
+            let fields8 = super::fetch_records::<8>(&records, &at);
             let fields4 = isa.records4(&records, &at);
             for field in 0..4 {
                 for k in 0..8 {
@@ -528,7 +412,7 @@ mod tests {
                 std::array::from_fn(|f| std::array::from_fn(|k| (f * 8 + k) as f64 + 1.0));
             let terms4: [[f64; 4]; 4] = std::array::from_fn(|f| [terms8[f][0] * 3.0; 4]);
             let (mut sums8, mut sums4) = (records.clone(), records.clone());
-            isa.add_to_records8(&mut sums8, &at, terms8);
+            super::add_records(&mut sums8, &at, terms8);
             isa.add_to_records4(&mut sums4, &at, terms4);
             let (mut expected8, mut expected4) = (records.clone(), records.clone());
             for k in 0..8 {
@@ -594,9 +478,9 @@ mod tests {
     struct FetchFrom<'a>(&'a [Record]);
 
     impl OnInstructionSet for FetchFrom<'_> {
-        type Output = [[f64; 8]; 4];
-        fn run<G: Gathers>(self, isa: G) -> [[f64; 8]; 4] {
-            isa.records8(self.0, &Slots::new([0; 8], 16))
+        type Output = [[f64; 4]; 4];
+        fn run<G: Gathers>(self, isa: G) -> [[f64; 4]; 4] {
+            isa.records4(self.0, &Slots::new([0; 8], 16))
         }
     }
 }

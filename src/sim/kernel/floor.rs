@@ -117,7 +117,10 @@ impl PackedPairs {
         let h2 = L::splat(params.h2);
         let mut sum = L::ZERO_SUM;
         for k in (0..self.pairs).step_by(L::LANES) {
-            let [dx, dy, dz] = [0, 1, 2].map(|a| Self::load::<L>(&self.d[a], k));
+            // Explicit loads, not an array map: the map's closure is not always inlined.
+            let dx = Self::load::<L>(&self.d[0], k);
+            let dy = Self::load::<L>(&self.d[1], k);
+            let dz = Self::load::<L>(&self.d[2], k);
             let r2 = dx * dx + dy * dy + dz * dz;
             let q = h2 - r2;
             let t = (q * q * q) & L::lt(r2, h2);
@@ -130,18 +133,18 @@ impl PackedPairs {
         let transfer = Transfer::<L, FLUIDANIMATE>::new(params, [&[]; 3], [&[]; 3], &[], &[]);
         let mut sum = [L::ZERO_SUM; 3];
         for k in (0..self.pairs).step_by(L::LANES) {
-            let d = [0, 1, 2].map(|a| Self::load::<L>(&self.d[a], k));
-            let dv = [0, 1, 2].map(|a| Self::load::<L>(&self.dv[a], k));
+            let load = |values: &[f64]| Self::load::<L>(values, k);
+            let d = [load(&self.d[0]), load(&self.d[1]), load(&self.d[2])];
+            let dv = [load(&self.dv[0]), load(&self.dv[1]), load(&self.dv[2])];
             let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let close = L::lt(r2, transfer.h2());
-            let excess = Self::load::<L>(&self.excess, k);
-            let inverse_product = Self::load::<L>(&self.inverse_product, k);
+            let (excess, inverse_product) = (load(&self.excess), load(&self.inverse_product));
             let terms = transfer.terms(d, r2, close, excess, inverse_product, dv);
-            for axis in 0..3 {
-                L::accumulate(&mut sum[axis], terms[axis]);
+            for (sum, terms) in sum.iter_mut().zip(terms) {
+                L::accumulate(sum, terms);
             }
         }
-        sum.map(L::total)
+        [L::total(sum[0]), L::total(sum[1]), L::total(sum[2])]
     }
 }
 

@@ -15,7 +15,7 @@ use super::{Accelerations, Candidates, Densities, OVERFLOW_GROUP};
 
 /// The group bit that stands for every group from [`OVERFLOW_GROUP`] on.
 const OVERFLOW_BIT: u64 = 1 << OVERFLOW_GROUP;
-use crate::sim::isa::{Gathers, Record, Slots};
+use crate::sim::isa::{self, Gathers, Record, Slots};
 use crate::sim::neighbours::Tile;
 use crate::sim::params::{Params, FLUID_DENSITY, MIN_DISTANCE_SQUARED};
 use crate::sim::particles::{AxisArrays, PADDING};
@@ -253,7 +253,7 @@ pub(super) struct F64x4;
 pub(super) struct F64x8;
 
 macro_rules! f64_lanes {
-    ($name:ident, $type:ty, $lanes:literal, $records:ident, $add_to_records:ident) => {
+    ($name:ident, $type:ty, $lanes:literal, $records:expr, $add_to_records:expr) => {
         impl Lanes for $name {
             const LANES: usize = $lanes;
             type V = $type;
@@ -281,7 +281,8 @@ macro_rules! f64_lanes {
 
             #[inline(always)]
             fn records<G: Gathers>(isa: G, records: &[Record], at: &Slots) -> [$type; 4] {
-                isa.$records(records, at).map(<$type>::from)
+                let [a, b, c, d] = $records(isa, records, at);
+                [a, b, c, d].map(<$type>::from)
             }
 
             #[inline(always)]
@@ -291,7 +292,13 @@ macro_rules! f64_lanes {
                 at: &Slots,
                 terms: [$type; 4],
             ) {
-                isa.$add_to_records(records, at, terms.map(<$type>::to_array));
+                let [a, b, c, d] = terms;
+                $add_to_records(
+                    isa,
+                    records,
+                    at,
+                    [a.to_array(), b.to_array(), c.to_array(), d.to_array()],
+                );
             }
 
             #[inline(always)]
@@ -445,8 +452,20 @@ macro_rules! f64_lanes {
     };
 }
 
-f64_lanes!(F64x4, f64x4, 4, records4, add_to_records4);
-f64_lanes!(F64x8, f64x8, 8, records8, add_to_records8);
+f64_lanes!(
+    F64x4,
+    f64x4,
+    4,
+    |isa: G, r, at| isa.records4(r, at),
+    |isa: G, r, at, t| isa.add_to_records4(r, at, t)
+);
+f64_lanes!(
+    F64x8,
+    f64x8,
+    8,
+    |_: G, r, at| isa::fetch_records::<8>(r, at),
+    |_: G, r, at, t| { isa::add_records(r, at, t) }
+);
 
 /// Mixed precision: differences in f64, narrowed to f32; pair terms in `wide::f32x8`;
 /// sums in f64. A workbench method, never `fluid`'s.
@@ -490,13 +509,15 @@ impl Lanes for MixedF32x8 {
     }
 
     #[inline(always)]
-    fn records<G: Gathers>(isa: G, records: &[Record], at: &Slots) -> [f64x8; 4] {
-        isa.records8(records, at).map(f64x8::from)
+    fn records<G: Gathers>(_: G, records: &[Record], at: &Slots) -> [f64x8; 4] {
+        let [a, b, c, d] = isa::fetch_records::<8>(records, at);
+        [a, b, c, d].map(f64x8::from)
     }
 
     #[inline(always)]
-    fn add_to_records<G: Gathers>(isa: G, records: &mut [Record], at: &Slots, terms: [f32x8; 4]) {
-        isa.add_to_records8(records, at, terms.map(widen));
+    fn add_to_records<G: Gathers>(_: G, records: &mut [Record], at: &Slots, terms: [f32x8; 4]) {
+        let [a, b, c, d] = terms;
+        isa::add_records(records, at, [widen(a), widen(b), widen(c), widen(d)]);
     }
 
     #[inline(always)]
