@@ -1,8 +1,10 @@
 //! The instructions the neighbour-list loops need and `wide` does not offer: the
-//! left-pack (compress) of the slots a filter keeps, and the fetch of 4-field records by
-//! 32-bit slot indices, transposed into lanes (a load per slot and a register transpose:
-//! measured faster here than a gather per field, `_mm512_i32gather_pd`, and its scatter,
-//! `perf/README.md`), with the transposed add back. Each instruction set is a token type implementing
+//! left-pack (compress) of the slots a filter keeps (`vpcompressd` on AVX-512, a
+//! permutation table on AVX2), and the fetch of 4-field records by 32-bit slot indices,
+//! transposed into lanes (for 4 lanes a 256-bit load per slot and an AVX2 transpose; for
+//! 8, a scalar load per field and lane on every instruction set, which measured as fast
+//! on AMD's Zen 4 as AVX-512's transposes, and faster than a gather per field,
+//! `_mm512_i32gather_pd`: `perf/README.md`, round four). Each instruction set is a token type implementing
 //! [`Gathers`] that can only be made where its instructions run ([`Avx512`]: AVX-512F
 //! and VL; [`Avx2`]; [`Portable`]: plain Rust, on every CPU), so its methods are safe:
 //! every `unsafe` block here rests on the token's check and on the bounds its method
@@ -13,9 +15,9 @@
 /// An instruction set of the list loops.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum InstructionSet {
-    /// AVX-512F and AVX-512VL: 8-lane gathers and scatters, compress-stores.
+    /// AVX-512F and AVX-512VL: the compress of 16 lanes (and AVX2's transposes).
     Avx512,
-    /// AVX2: 4-lane gathers, a table-driven left-pack; scatters lane by lane.
+    /// AVX2: a table-driven left-pack, 4 x 4 transposes.
     Avx2,
     /// Plain Rust, lane by lane: every CPU.
     Portable,
@@ -121,7 +123,7 @@ impl Slots {
     }
 }
 
-/// The left-pack and the records' fetch and add, on one instruction set.
+/// The left-pack and the 4-lane fetch of records, on one instruction set.
 pub(crate) trait Gathers: Copy {
     /// Writes to the front of `out` `values[k]` for each bit k set in `kept`, in order,
     /// and returns how many (it may write anything to the 16 elements from there).
@@ -131,9 +133,6 @@ pub(crate) trait Gathers: Copy {
     fn left_pack(self, kept: u16, values: &[u32; 16], out: &mut [u32]) -> usize;
     /// The records of the first 4 slots of `at`, transposed: row f holds field f of each.
     fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4];
-    /// Adds `terms[f][k]` to field f of the record at slot k of `at`, for the first 4
-    /// slots, one slot after the other (a repeated slot receives every sum).
-    fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]);
 }
 
 /// Four f64 fields of a slot kept together (a particle's position and density, say), so
@@ -157,23 +156,6 @@ pub(crate) fn fetch_records<const N: usize>(records: &[Record], at: &Slots) -> [
     std::array::from_fn(|field| std::array::from_fn(|k| rows[k][field]))
 }
 
-/// Adds the transposed `terms` to the records at the first `N` slots of `at`, lane by
-/// lane (a repeated slot receives every sum); every instruction set's 8-lane add.
-#[inline(always)]
-pub(crate) fn add_records<const N: usize>(
-    records: &mut [Record],
-    at: &Slots,
-    terms: [[f64; N]; 4],
-) {
-    check_records(records, at);
-    for k in 0..N {
-        let record = &mut records[at.at[k] as usize];
-        for (field, value) in record.iter_mut().enumerate() {
-            *value += terms[field][k];
-        }
-    }
-}
-
 /// Plain Rust, lane by lane.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Portable;
@@ -195,11 +177,6 @@ impl Gathers for Portable {
     #[inline(always)]
     fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4] {
         fetch_records(records, at)
-    }
-
-    #[inline(always)]
-    fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]) {
-        add_records(records, at, terms);
     }
 }
 
@@ -280,37 +257,11 @@ mod x86 {
         }
     }
 
-    /// Adds the rows of `rows` (transposed fields) to the records at the first 4 slots
-    /// of `at`, one after the other.
-    ///
-    /// # Safety
-    /// AVX2 runs on this CPU.
-    #[inline(always)]
-    unsafe fn add_to_records4_avx2(records: &mut [Record], at: &Slots, rows: [[f64; 4]; 4]) {
-        check_records(records, at);
-        // SAFETY: AVX2 is the caller's; each record is in bounds (indexed) and holds 4 f64.
-        unsafe {
-            let fields = rows.map(|row| _mm256_loadu_pd(row.as_ptr()));
-            let sums = transpose4(fields);
-            for (k, sum) in sums.into_iter().enumerate() {
-                let record = &mut records[at.at()[k] as usize];
-                let total = _mm256_add_pd(load_record(record), sum);
-                _mm256_storeu_pd(record.as_mut_ptr(), total);
-            }
-        }
-    }
-
     impl Gathers for Avx512 {
         #[inline(always)]
         fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4] {
             // SAFETY: the token exists only where AVX2 runs.
             unsafe { std::mem::transmute(records4_avx2(records, at)) }
-        }
-
-        #[inline(always)]
-        fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]) {
-            // SAFETY: the token exists only where AVX2 runs.
-            unsafe { add_to_records4_avx2(records, at, terms) }
         }
 
         #[inline(always)]
@@ -373,12 +324,6 @@ mod x86 {
             // SAFETY: the token exists only where AVX2 runs.
             unsafe { std::mem::transmute(records4_avx2(records, at)) }
         }
-
-        #[inline(always)]
-        fn add_to_records4(self, records: &mut [Record], at: &Slots, terms: [[f64; 4]; 4]) {
-            // SAFETY: the token exists only where AVX2 runs.
-            unsafe { add_to_records4_avx2(records, at, terms) }
-        }
     }
 }
 
@@ -408,23 +353,6 @@ mod tests {
                     }
                 }
             }
-            let terms8: [[f64; 8]; 4] =
-                std::array::from_fn(|f| std::array::from_fn(|k| (f * 8 + k) as f64 + 1.0));
-            let terms4: [[f64; 4]; 4] = std::array::from_fn(|f| [terms8[f][0] * 3.0; 4]);
-            let (mut sums8, mut sums4) = (records.clone(), records.clone());
-            super::add_records(&mut sums8, &at, terms8);
-            isa.add_to_records4(&mut sums4, &at, terms4);
-            let (mut expected8, mut expected4) = (records.clone(), records.clone());
-            for k in 0..8 {
-                for field in 0..4 {
-                    expected8[at.at()[k] as usize][field] += terms8[field][k];
-                    if k < 4 {
-                        expected4[at.at()[k] as usize][field] += terms4[field][k];
-                    }
-                }
-            }
-            assert_eq!(sums8, expected8);
-            assert_eq!(sums4, expected4);
             let values: [u32; 16] = std::array::from_fn(|k| 7 * k as u32 + 100);
             for kept in 0..=u16::MAX {
                 let mut out = [u32::MAX; 17];

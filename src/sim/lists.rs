@@ -171,10 +171,13 @@ impl OnInstructionSet for Build<'_> {
             }
             candidates.pad();
             // Room for the cell's lists were every candidate kept, the last group's
-            // store of 16 and the tail, grown (doubling) before the cell, not in its loop.
+            // store of 16 and the tail, grown before the cell, not in its loop (by an
+            // eighth at least: the lists' memory stays close to what they hold).
             let room = end + own.len() * candidates.len() + FILTER_LANES + TAIL;
             if partners.len() < room {
-                partners.resize(room.max(2 * partners.len()), 0);
+                let grown = room.max(partners.len() + partners.len() / 8);
+                partners.reserve_exact(grown - partners.len());
+                partners.resize(grown, 0);
             }
             // Slots without tiles (lone, or alone in a cell without forward neighbours)
             // have empty lists.

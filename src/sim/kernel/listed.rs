@@ -4,11 +4,11 @@
 //!
 //! What a pass reads of a partner is packed by slot into [`Record`]s of 4 f64 once per
 //! pass (positions with the density, velocities with the density's reciprocal), so that
-//! a group of partners is fetched with a load per partner and a transpose
-//! ([`Gathers::records8`]) rather than a gather per field; the partners' sums go to
-//! records too, added one partner after the other ([`Gathers::add_to_records8`]), and to
-//! the particles' arrays at the end of the pass. Each particle's own sums stay in
-//! registers (Newton's third law: a half list holds each pair once).
+//! a partner's fields come from one cache line ([`Lanes::records`]); the partners' sums
+//! are added one partner after the other (a masked lane may repeat a slot, and adds
+//! zero): the density's to the positions' spare field, then to the densities, the
+//! accelerations to the particles' arrays. Each particle's own sums stay in registers
+//! (Newton's third law: a half list holds each pair once).
 
 use super::simd::{Lanes, Transfer};
 use super::{Accelerations, Densities, Packed};
@@ -142,20 +142,15 @@ impl<L: Lanes, const FLUIDANIMATE: bool> OnInstructionSet
         let Packed {
             records: positions,
             velocities,
-            sums,
-            inverse_rho,
             ..
         } = packed;
-        inverse_rho.clear();
-        inverse_rho.extend(rho[..n].iter().map(|rho| 1.0 / rho));
         let ([x, y, z], [vx, vy, vz]) = (p, v);
         pack(positions, n, |i| [x[i], y[i], z[i], rho[i]]);
-        pack(velocities, n, |i| [vx[i], vy[i], vz[i], inverse_rho[i]]);
-        sums.clear();
-        sums.resize(n, [0.0; 4]);
+        pack(velocities, n, |i| [vx[i], vy[i], vz[i], 1.0 / rho[i]]);
+        // The partners' terms are subtracted from `a` at their slots, lane after lane.
+        assert!(a.iter().all(|a| a.len() >= n));
         let transfer = Transfer::<L, FLUIDANIMATE>::new(params, [&[]; 3], [&[]; 3], &[], &[]);
         let twice_rest_density = L::splat_f64(2.0 * FLUID_DENSITY);
-        let zero = L::splat(0.0);
         for i in 0..n {
             let range = lists.range(i);
             let (position, velocity) = (positions[i], velocities[i]);
@@ -177,16 +172,14 @@ impl<L: Lanes, const FLUIDANIMATE: bool> OnInstructionSet
                 for (axis, terms) in terms.into_iter().enumerate() {
                     L::accumulate(&mut sum[axis], terms);
                 }
-                let partners = [zero - terms[0], zero - terms[1], zero - terms[2], zero];
-                L::add_to_records(isa, sums, &at, partners);
+                for (a, terms) in a.iter_mut().zip(terms) {
+                    // SAFETY: every slot of `at` is below n (Slots::new), which `a`
+                    // holds (asserted above).
+                    unsafe { L::subtract_from(a, at, terms) };
+                }
             }
             for (axis, sum) in sum.into_iter().enumerate() {
                 a[axis][i] += L::total(sum);
-            }
-        }
-        for (axis, a) in a.iter_mut().enumerate() {
-            for (a, record) in a.iter_mut().zip(sums.iter()) {
-                *a += record[axis];
             }
         }
     }

@@ -230,8 +230,6 @@ pub struct Packed {
     records: Vec<Record>,
     /// On [`NeighbourLists`], velocities and the densities' reciprocals by slot.
     velocities: Vec<Record>,
-    /// On [`NeighbourLists`], the partners' acceleration sums by slot.
-    sums: Vec<Record>,
 }
 
 /// What the mixed kernel's loops on [`Clusters`] read, narrowed to f32: per cluster, a
@@ -275,7 +273,6 @@ impl Packed {
             + self.narrowed.heap_bytes()
             + crate::sim::heap_bytes(&self.records)
             + crate::sim::heap_bytes(&self.velocities)
-            + crate::sim::heap_bytes(&self.sums)
     }
 }
 

@@ -113,9 +113,6 @@ pub(crate) trait Lanes {
     /// Adds `terms` to field `field` of the records at the first `LANES` slots of `at`,
     /// one slot after the other, in f64.
     fn add_to_field(records: &mut [Record], at: &Slots, field: usize, terms: Self::V);
-    /// Adds field f of `terms` to field f of the records at the first `LANES` slots of
-    /// `at`, one slot after the other, in f64, on `isa`.
-    fn add_to_records<G: Gathers>(isa: G, records: &mut [Record], at: &Slots, terms: [Self::V; 4]);
     /// Adds `terms` to `sum`.
     fn accumulate(sum: &mut Self::Sum, terms: Self::V);
     /// The total of a sum's lanes.
@@ -253,7 +250,7 @@ pub(super) struct F64x4;
 pub(super) struct F64x8;
 
 macro_rules! f64_lanes {
-    ($name:ident, $type:ty, $lanes:literal, $records:expr, $add_to_records:expr) => {
+    ($name:ident, $type:ty, $lanes:literal, $records:expr) => {
         impl Lanes for $name {
             const LANES: usize = $lanes;
             type V = $type;
@@ -283,22 +280,6 @@ macro_rules! f64_lanes {
             fn records<G: Gathers>(isa: G, records: &[Record], at: &Slots) -> [$type; 4] {
                 let [a, b, c, d] = $records(isa, records, at);
                 [a, b, c, d].map(<$type>::from)
-            }
-
-            #[inline(always)]
-            fn add_to_records<G: Gathers>(
-                isa: G,
-                records: &mut [Record],
-                at: &Slots,
-                terms: [$type; 4],
-            ) {
-                let [a, b, c, d] = terms;
-                $add_to_records(
-                    isa,
-                    records,
-                    at,
-                    [a.to_array(), b.to_array(), c.to_array(), d.to_array()],
-                );
             }
 
             #[inline(always)]
@@ -452,20 +433,10 @@ macro_rules! f64_lanes {
     };
 }
 
-f64_lanes!(
-    F64x4,
-    f64x4,
-    4,
-    |isa: G, r, at| isa.records4(r, at),
-    |isa: G, r, at, t| isa.add_to_records4(r, at, t)
-);
-f64_lanes!(
-    F64x8,
-    f64x8,
-    8,
-    |_: G, r, at| isa::fetch_records::<8>(r, at),
-    |_: G, r, at, t| { isa::add_records(r, at, t) }
-);
+f64_lanes!(F64x4, f64x4, 4, |isa: G, r, at| isa.records4(r, at));
+f64_lanes!(F64x8, f64x8, 8, |_: G, r, at| isa::fetch_records::<8>(
+    r, at
+));
 
 /// Mixed precision: differences in f64, narrowed to f32; pair terms in `wide::f32x8`;
 /// sums in f64. A workbench method, never `fluid`'s.
@@ -512,12 +483,6 @@ impl Lanes for MixedF32x8 {
     fn records<G: Gathers>(_: G, records: &[Record], at: &Slots) -> [f64x8; 4] {
         let [a, b, c, d] = isa::fetch_records::<8>(records, at);
         [a, b, c, d].map(f64x8::from)
-    }
-
-    #[inline(always)]
-    fn add_to_records<G: Gathers>(_: G, records: &mut [Record], at: &Slots, terms: [f32x8; 4]) {
-        let [a, b, c, d] = terms;
-        isa::add_records(records, at, [widen(a), widen(b), widen(c), widen(d)]);
     }
 
     #[inline(always)]
