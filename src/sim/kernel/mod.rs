@@ -1,5 +1,6 @@
 //! The pair loops, the hot part of a time step, over the neighbour structures (the tiles
-//! of the neighbour search; on dense scenes, the SIMD loops on clusters):
+//! of the neighbour search; on dense scenes, the SIMD loops over the neighbour lists, or
+//! on clusters where asked):
 //! each model's pair terms are passes ([`PairPass`]: the course models' density and
 //! acceleration stages 3-5, [`Densities`] and [`Accelerations`], and the weakly
 //! compressible model's [`WeaklyCompressible`]), and [`Kernel::run`] maps a kernel to its
@@ -18,10 +19,11 @@
 //! by particle in f64. Less exact (within 5e-7 relative on a dense step), a workbench
 //! method.
 //!
-//! The density loop also records where the pairs closer than h are ([`ClosePairs`]): the
-//! acceleration loop, over the same positions, visits only those tiles and, on the SIMD
-//! kernels, only those groups of partners (a lane-width each), or on clusters only those
-//! clusters for those particles, without testing the others again.
+//! On tiles and clusters the density loop also records where the pairs closer than h are
+//! ([`ClosePairs`]): the acceleration loop, over the same positions, visits only those
+//! tiles and, on the SIMD kernels, only those groups of partners (a lane-width each), or
+//! on clusters only those clusters for those particles, without testing the others
+//! again. The lists hold only such pairs already (within the skin, where kept).
 
 mod clustered;
 pub mod floor;
