@@ -5,9 +5,10 @@
 //!
 //! A list holds each pair once (a *half* list: the partners after a slot in its own cell
 //! and those of its 13 forward cells, as the tiles give them), as slot indices in cell
-//! order. The build is one SIMD filter over the tiles' contiguous slot ranges, 8
-//! candidates at a time, whose hits are left-packed into the list ([`Gathers::left_pack`]:
-//! a compress-store on AVX-512); the density and acceleration passes of the same
+//! order. The build copies each cell's candidates (its own slots, then its forward
+//! cells') into one run narrowed to f32 and tests each of its particles against them 16
+//! at a time; the hits are left-packed into the list (`vpcompressd` on AVX-512, through
+//! `sim::isa`); the density and acceleration passes of the same
 //! placement share it. The last group of a list reads the slots after its end (the next
 //! lists', then [`TAIL`] zeros), which the loops mask.
 
@@ -62,7 +63,8 @@ impl NeighbourLists {
         self.isa
     }
 
-    /// Builds and runs the lists with `isa` from the next build on.
+    /// Builds and runs the lists with `isa` from now on (the lists are the same on every
+    /// instruction set).
     ///
     /// # Panics
     /// If this CPU does not run it.

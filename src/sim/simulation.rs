@@ -402,7 +402,7 @@ impl Simulation {
         self.structure = structure;
     }
 
-    /// Builds and runs the neighbour lists with `isa` from the next placement on (the
+    /// Builds and runs the neighbour lists with `isa` from now on (the
     /// detected one by default).
     ///
     /// # Panics

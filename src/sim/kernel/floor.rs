@@ -3,7 +3,7 @@
 //! velocity differences and density terms in contiguous arrays, every lane a pair closer
 //! than h), with no search, no gather and no scatter. What a pass over neighbour lists
 //! costs beyond it is the price of finding and fetching its pairs (`perf/README.md`'s
-//! roofline table; `benches/step.rs` times both).
+//! roofline table; `benches/pairs.rs` times both).
 
 use super::simd::{Lanes, Transfer};
 use super::{F64x4, F64x8, Kernel, MixedF32x8};
