@@ -58,7 +58,11 @@ fn roofline(c: &mut Criterion) {
                 lists.set_instruction_set(isa);
                 let h = params.h;
                 group.bench_function(name("build"), |b| {
-                    b.iter(|| lists.build(tiles, &particles.p, particles.len(), h))
+                    b.iter(|| {
+                        lists
+                            .build(tiles, &particles.p, particles.len(), h)
+                            .unwrap()
+                    })
                 });
             }
             for (part, stage) in [

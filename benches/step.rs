@@ -84,7 +84,7 @@ fn whole_steps(c: &mut Criterion) {
                 c.bench_function(&id, |b| {
                     b.iter_batched_ref(|| initial.clone(), Simulation::step, BatchSize::LargeInput)
                 });
-                if kernel.runs_on_clusters() && label == "dense" {
+                if kernel.runs_on_lanes() && label == "dense" {
                     let mut on_tiles = initial.clone();
                     on_tiles.set_pair_structure(PairStructure::Tiles);
                     c.bench_function(&format!("{id}/tiles"), |b| {

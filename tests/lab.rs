@@ -14,7 +14,7 @@ fn every_f64_kernel_reproduces_every_reference_output() {
     // Every f64 kernel on the tiles, and those with loops on clusters on clusters too.
     let kernels = Kernel::F64.map(|kernel| kernel.name());
     let tiles = kernels.iter().map(|&k| (k, "tiles"));
-    let on_clusters = Kernel::F64.into_iter().filter(|k| k.runs_on_clusters());
+    let on_clusters = Kernel::F64.into_iter().filter(|k| k.runs_on_lanes());
     let methods = tiles.chain(on_clusters.map(|k| (k.name(), "clusters")));
     let runs = methods.flat_map(|(k, pairs)| [(k, pairs, "small"), (k, pairs, "large")]);
     for (kernel, pairs, name) in runs {

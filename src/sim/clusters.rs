@@ -1,4 +1,5 @@
-//! Clusters: the neighbour structure of the SIMD pair loops on dense scenes.
+//! Clusters: a neighbour structure of the SIMD pair loops on dense scenes (`--pairs
+//! clusters`; neighbour lists are the default).
 //!
 //! The particles of each *row* of cells (the cells of one y and z, every x: contiguous
 //! slots in cell order) are sorted by x and cut into clusters of [`CLUSTER`] places, the

@@ -24,6 +24,16 @@ pub const TAIL: usize = 8;
 /// Candidates the build tests at once, in f32 lanes.
 const FILTER_LANES: usize = 16;
 
+/// The most partners the lists hold per slot, on average, before a build gives up: a
+/// collapsed scene's pairs grow as the square of its particles, and lists of them would
+/// take more memory than the particles (its passes run on the tiles instead).
+pub const MOST_PARTNERS_PER_SLOT: usize = 256;
+
+/// A build given up: the pairs within reach would exceed [`MOST_PARTNERS_PER_SLOT`] per
+/// slot (or the u32 entries' range).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TooManyPairs;
+
 /// The neighbour lists of one placement.
 #[derive(Debug, Clone, Default)]
 pub struct NeighbourLists {
@@ -44,18 +54,32 @@ pub struct NeighbourLists {
 impl NeighbourLists {
     /// Lists of the `slots` first slots: for each slot of each tile's first range, its
     /// partners in the tile closer than `reach` at positions `p` (padded by [`PADDING`]).
-    pub fn build(&mut self, tiles: &[Tile], p: &AxisArrays, slots: usize, reach: f64) {
-        assert!(slots < u32::MAX as usize - 16, "too many slots to list");
+    /// Fails, leaving no lists, where they would hold more than
+    /// [`MOST_PARTNERS_PER_SLOT`] per slot.
+    pub fn build(
+        &mut self,
+        tiles: &[Tile],
+        p: &AxisArrays,
+        slots: usize,
+        reach: f64,
+    ) -> Result<(), TooManyPairs> {
         assert!(p.iter().all(|axis| axis.len() >= slots + PADDING));
         assert!(tiles.iter().all(|tile| tile.second_end as usize <= slots));
         self.slots = slots;
         self.starts.clear();
-        self.isa.run(Build {
+        let built = self.isa.run(Build {
             lists: self,
             tiles,
             p,
             reach,
         });
+        if built.is_err() {
+            self.slots = 0;
+            self.starts.clear();
+            self.partners.clear();
+            self.partners.shrink_to_fit();
+        }
+        built
     }
 
     /// The instruction set the lists are built and run with.
@@ -119,9 +143,9 @@ struct Build<'a> {
 }
 
 impl OnInstructionSet for Build<'_> {
-    type Output = ();
+    type Output = Result<(), TooManyPairs>;
 
-    fn run<G: Gathers>(self, isa: G) {
+    fn run<G: Gathers>(self, isa: G) -> Result<(), TooManyPairs> {
         let Build {
             lists,
             tiles,
@@ -156,6 +180,10 @@ impl OnInstructionSet for Build<'_> {
         let limit2 = f32x16::splat((limit * limit) as f32);
         let lane = f32x16::from(std::array::from_fn::<f32, FILTER_LANES, _>(|k| k as f32));
         let [x, y, z] = &*narrowed;
+        // Every entry, and so every start, stays within u32.
+        let capacity = n
+            .saturating_mul(MOST_PARTNERS_PER_SLOT)
+            .min(u32::MAX as usize - FILTER_LANES - TAIL);
         let mut end = 0;
         for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
             // The cell's candidates in one run: its own slots, then those of its
@@ -172,19 +200,22 @@ impl OnInstructionSet for Build<'_> {
                 candidates.add(tile.second as usize..tile.second_end as usize, [x, y, z]);
             }
             candidates.pad();
-            // Room for the cell's lists were every candidate kept, the last group's
-            // store of 16 and the tail, grown before the cell, not in its loop (by an
-            // eighth at least: the lists' memory stays close to what they hold).
-            let room = end + own.len() * candidates.len() + FILTER_LANES + TAIL;
-            if partners.len() < room {
-                let grown = room.max(partners.len() + partners.len() / 8);
-                partners.reserve_exact(grown - partners.len());
-                partners.resize(grown, 0);
-            }
             // Slots without tiles (lone, or alone in a cell without forward neighbours)
             // have empty lists.
             starts.resize(own.start, end as u32);
             for i in own.clone() {
+                // Room for the list were every candidate kept, the last group's store of
+                // 16 and the tail (grown by an eighth at least: the lists' memory stays
+                // close to what they hold).
+                if end + candidates.len() > capacity {
+                    return Err(TooManyPairs);
+                }
+                let room = end + candidates.len() + FILTER_LANES + TAIL;
+                if partners.len() < room {
+                    let grown = room.max(partners.len() + partners.len() / 8);
+                    partners.reserve_exact(grown - partners.len());
+                    partners.resize(grown, 0);
+                }
                 starts.push(end as u32);
                 let first = [x[i], y[i], z[i]].map(f32x16::splat);
                 let position = (i - own.start) as f32;
@@ -201,6 +232,7 @@ impl OnInstructionSet for Build<'_> {
         starts.resize(n + 1, end as u32);
         partners.resize(partners.len().max(end + TAIL), 0);
         partners[end..end + TAIL].fill(0);
+        Ok(())
     }
 }
 
@@ -322,7 +354,7 @@ mod tests {
         {
             let mut lists = NeighbourLists::default();
             lists.set_instruction_set(isa);
-            lists.build(search.tiles(), &particles.p, n, reach);
+            lists.build(search.tiles(), &particles.p, n, reach).unwrap();
             assert_eq!(lists.slots(), n);
             let mut found: Vec<(u32, u32)> = (0..n)
                 .flat_map(|i| lists.partners(i).iter().map(move |&j| (i as u32, j)))
@@ -358,6 +390,35 @@ mod tests {
             assert!(lists.entries()[lists.pairs()..][..TAIL]
                 .iter()
                 .all(|&j| j == 0));
+        }
+    }
+
+    #[test]
+    fn a_collapsed_block_is_not_listed() {
+        // 729 particles within h / 2 of each other: 265,356 pairs, above 256 per slot.
+        let ppm = 200.0;
+        let h = Params::new(ppm).h;
+        let mut particles = jittered_block(ppm, 9, 0.4, 5).0.unpadded();
+        for axis in &mut particles.p {
+            let low = axis.iter().copied().fold(f64::INFINITY, f64::min);
+            axis.iter_mut().for_each(|x| *x = low + (*x - low) / 20.0);
+        }
+        let mut cells = crate::sim::cells::CellOrder::default();
+        cells.sort(&crate::sim::grid::Grid::new(h).unwrap(), &particles);
+        let mut placed = particles.permuted(cells.order());
+        placed.pad();
+        let mut search = TileSearch::default();
+        search.find(cells.keys(), cells.layout());
+        for isa in InstructionSet::ALL
+            .into_iter()
+            .filter(|isa| isa.is_available())
+        {
+            let mut lists = NeighbourLists::default();
+            lists.set_instruction_set(isa);
+            let built = lists.build(search.tiles(), &placed.p, 729, h);
+            assert_eq!(built, Err(TooManyPairs), "{}", isa.name());
+            assert_eq!((lists.slots(), lists.pairs()), (0, 0));
+            assert!(lists.heap_bytes() < 729 * MOST_PARTNERS_PER_SLOT * 4);
         }
     }
 }

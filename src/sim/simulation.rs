@@ -596,7 +596,7 @@ impl Simulation {
     /// passes run on them ([`Self::build_lists`], [`Self::build_clusters`]), else its
     /// tiles.
     fn find_neighbours(&mut self) {
-        let on_lanes = self.method.kernel.runs_on_clusters() && !self.cells.is_sparse();
+        let on_lanes = self.method.kernel.runs_on_lanes() && !self.cells.is_sparse();
         let on_lists = self.structure == PairStructure::Lists;
         self.lists_built = on_lanes && on_lists;
         self.clusters_built = on_lanes && !on_lists && self.structure != PairStructure::Tiles;
@@ -610,13 +610,14 @@ impl Simulation {
     }
 
     /// The lists of the placement's tiles at the current positions, within the cut-off
-    /// (plus the skin where kept over steps).
+    /// (plus the skin where kept over steps); where a collapsed scene has too many pairs
+    /// to list, the passes run on the tiles.
     fn build_lists(&mut self) {
         self.find_tiles();
         let skin = self.skin.as_ref().map_or(0.0, Skin::width);
         let reach = self.params.h + skin;
         let (tiles, n) = (self.search.tiles(), self.particles.len());
-        self.lists.build(tiles, &self.particles.p, n, reach);
+        self.lists_built = self.lists.build(tiles, &self.particles.p, n, reach).is_ok();
     }
 
     /// Clusters of the placement's cell order at the current positions.
@@ -949,6 +950,36 @@ mod tests {
         assert_eq!(copy.skin().unwrap().builds(), 1, "the skin still fresh");
         let largest = largest_distance(&sim, &copy);
         assert!(largest < 1e-12, "{largest}");
+    }
+
+    #[test]
+    fn a_collapsed_scene_too_dense_to_list_steps_on_its_tiles() {
+        // 729 particles within h / 2: the lists would hold 364 partners per slot.
+        let mut random = fastrand::Rng::with_seed(3);
+        let mut particles = Particles::zeroed(729);
+        for axis in &mut particles.p {
+            axis.iter_mut()
+                .for_each(|x| *x = 0.01 + 0.002 * random.f64());
+        }
+        let method = Method {
+            model: Model::Fluidanimate,
+            kernel: Kernel::Simd8,
+        };
+        let mut listed = Simulation::with_method(200.0, particles, method).unwrap();
+        let mut tiled = listed.clone();
+        tiled.set_pair_structure(PairStructure::Tiles);
+        listed.step();
+        tiled.step();
+        assert!(
+            !listed.cells().is_sparse(),
+            "dense cells, which lists would serve"
+        );
+        assert!(listed.lists().is_none(), "not listed");
+        assert!(listed.particles().rho[..729]
+            .iter()
+            .all(|rho| rho.is_finite()));
+        assert_eq!(listed.particles().p, tiled.particles().p, "the tiles' step");
+        assert!(listed.heap_bytes() < 729 * 4096);
     }
 
     #[test]

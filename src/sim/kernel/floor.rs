@@ -171,7 +171,9 @@ mod tests {
         let mut search = TileSearch::default();
         search.find(cells.keys(), cells.layout());
         let mut lists = NeighbourLists::default();
-        lists.build(search.tiles(), &placed.p, placed.len(), params.h);
+        lists
+            .build(search.tiles(), &placed.p, placed.len(), params.h)
+            .expect("a block's lists");
         let packed = PackedPairs::new(&params, &lists, &placed);
         assert!(packed.len() > 5 * placed.len());
         let (mut density, mut acceleration, mut magnitude) = (0.0, [0.0; 3], [0.0; 3]);

@@ -4,7 +4,7 @@
 //!
 //! What a pass reads of a partner is packed by slot into [`Record`]s of 4 f64 once per
 //! pass (positions with the density, velocities with the density's reciprocal), so that
-//! a partner's fields come from one cache line ([`Lanes::records`]); the partners' sums
+//! a partner's fields come from 32 contiguous bytes ([`Lanes::records`]); the partners' sums
 //! are added one partner after the other (a masked lane may repeat a slot, and adds
 //! zero): the density's to the positions' spare field, then to the densities, the
 //! accelerations to the particles' arrays. Each particle's own sums stay in registers

@@ -118,9 +118,9 @@ impl Kernel {
         }
     }
 
-    /// Whether the kernel has loops on [`Clusters`] (the SIMD kernels; the others run
-    /// on the tiles only).
-    pub fn runs_on_clusters(self) -> bool {
+    /// Whether the kernel has loops on neighbour lists and [`Clusters`] (the SIMD
+    /// kernels; the others run on the tiles only).
+    pub fn runs_on_lanes(self) -> bool {
         self.lanes() > 1
     }
 

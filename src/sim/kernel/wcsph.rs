@@ -1049,7 +1049,7 @@ mod tests {
         let mut sim = Simulation::with_method(ppm, particles.clone(), method).unwrap();
         sim.set_pair_structure(structure);
         sim.run_stage(Stage::Reposition);
-        let on_lanes = kernel.runs_on_clusters();
+        let on_lanes = kernel.runs_on_lanes();
         let on_clusters = structure == PairStructure::Clusters && on_lanes;
         assert_eq!(
             sim.clusters().is_some(),
