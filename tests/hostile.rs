@@ -810,6 +810,15 @@ fn checkpoints_continue_bit_for_bit() {
         "{}",
         stderr(&output)
     );
+    // The weakly compressible model keeps its lists with a skin by default: a resume
+    // that asks for none is refused.
+    let output = resume(&["--model", "wcsph", "--integrator", "verlet", "--skin", "0"]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("a checkpoint of a run with another skin"),
+        "{}",
+        stderr(&output)
+    );
     // A checkpoint of the format before the integrators (version 4, which held the
     // model's values after a one-byte count) is refused, not misread.
     let mut older = std::fs::read(path("part.ck")).unwrap();

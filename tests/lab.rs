@@ -99,7 +99,7 @@ fn lists_kept_with_a_skin_give_the_state_of_lists_rebuilt_every_step() {
     }
     let bad = run_lab(&["run", "--skin=-1", small.to_str().unwrap()]);
     assert_eq!(exit_code(&bad), 2);
-    assert!(stderr(&bad).contains("-1 is not a positive skin width"));
+    assert!(stderr(&bad).contains("-1 is not a skin width (0 or more)"));
 }
 
 #[test]

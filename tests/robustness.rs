@@ -1069,11 +1069,12 @@ proptest! {
 // Checkpoints.
 // ---------------------------------------------------------------------------------------
 
-/// Two checkpoints as the unit tests of `io::checkpoint` build them (three particles at
+/// Three checkpoints as the unit tests of `io::checkpoint` build them (three particles at
 /// 204 particles per metre, two adaptive steps), encoded: one after the steps (last step
-/// recorded), one fresh (fixed time step, no last step).
-fn valid_checkpoints() -> &'static [Vec<u8>; 2] {
-    static ENCODED: OnceLock<[Vec<u8>; 2]> = OnceLock::new();
+/// recorded), one fresh (fixed time step, no last step), one of lists kept with a skin
+/// (the positions of their last build kept too).
+fn valid_checkpoints() -> &'static [Vec<u8>; 3] {
+    static ENCODED: OnceLock<[Vec<u8>; 3]> = OnceLock::new();
     ENCODED.get_or_init(|| {
         let mut particles = Particles::zeroed(3);
         for slot in 0..3 {
@@ -1086,12 +1087,24 @@ fn valid_checkpoints() -> &'static [Vec<u8>; 2] {
         let stepped = Checkpoint {
             step: 2,
             input: 0x1234_5678,
-            state: simulation.resumable().unwrap(),
+            state: simulation.resumable(),
         };
         let mut fresh = stepped.clone();
         fresh.state.last_step = None;
         fresh.state.time_step = TimeStep::Fixed(1e-3);
-        [checkpoint::encode(&stepped), checkpoint::encode(&fresh)]
+        simulation.set_skin(Some(0.001)).unwrap();
+        simulation.run(1);
+        let skinned = Checkpoint {
+            step: 3,
+            input: 0x1234_5678,
+            state: simulation.resumable(),
+        };
+        assert!(skinned.state.skin.as_ref().unwrap().builds == 1);
+        [
+            checkpoint::encode(&stepped),
+            checkpoint::encode(&fresh),
+            checkpoint::encode(&skinned),
+        ]
     })
 }
 
@@ -1226,7 +1239,7 @@ proptest! {
         magic in any::<bool>(),
         tail in prop::collection::vec(any::<u8>(), 0..300),
     ) {
-        let mut bytes = if magic { b"FLUIDCK5".to_vec() } else { Vec::new() };
+        let mut bytes = if magic { b"FLUIDCK6".to_vec() } else { Vec::new() };
         bytes.extend(tail);
         check_checkpoint(&bytes)?;
     }
@@ -1237,7 +1250,7 @@ proptest! {
     /// whatever it accepts re-encodes to the same bytes.
     #[test]
     fn checkpoint_decode_handles_corrupted_checkpoints(
-        which in 0usize..2,
+        which in 0usize..3,
         mutations in prop::collection::vec(mutation(), 1..5),
     ) {
         let original = &valid_checkpoints()[which];

@@ -1,32 +1,43 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCK5`; the step count (u64); the CRC-32 of the
+//! Layout (little-endian): the magic `FLUIDCK6`; the step count (u64); the CRC-32 of the
 //! input file the run started from (u32, so a resume from another input is refused);
-//! particles per
-//! metre and the time (f64); the model, kernel, time-step rule, last step's limit and
-//! integrator as length-prefixed names (u8 length), the time step's value (f64: dt or the
-//! Courant constant), the last step's length (f64, NaN before the first step); what the
-//! model keeps of itself ([`crate::sim::model::Dynamics::saved`]: a count, u64, then that
-//! many f64; the weakly compressible model's sound speed and settings, and under the
-//! velocity Verlet its last density rates; none for the others); the sparse flag (u8);
-//! the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a (x,
-//! y, z) and rho, n f64 each; last, the CRC-32 of every byte before it (u32), so a
-//! corrupted checkpoint is refused. Versions 1-4 (before the integrators; version 3
-//! before the models kept their own state) are refused, with a message that says so.
+//! particles per metre and the time (f64); the model, kernel, time-step rule, last step's
+//! limit and integrator as length-prefixed names (u8 length), the time step's value (f64:
+//! dt or the Courant constant), the last step's length (f64, NaN before the first step);
+//! what the model keeps of itself ([`crate::sim::model::Dynamics::saved`]: a count, u64,
+//! then that many f64; the weakly compressible model's sound speed and settings, and
+//! under the velocity Verlet its last density rates; none for the others); the sparse
+//! flag (u8); the skin of lists kept over steps ([`crate::sim::skin::KeptSkin`]: a u8,
+//! 0 for none, else 1 then its width (f64), its builds (u64), how its last sort ran (u8)
+//! and whether its last build's positions follow (u8): not before the first, or once
+//! expired); the particle count n (u64); then n ids (u32) and,
+//! per particle field p, hv, v, a (x, y, z) and rho, n f64 each; a built skin's positions
+//! at its last build (x, y, z, n f64 each); last, the CRC-32 of every byte before it
+//! (u32), so a corrupted checkpoint is refused. Versions 1-5 (before the integrators;
+//! version 3 before the models kept their own state; version 5 before the skin) are
+//! refused, with a message that says so.
 
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
-use crate::sim::particles::Particles;
+use crate::sim::particles::{AxisArrays, Particles};
 use crate::sim::simulation::Resumable;
+use crate::sim::skin::KeptSkin;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
 
-/// The first bytes of every checkpoint (format version 5).
-const MAGIC: &[u8; 8] = b"FLUIDCK5";
+/// The first bytes of every checkpoint (format version 6).
+const MAGIC: &[u8; 8] = b"FLUIDCK6";
 
 /// The first bytes of a checkpoint of an earlier format, which is refused.
-const OLDER: [&[u8; 8]; 4] = [b"FLUIDCK1", b"FLUIDCK2", b"FLUIDCK3", b"FLUIDCK4"];
+const OLDER: [&[u8; 8]; 5] = [
+    b"FLUIDCK1",
+    b"FLUIDCK2",
+    b"FLUIDCK3",
+    b"FLUIDCK4",
+    b"FLUIDCK5",
+];
 
 /// A checkpoint's content: the steps run and the state after them.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,9 +51,9 @@ pub struct Checkpoint {
 }
 
 /// At least the size of a checkpoint of `particles` particles (for the room reserved
-/// before a run): a model may keep a value per particle.
+/// before a run): a model may keep a value per particle, a skin 3.
 pub fn size_bound(particles: usize) -> u64 {
-    (256 + particles * (4 + 14 * 8)) as u64
+    (256 + particles * (4 + 17 * 8)) as u64
 }
 
 /// Encodes a checkpoint.
@@ -50,7 +61,7 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     let state = &checkpoint.state;
     let particles = &state.particles;
     let n = particles.len();
-    let mut bytes = Vec::with_capacity(128 + n * (4 + 13 * 8));
+    let mut bytes = Vec::with_capacity(size_bound(n) as usize);
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&checkpoint.step.to_le_bytes());
     bytes.extend_from_slice(&checkpoint.input.to_le_bytes());
@@ -80,11 +91,26 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
         bytes.extend_from_slice(&value.to_le_bytes());
     }
     bytes.push(u8::from(state.sparse));
+    let built = state.skin.as_ref().map_or(&[][..], |skin| {
+        let built = !skin.built[0].is_empty();
+        bytes.push(1);
+        bytes.extend_from_slice(&skin.width.to_le_bytes());
+        bytes.extend_from_slice(&skin.builds.to_le_bytes());
+        bytes.extend([u8::from(skin.sorted_sparse), u8::from(built)]);
+        if built {
+            &skin.built[..]
+        } else {
+            &[]
+        }
+    });
+    if state.skin.is_none() {
+        bytes.push(0);
+    }
     bytes.extend_from_slice(&(n as u64).to_le_bytes());
     for id in &particles.id {
         bytes.extend_from_slice(&id.to_le_bytes());
     }
-    for array in fields(particles) {
+    for array in fields(particles).chain(built) {
         for value in &array[..n] {
             bytes.extend_from_slice(&value.to_le_bytes());
         }
@@ -113,7 +139,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         ));
     }
     if magic != Some(&MAGIC[..]) {
-        return Err("it is not a fluid checkpoint (version 5)".into());
+        return Err("it is not a fluid checkpoint (version 6)".into());
     }
     let (body, checksum) = bytes.split_at(bytes.len().saturating_sub(4).max(MAGIC.len()));
     if checksum.len() != 4 || crc32fast::hash(body).to_le_bytes() != checksum {
@@ -172,8 +198,25 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         [1] => true,
         _ => return Err("bad sparse flag".into()),
     };
+    let flag = |reader: &mut Reader, what: &str| match reader.take(1)? {
+        [0] => Ok(false),
+        [1] => Ok(true),
+        _ => Err(format!("bad {what} flag")),
+    };
+    let skin = if flag(&mut reader, "skin")? {
+        let (width, builds) = (reader.f64()?, reader.u64()?);
+        let sorted_sparse = flag(&mut reader, "sort")?;
+        let built = flag(&mut reader, "build")?;
+        if !(width.is_finite() && width > 0.0) || (built && builds == 0) {
+            return Err("its skin's width or builds are not a skin's".into());
+        }
+        Some((width, builds, sorted_sparse, built))
+    } else {
+        None
+    };
+    let built = skin.is_some_and(|(.., built)| built);
     let n = usize::try_from(reader.u64()?).map_err(|_| "too many particles")?;
-    n.checked_mul(4 + 13 * 8)
+    n.checked_mul(4 + 13 * 8 + if built { 3 * 8 } else { 0 })
         .filter(|&body| body == reader.bytes.len() - reader.at)
         .ok_or("its size does not match its particle count")?;
     if n == 0 || n > u32::MAX as usize {
@@ -207,6 +250,27 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
             *value = reader.f64()?;
         }
     }
+    let skin = match skin {
+        Some((width, builds, sorted_sparse, built)) => {
+            let mut positions = AxisArrays::default();
+            if built {
+                for axis in &mut positions {
+                    *axis = (0..n).map(|_| reader.f64()).collect::<Result<_, _>>()?;
+                }
+            }
+            let finite = positions.iter().flatten().all(|x| x.is_finite());
+            if !finite {
+                return Err("it holds values that are not finite".into());
+            }
+            Some(KeptSkin {
+                width,
+                builds,
+                sorted_sparse,
+                built: positions,
+            })
+        }
+        None => None,
+    };
     let finite = fields(&particles).flatten().all(|x| x.is_finite());
     if !(finite && ppm.is_finite() && time.is_finite() && value.is_finite()) {
         return Err("it holds values that are not finite".into());
@@ -228,6 +292,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
             sparse,
             model_state,
             particles,
+            skin,
         },
     })
 }
@@ -290,7 +355,7 @@ mod tests {
         Checkpoint {
             step: 2,
             input: 0xdead_beef,
-            state: simulation.resumable().unwrap(),
+            state: simulation.resumable(),
         }
     }
 
@@ -303,6 +368,48 @@ mod tests {
         fresh.state.last_step = None;
         fresh.state.time_step = TimeStep::Fixed(1e-3);
         assert_eq!(decode(&encode(&fresh)).unwrap(), fresh);
+    }
+
+    /// A checkpoint of a run keeping its lists with a skin, built or not yet.
+    fn skinned(built: bool) -> Checkpoint {
+        let mut checkpoint = checkpoint();
+        let mut particles = checkpoint.state.particles.clone();
+        particles.p[0][1] = -0.041;
+        let mut simulation = Simulation::new(204.0, particles).unwrap();
+        simulation.set_skin(Some(0.001)).unwrap();
+        if built {
+            simulation.run(1);
+        }
+        checkpoint.state = simulation.resumable();
+        checkpoint
+    }
+
+    #[test]
+    fn a_skin_round_trips_and_its_defects_are_errors() {
+        for built in [false, true] {
+            let checkpoint = skinned(built);
+            let skin = checkpoint.state.skin.as_ref().unwrap();
+            assert_eq!(skin.builds, u64::from(built));
+            assert_eq!(skin.built[0].len(), if built { 3 } else { 0 });
+            let bytes = encode(&checkpoint);
+            assert_eq!(decode(&bytes).unwrap(), checkpoint);
+            assert!(bytes.len() as u64 <= size_bound(3));
+            for length in 0..bytes.len() {
+                assert!(decode(&bytes[..length]).is_err(), "{length} bytes");
+            }
+        }
+        let mut wider = skinned(true);
+        wider.state.skin.as_mut().unwrap().width = 0.0;
+        assert_eq!(
+            decode(&encode(&wider)).unwrap_err(),
+            "its skin's width or builds are not a skin's"
+        );
+        let mut not_finite = skinned(true);
+        not_finite.state.skin.as_mut().unwrap().built[2][1] = f64::NAN;
+        assert_eq!(
+            decode(&encode(&not_finite)).unwrap_err(),
+            "it holds values that are not finite"
+        );
     }
 
     #[test]
@@ -318,7 +425,7 @@ mod tests {
         wrong_magic[6] = b'X';
         assert_eq!(
             decode(&wrong_magic).unwrap_err(),
-            "it is not a fluid checkpoint (version 5)"
+            "it is not a fluid checkpoint (version 6)"
         );
         let mut older = bytes.clone();
         older[7] = b'3';

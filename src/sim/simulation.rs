@@ -14,7 +14,7 @@ use crate::sim::model::{Context, Dynamics};
 use crate::sim::neighbours::{Tile, TileSearch};
 use crate::sim::params::Params;
 use crate::sim::particles::Particles;
-use crate::sim::skin::Skin;
+use crate::sim::skin::{KeptSkin, Skin};
 use crate::sim::stages::{self, Stage};
 use crate::sim::timestep::{Integrator, Leapfrog, Limit, TimeStep};
 
@@ -44,6 +44,8 @@ pub struct Resumable {
     /// densities are a state: those of the step's start, or under the velocity Verlet
     /// those of the half step, which the next step predicts on).
     pub particles: Particles,
+    /// The skin lists are kept with, and its last build, if lists are kept over steps.
+    pub skin: Option<KeptSkin>,
 }
 
 /// A running simulation.
@@ -171,6 +173,10 @@ impl Simulation {
     ) -> Self {
         particles.pad();
         dynamics.prepare(&params, &particles);
+        // The model's skin, where its grid exists (else the lists are rebuilt each step).
+        let skin = dynamics
+            .default_skin()
+            .and_then(|fraction| Skin::new(params.h, fraction * params.h).ok());
         let time_step = match dynamics.default_time_step() {
             TimeStep::Fixed(_) => TimeStep::Fixed(params.dt),
             adaptive => adaptive,
@@ -193,7 +199,7 @@ impl Simulation {
             time_step,
             time: 0.0,
             last_step: None,
-            skin: None,
+            skin,
             integrator: Integrator::default(),
         }
     }
@@ -331,13 +337,11 @@ impl Simulation {
         self.dynamics.saved()
     }
 
-    /// What a checkpoint keeps: the state from which [`Self::resume`] goes on bit for bit.
-    /// None while lists are reused with a skin (their state is not kept).
-    pub fn resumable(&self) -> Option<Resumable> {
-        if self.skin.is_some() {
-            return None;
-        }
-        Some(Resumable {
+    /// What a checkpoint keeps: the state from which [`Self::resume`] goes on bit for bit
+    /// (with a skin, the positions of its last build, whose cell order and lists the
+    /// resumed run rebuilds).
+    pub fn resumable(&self) -> Resumable {
+        Resumable {
             ppm: self.params.ppm,
             method: self.method,
             time_step: self.time_step,
@@ -347,13 +351,16 @@ impl Simulation {
             sparse: self.cells.is_sparse(),
             model_state: self.model_state(),
             particles: self.particles.unpadded(),
-        })
+            skin: self.skin.as_ref().map(Skin::kept),
+        }
     }
 
     /// The simulation of a [`Self::resumable`] state: its next step is the one the
     /// checkpointed simulation would have taken. Fails if its particles per metre admit
-    /// no grid or the model's state is not the model's.
-    pub fn resume(state: Resumable) -> Result<Self, String> {
+    /// no grid, the model's state is not the model's, or a skin's last build is not
+    /// that of these particles. Its pair loops run on `structure` (a skin's last build
+    /// is placed on it, as the checkpointed run's was).
+    pub fn resume(state: Resumable, structure: PairStructure) -> Result<Self, String> {
         let mut dynamics = state.method.model.dynamics();
         dynamics.restore(&state.method.model.params(state.ppm), &state.model_state)?;
         let params = Params::with_cutoff(state.ppm, dynamics.cutoff(state.ppm));
@@ -365,7 +372,44 @@ impl Simulation {
         simulation.cells = CellOrder::resumed(state.sparse);
         simulation.time = state.time;
         simulation.last_step = state.last_step;
+        simulation.structure = structure;
+        simulation.skin = None;
+        if let Some(kept) = state.skin {
+            let skin = Skin::restored(params.h, kept).map_err(|error| error.to_string())?;
+            simulation.place_as_built(skin, state.sparse)?;
+        }
         Ok(simulation)
+    }
+
+    /// Places the particles (in the slots of `skin`'s last build) as that build did, on
+    /// the positions it recorded: the same cell order, tiles and lists, kept until they
+    /// go stale, as in the run that recorded it. Fails if the particles are not in the
+    /// order the build left them, or it found them sparse and now does not (or the
+    /// reverse).
+    fn place_as_built(&mut self, skin: Skin, sparse: bool) -> Result<(), String> {
+        let kept = skin.kept();
+        let n = self.particles.len();
+        if !skin.is_stale_by_build() {
+            if kept.built.iter().any(|axis| axis.len() != n) {
+                return Err("its skin's last build is of another number of particles".into());
+            }
+            let now = self.particles.p.clone();
+            for (axis, built) in self.particles.p.iter_mut().zip(&kept.built) {
+                axis[..n].copy_from_slice(built);
+            }
+            self.cells = CellOrder::resumed(kept.sorted_sparse);
+            let moved = self.cells.sort_on(skin.grid(), &self.grid, &self.particles);
+            if moved || self.cells.is_sparse() != sparse {
+                return Err("its particles are not in the order of its skin's last build".into());
+            }
+            self.skin = Some(skin);
+            self.placement += 1;
+            self.find_neighbours();
+            self.particles.p = now;
+        } else {
+            self.skin = Some(skin);
+        }
+        Ok(())
     }
 
     /// Changes how the steps advance the state (before the first step: the integrators
@@ -388,17 +432,24 @@ impl Simulation {
         self.time_step = time_step;
     }
 
-    /// Reuses the cell order and tiles or clusters from step to step with a skin `width`
-    /// metres wide ([`crate::sim::skin`]), or (`None`) rebuilds them every step. Takes
+    /// Reuses the cell order and lists (or tiles, or clusters) from step to step with a
+    /// skin `width` metres wide ([`crate::sim::skin`]), or (`None`) rebuilds them every
+    /// step; a simulation starts with its model's ([`Dynamics::default_skin`]). Takes
     /// effect at the next step, which builds them.
     pub fn set_skin(&mut self, width: Option<f64>) -> Result<(), GridSizeError> {
         self.skin = width.map(|w| Skin::new(self.params.h, w)).transpose()?;
         Ok(())
     }
 
-    /// Runs the SIMD pair loops on `structure` from the next placement on (the
-    /// reference outputs hold on either; only the order of the sums differs).
+    /// Runs the SIMD pair loops on `structure` from the next placement on, which a
+    /// change makes a build where lists are kept with a skin (the reference outputs hold
+    /// on either; only the order of the sums differs).
     pub fn set_pair_structure(&mut self, structure: PairStructure) {
+        if structure != self.structure {
+            if let Some(skin) = &mut self.skin {
+                skin.expire();
+            }
+        }
         self.structure = structure;
     }
 
@@ -561,6 +612,7 @@ impl Simulation {
     /// skin, only when the lists are stale (else the walls alone are recomputed).
     fn reposition(&mut self) {
         self.placement += 1;
+        let sorted_sparse = self.cells.is_sparse();
         let moved = match &self.skin {
             Some(skin) if !skin.is_stale(&self.particles) => {
                 // The lists of an earlier step still hold every pair closer than h.
@@ -587,7 +639,7 @@ impl Simulation {
             self.reset_for_pairs();
         }
         if let Some(skin) = &mut self.skin {
-            skin.record(&self.particles);
+            skin.record(&self.particles, sorted_sparse);
         }
         self.find_neighbours();
     }
@@ -1018,6 +1070,81 @@ mod tests {
             assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
             assert!(largest < 1e-9, "{largest}");
         }
+    }
+
+    /// Steps `start` `steps` times, and resumes a copy from the checkpointed state of
+    /// every step before: each ends bit for bit where the whole run does. Returns the
+    /// whole run's builds.
+    fn assert_resumes_bit_for_bit(start: &Simulation, steps: usize) -> u64 {
+        let mut whole = start.clone();
+        let mut states = Vec::new();
+        for _ in 0..steps {
+            whole.step();
+            states.push(whole.resumable());
+        }
+        let end = whole.resumable();
+        for (done, state) in states.into_iter().enumerate() {
+            let mut resumed = Simulation::resume(state, start.structure).unwrap();
+            for _ in done + 1..steps {
+                resumed.step();
+            }
+            assert!(
+                resumed.resumable() == end,
+                "resumed after step {}",
+                done + 1
+            );
+        }
+        whole.skin().unwrap().builds()
+    }
+
+    #[test]
+    fn runs_with_a_skin_resume_bit_for_bit_whether_or_not_their_lists_are_fresh() {
+        // The weakly compressible model keeps its lists with its own skin.
+        let method = |model| Method {
+            model,
+            kernel: Kernel::Simd8,
+        };
+        let block = splashing_block();
+        let wcsph = Simulation::with_method(150.0, block.clone(), method(Model::Wcsph)).unwrap();
+        let skin = wcsph.skin().expect("the model's own skin").width();
+        assert_eq!(skin, crate::sim::model::wcsph::SKIN * wcsph.params().h);
+        let builds = assert_resumes_bit_for_bit(&wcsph, 24);
+        assert!(builds > 1 && builds < 24, "{builds} builds in 24 steps");
+        // Fluidanimate, with a skin asked for, on the splashing block and on a cloud of
+        // lone particles (the cell order's lone filter at work).
+        let mut fluidanimate =
+            Simulation::with_method(150.0, block, method(Model::Fluidanimate)).unwrap();
+        assert!(fluidanimate.skin().is_none(), "no skin unless asked for");
+        fluidanimate
+            .set_skin(Some(0.3 * fluidanimate.params().h))
+            .unwrap();
+        let builds = assert_resumes_bit_for_bit(&fluidanimate, 24);
+        assert!(builds > 1 && builds < 24, "{builds} builds in 24 steps");
+        let mut cloud = Particles::zeroed(200);
+        let mut random = fastrand::Rng::with_seed(8);
+        for axis in &mut cloud.p {
+            axis.iter_mut()
+                .for_each(|x| *x = -0.05 + 0.1 * random.f64());
+        }
+        let mut sparse =
+            Simulation::with_method(150.0, cloud, method(Model::Fluidanimate)).unwrap();
+        sparse.set_skin(Some(0.3 * sparse.params().h)).unwrap();
+        sparse.run(1);
+        assert!(sparse.cells().is_sparse());
+        assert_resumes_bit_for_bit(&sparse, 12);
+        // A state whose slots are not in its last build's order is refused: the first and
+        // last slots' build positions swapped (the first and last cells').
+        let mut moved = wcsph.clone();
+        moved.run(3);
+        let mut state = moved.resumable();
+        let last = state.particles.len() - 1;
+        for axis in &mut state.skin.as_mut().unwrap().built {
+            axis.swap(0, last);
+        }
+        assert_eq!(
+            Simulation::resume(state, PairStructure::Lists).unwrap_err(),
+            "its particles are not in the order of its skin's last build"
+        );
     }
 
     #[test]

@@ -5,6 +5,10 @@
 //! so in the same or adjacent cells of the build: the kept tiles hold every pair closer
 //! than h, and the pair loops, which test the cut-off themselves, find exactly the pairs a
 //! rebuild would. The walls of each particle's block are still recomputed every step.
+//!
+//! A checkpoint keeps the skin's last build ([`KeptSkin`]): the positions it was built
+//! at and how that sort ran, from which a resumed run rebuilds the same cell order and
+//! lists and goes on bit for bit.
 
 use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::particles::{AxisArrays, Particles};
@@ -20,6 +24,22 @@ pub struct Skin {
     built: AxisArrays,
     /// Builds so far.
     builds: u64,
+    /// Whether the last build's sort ran as after a sparse one.
+    sorted_sparse: bool,
+}
+
+/// What a checkpoint keeps of a skin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeptSkin {
+    /// The skin's width (m).
+    pub width: f64,
+    /// Builds so far.
+    pub builds: u64,
+    /// Whether the last build's sort ran as after a sparse one
+    /// ([`crate::sim::cells::CellOrder::resumed`]).
+    pub sorted_sparse: bool,
+    /// Each slot's position at the last build (empty before the first, or expired).
+    pub built: AxisArrays,
 }
 
 impl Skin {
@@ -35,7 +55,28 @@ impl Skin {
             grid: Grid::new(h + width)?,
             built: Default::default(),
             builds: 0,
+            sorted_sparse: false,
         })
+    }
+
+    /// The skin a checkpoint `kept`, beyond the smoothing length `h`.
+    pub fn restored(h: f64, kept: KeptSkin) -> Result<Skin, GridSizeError> {
+        Ok(Skin {
+            builds: kept.builds,
+            sorted_sparse: kept.sorted_sparse,
+            built: kept.built,
+            ..Skin::new(h, kept.width)?
+        })
+    }
+
+    /// What a checkpoint keeps of it.
+    pub fn kept(&self) -> KeptSkin {
+        KeptSkin {
+            width: self.width,
+            builds: self.builds,
+            sorted_sparse: self.sorted_sparse,
+            built: self.built.clone(),
+        }
     }
 
     /// The grid whose cells the lists are built on.
@@ -48,11 +89,23 @@ impl Skin {
         self.builds
     }
 
-    /// Whether the lists must be built again: never built, or some particle (in the same
-    /// slot as at the build) has moved more than half the skin since, or is not finite.
+    /// Whether the lists must be built again whatever the particles: never built, or
+    /// expired ([`Self::expire`]).
+    pub fn is_stale_by_build(&self) -> bool {
+        self.built[0].is_empty()
+    }
+
+    /// Makes the next placement a build (as when the pair structure changes).
+    pub fn expire(&mut self) {
+        self.built.iter_mut().for_each(Vec::clear);
+    }
+
+    /// Whether the lists must be built again: never built or expired, or some particle
+    /// (in the same slot as at the build) has moved more than half the skin since, or is
+    /// not finite.
     pub fn is_stale(&self, particles: &Particles) -> bool {
         let n = particles.len();
-        if self.built[0].len() != n || self.builds == 0 {
+        if self.is_stale_by_build() || self.built[0].len() != n {
             return true;
         }
         let limit = (self.width / 2.0).powi(2);
@@ -68,8 +121,10 @@ impl Skin {
         !finite || largest > limit
     }
 
-    /// Records the positions of a build (the particles in their new slots).
-    pub fn record(&mut self, particles: &Particles) {
+    /// Records the positions of a build (the particles in their new slots) and whether
+    /// its sort ran as after a sparse one.
+    pub fn record(&mut self, particles: &Particles, sorted_sparse: bool) {
+        self.sorted_sparse = sorted_sparse;
         let n = particles.len();
         for (built, p) in self.built.iter_mut().zip(&particles.p) {
             built.clear();
@@ -95,7 +150,7 @@ mod tests {
         assert!(skin.grid().block_size.min_element() >= h + 0.002);
         let mut particles = Particles::zeroed(3);
         assert!(skin.is_stale(&particles), "never built");
-        skin.record(&particles);
+        skin.record(&particles, false);
         assert_eq!(skin.builds(), 1);
         assert!(!skin.is_stale(&particles));
         particles.p[1][2] = 0.0009;
@@ -106,5 +161,22 @@ mod tests {
         particles.p[2][0] = f64::NAN;
         assert!(skin.is_stale(&particles), "not finite");
         assert!(skin.heap_bytes() >= 3 * 3 * 8);
+        skin.expire();
+        assert!(skin.is_stale(&particles), "expired");
+        assert_eq!(skin.builds(), 1);
+    }
+
+    #[test]
+    fn a_kept_skin_is_restored_as_it_was() {
+        let h = 0.006;
+        let mut skin = Skin::new(h, 0.002).unwrap();
+        let mut particles = Particles::zeroed(4);
+        particles.p[1][3] = 0.01;
+        skin.record(&particles, true);
+        skin.record(&particles, true);
+        let restored = Skin::restored(h, skin.kept()).unwrap();
+        assert_eq!(restored, skin);
+        assert_eq!(restored.builds(), 2);
+        assert_eq!(restored.kept().built[1][3], 0.01);
     }
 }

@@ -11,6 +11,7 @@ use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
 use crate::lab::diagnostics::{self, Diagnostics};
 use crate::sim::simulation::Simulation;
+use crate::sim::skin::Skin;
 use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::error::Error;
@@ -69,6 +70,8 @@ fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint
         Some("time step")
     } else if state.integrator != simulation.integrator() {
         Some("integrator")
+    } else if state.skin.as_ref().map(|skin| skin.width) != simulation.skin().map(Skin::width) {
+        Some("skin")
     } else if !state.model_state.starts_with(&simulation.model_state()) {
         // The same input and model start from the same state, with which what a model
         // keeps begins: the settings differ.
@@ -120,9 +123,6 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         mut simulation,
         ..
     } = load(&args.simulation)?;
-    if args.checkpoint.is_some() && args.simulation.skin.is_some() {
-        return Err("--checkpoint: runs with --skin cannot be checkpointed (yet)".into());
-    }
     let mut first = 1;
     let input_crc = match args.checkpoint.is_some() || args.resume.is_some() {
         true => crc32fast::hash(&read_regular(input)?),
@@ -143,7 +143,9 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
             return Err(format!("{} is at {beyond}", path.display()).into());
         }
         first = checkpoint.step + 1;
-        simulation = Simulation::resume(checkpoint.state).map_err(|error| error.to_string())?;
+        let structure = args.simulation.pairs;
+        simulation =
+            Simulation::resume(checkpoint.state, structure).map_err(|error| error.to_string())?;
     }
     // Every file is tried, and its room reserved, before simulating.
     let particles = simulation.particles().len();
@@ -251,9 +253,7 @@ fn write_checkpoint(
     input: u32,
     simulation: &Simulation,
 ) -> Result<(), Box<dyn Error>> {
-    let state = simulation
-        .resumable()
-        .ok_or("this run's state cannot be checkpointed")?;
+    let state = simulation.resumable();
     let bytes = checkpoint::encode(&Checkpoint { step, input, state });
     Ok(OutputFile::create(path)?.commit(&bytes)?)
 }

@@ -42,11 +42,12 @@ pub struct SimulationArgs {
     #[arg(long, allow_negative_numbers = true, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
     pub adaptive: Option<f64>,
     /// Reuse the cell order and neighbour lists (or tiles, or clusters) with a skin this
-    /// many smoothing lengths wide, rebuilding them when a particle has moved half the
-    /// skin (the pairs closer than h stay exactly those of a rebuild every step). Pays
-    /// for the weakly compressible model's short steps (0.02-0.05 on the dam break), not
-    /// for the course models' 1 ms steps (perf/README.md).
-    #[arg(long, allow_negative_numbers = true, value_name = "FRACTION_OF_H", value_parser = parse_skin)]
+    /// many cut-offs wide, rebuilding them when a particle has moved half the skin (the
+    /// pairs closer than the cut-off stay exactly those of a rebuild every step); 0
+    /// rebuilds them every step. Default: the weakly compressible model 0.05, whose
+    /// short steps it pays for; the course models 0, whose 1 ms steps it does not
+    /// (perf/README.md).
+    #[arg(long, allow_negative_numbers = true, value_name = "FRACTION_OF_CUTOFF", value_parser = parse_skin)]
     pub skin: Option<f64>,
     /// The neighbour structure of the SIMD pair loops on dense scenes.
     #[arg(long, value_enum, default_value_t = PairStructure::default())]
@@ -171,9 +172,11 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     simulation.set_integrator(args.integrator);
     simulation.set_pair_structure(args.pairs);
     let h = simulation.params().h;
-    simulation
-        .set_skin(args.skin.map(|fraction| fraction * h))
-        .map_err(|error| format!("--skin: {error}"))?;
+    if let Some(fraction) = args.skin {
+        simulation
+            .set_skin((fraction > 0.0).then_some(fraction * h))
+            .map_err(|error| format!("--skin: {error}"))?;
+    }
     Ok(Loaded {
         stem: stem.to_string_lossy().into_owned(),
         simulation,
@@ -414,11 +417,11 @@ pub fn parse_courants(text: &str) -> Result<Courants, String> {
         .map(Courants)
 }
 
-/// Parses a skin width in smoothing lengths: finite and positive.
+/// Parses a skin width in cut-offs: finite and not negative (0: none).
 fn parse_skin(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
-        Ok(width) if width.is_finite() && width > 0.0 => Ok(width),
-        _ => Err(format!("{text} is not a positive skin width")),
+        Ok(width) if width.is_finite() && width >= 0.0 => Ok(width),
+        _ => Err(format!("{text} is not a skin width (0 or more)")),
     }
 }
 

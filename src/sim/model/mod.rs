@@ -116,6 +116,12 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// The time-step rule unless told otherwise (a fixed rule runs at [`Params::dt`]).
     fn default_time_step(&self) -> TimeStep;
 
+    /// The skin its neighbour lists are kept over steps with unless told otherwise, as
+    /// a fraction of the cut-off (none: rebuilt every step; [`crate::sim::skin`]).
+    fn default_skin(&self) -> Option<f64> {
+        None
+    }
+
     /// The smoothing length of the model's kernel (m), in which accuracy budgets are
     /// given: the cut-off unless the kernel's support is wider than h.
     fn smoothing_length(&self, params: &Params) -> f64 {

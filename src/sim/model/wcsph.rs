@@ -58,6 +58,10 @@ pub const ARTIFICIAL_VISCOSITY: f64 = 0.1;
 pub const DENSITY_DIFFUSION: f64 = 0.1;
 /// The default Courant constant of the CFL time step.
 pub const COURANT: f64 = 0.2;
+/// The skin its neighbour lists are kept with, in cut-offs: its CFL steps move a
+/// particle a small fraction of the cut-off (measured on the dam break:
+/// `perf/README.md`, round four).
+pub const SKIN: f64 = 0.05;
 
 /// How the box's walls act on the viscous terms.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -355,6 +359,10 @@ impl Dynamics for Wcsph {
 
     fn default_time_step(&self) -> TimeStep {
         TimeStep::Adaptive { courant: COURANT }
+    }
+
+    fn default_skin(&self) -> Option<f64> {
+        Some(SKIN)
     }
 
     fn smoothing_length(&self, _params: &Params) -> f64 {
