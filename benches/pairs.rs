@@ -46,6 +46,14 @@ fn roofline(c: &mut Criterion) {
         group.bench_function(format!("accelerations/{}", kernel.name()), |b| {
             b.iter(|| packed.acceleration_floor::<true>(kernel, &params))
         });
+        if kernel == Kernel::Simd8 {
+            for isa in InstructionSet::ALL.into_iter().filter(|i| i.is_available()) {
+                let name = format!("accelerations-without-divider/simd8/{}", isa.name());
+                group.bench_function(name, |b| {
+                    b.iter(|| packed.acceleration_floor_without_divider(&params, isa))
+                });
+            }
+        }
         group.finish();
         let mut group = c.benchmark_group("lists");
         group.throughput(Throughput::Elements(packed.len() as u64));

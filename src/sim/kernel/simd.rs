@@ -834,6 +834,42 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
         let dist = L::sqrt(L::max(r2, self.min_distance_squared));
         let q = self.h - dist;
         let pressure = self.pressure_factor * q * q / dist * excess;
+        self.terms_of(q, pressure, d, close, per_density_product, dv)
+    }
+
+    /// As [`Self::terms`], given 1 / dist (`over_dist`: of the larger of r2 and the least
+    /// distance squared) instead of a square root and a division: what the floor
+    /// measures of a divider-free 1/r ([`crate::sim::isa`]'s `reciprocal_sqrt8`), which
+    /// the reference outputs' byte-exact kernels do not use.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn terms_over(
+        &self,
+        d: [L::V; 3],
+        r2: L::V,
+        over_dist: L::V,
+        close: L::V,
+        excess: L::V,
+        per_density_product: L::V,
+        dv: [L::V; 3],
+    ) -> [L::V; 3] {
+        let dist = L::max(r2, self.min_distance_squared) * over_dist;
+        let q = self.h - dist;
+        let pressure = self.pressure_factor * q * q * over_dist * excess;
+        self.terms_of(q, pressure, d, close, per_density_product, dv)
+    }
+
+    /// The terms of a pair at `h - dist` = `q` with its pressure factor `pressure`.
+    #[inline(always)]
+    fn terms_of(
+        &self,
+        q: L::V,
+        pressure: L::V,
+        d: [L::V; 3],
+        close: L::V,
+        per_density_product: L::V,
+        dv: [L::V; 3],
+    ) -> [L::V; 3] {
         let term = |axis: usize| {
             let mut viscosity = dv[axis] * self.viscosity_factor;
             if FLUIDANIMATE {
