@@ -1186,7 +1186,7 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 }
 
 /// The offset of the last step's length in a checkpoint's encoding (after the magic,
-/// step, input CRC, ppm, time, the five names and the time step's value).
+/// step, input CRC, ppm, time, the six names and the time step's value).
 fn last_step_offset(decoded: &Checkpoint) -> usize {
     let state = &decoded.state;
     let rule = match state.time_step {
@@ -1200,6 +1200,7 @@ fn last_step_offset(decoded: &Checkpoint) -> usize {
         rule,
         limit,
         state.integrator.name(),
+        state.structure.name(),
     ];
     36 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
 }
@@ -1207,7 +1208,7 @@ fn last_step_offset(decoded: &Checkpoint) -> usize {
 /// The properties of [`checkpoint::decode`] on `bytes`: no panic; an error is a non-empty
 /// one-line message; a decoded checkpoint re-encodes to the same bytes, except that the
 /// last step's length (which a checkpoint without a last step does not use) is written
-/// as the canonical NaN, and the re-encoding decodes again.
+/// as the canonical NaN (and the checksum over it), and the re-encoding decodes again.
 fn check_checkpoint(bytes: &[u8]) -> Result<Option<Checkpoint>, TestCaseError> {
     match checkpoint::decode(bytes) {
         Ok(decoded) => {
@@ -1216,6 +1217,10 @@ fn check_checkpoint(bytes: &[u8]) -> Result<Option<Checkpoint>, TestCaseError> {
             if decoded.state.last_step.is_none() {
                 let at = last_step_offset(&decoded);
                 expected[at..at + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+                // Sealed again over the canonical NaN.
+                let body = expected.len() - 4;
+                let checksum = crc32fast::hash(&expected[..body]);
+                expected[body..].copy_from_slice(&checksum.to_le_bytes());
             }
             prop_assert!(encoded == expected, "re-encoding changed the bytes");
             prop_assert!(checkpoint::decode(&encoded).is_ok());
@@ -1245,18 +1250,26 @@ proptest! {
     }
 
     /// Valid checkpoints with 1 to 4 byte flips, special values written over any 8
-    /// bytes, truncations, removals and appended bytes: `checkpoint::decode` never panics,
+    /// bytes, truncations, removals and appended bytes, half of them resealed with the
+    /// checksum of their new bytes (as another program might write them, so that the
+    /// fields behind the checksum are reached): `checkpoint::decode` never panics,
     /// refuses a checkpoint cut short or lengthened (without any other change), and
     /// whatever it accepts re-encodes to the same bytes.
     #[test]
     fn checkpoint_decode_handles_corrupted_checkpoints(
         which in 0usize..3,
         mutations in prop::collection::vec(mutation(), 1..5),
+        resealed in any::<bool>(),
     ) {
         let original = &valid_checkpoints()[which];
         let mut bytes = original.clone();
         for mutation in &mutations {
             mutation.apply(&mut bytes);
+        }
+        if resealed && bytes.len() > 4 {
+            let body = bytes.len() - 4;
+            let checksum = crc32fast::hash(&bytes[..body]);
+            bytes[body..].copy_from_slice(&checksum.to_le_bytes());
         }
         let decoded = check_checkpoint(&bytes)?;
         let only_length = mutations

@@ -4,21 +4,23 @@
 //! Layout (little-endian): the magic `FLUIDCK6`; the step count (u64); the CRC-32 of the
 //! input file the run started from (u32, so a resume from another input is refused);
 //! particles per metre and the time (f64); the model, kernel, time-step rule, last step's
-//! limit and integrator as length-prefixed names (u8 length), the time step's value (f64:
-//! dt or the Courant constant), the last step's length (f64, NaN before the first step);
-//! what the model keeps of itself ([`crate::sim::model::Dynamics::saved`]: a count, u64,
-//! then that many f64; the weakly compressible model's sound speed and settings, and
-//! under the velocity Verlet its last density rates; none for the others); the sparse
-//! flag (u8); the skin of lists kept over steps ([`crate::sim::skin::KeptSkin`]: a u8,
-//! 0 for none, else 1 then its width (f64), its builds (u64), how its last sort ran (u8)
-//! and whether its last build's positions follow (u8): not before the first, or once
-//! expired); the particle count n (u64); then n ids (u32) and,
-//! per particle field p, hv, v, a (x, y, z) and rho, n f64 each; a built skin's positions
-//! at its last build (x, y, z, n f64 each); last, the CRC-32 of every byte before it
-//! (u32), so a corrupted checkpoint is refused. Versions 1-5 (before the integrators;
-//! version 3 before the models kept their own state; version 5 before the skin) are
-//! refused, with a message that says so.
+//! limit, integrator and pair structure (which decides the order of the pair sums) as
+//! length-prefixed names (u8 length); the time step's value (f64: dt or the Courant
+//! constant), the last step's length (f64, NaN before the first step); what the model
+//! keeps of itself ([`crate::sim::model::Dynamics::saved`]: a count, u64, then that many
+//! f64; the weakly compressible model's sound speed and settings, and under the velocity
+//! Verlet its last density rates; none for the others); the sparse flag (u8); the skin
+//! of lists kept over steps ([`crate::sim::skin::KeptSkin`]: a u8, 0 for none, else 1
+//! then its width (f64), its builds (u64), how its last sort ran (u8) and whether its
+//! last build's positions follow (u8: not before the first build, nor once expired));
+//! the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a (x,
+//! y, z) and rho, n f64 each; a built skin's positions at its last build (x, y, z, n f64
+//! each); last, the CRC-32 of every byte before it (u32), so a corrupted checkpoint is
+//! refused. Versions 1-5 (before the integrators; version 3 before the models kept
+//! their own state; version 5 before the skin and the pair structure) are refused, with
+//! a message that says so.
 
+use crate::sim::clusters::PairStructure;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
@@ -80,6 +82,7 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
         rule,
         last_limit,
         state.integrator.name(),
+        state.structure.name(),
     ] {
         bytes.push(name.len() as u8);
         bytes.extend_from_slice(name.as_bytes());
@@ -153,7 +156,12 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     let input = reader.u32()?;
     let ppm = reader.f64()?;
     let time = reader.f64()?;
-    let [model, kernel, rule, limit, integrator] = [(); 5].map(|()| reader.name());
+    let [model, kernel, rule, limit, integrator, structure] = [(); 6].map(|()| reader.name());
+    let structure = structure?;
+    let structure = *PairStructure::ALL
+        .iter()
+        .find(|s| s.name() == structure)
+        .ok_or("unknown pair structure")?;
     let integrator = integrator?;
     let integrator = *Integrator::ALL
         .iter()
@@ -287,6 +295,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
             method: Method { model, kernel },
             time_step,
             integrator,
+            structure,
             time,
             last_step,
             sparse,
@@ -404,6 +413,27 @@ mod tests {
             decode(&encode(&wider)).unwrap_err(),
             "its skin's width or builds are not a skin's"
         );
+        let mut unbuilt = skinned(true);
+        unbuilt.state.skin.as_mut().unwrap().builds = 0;
+        assert_eq!(
+            decode(&encode(&unbuilt)).unwrap_err(),
+            "its skin's width or builds are not a skin's"
+        );
+        // A flag of 2, resealed: the skin's (after the sparse flag), then its sort's.
+        let bytes = encode(&skinned(true));
+        let skin_flag = bytes.len() - 4 - 3 * (4 + 13 * 8 + 3 * 8) - 8 - (1 + 8 + 8 + 1 + 1);
+        assert_eq!(bytes[skin_flag], 1);
+        for (at, message) in [
+            (skin_flag, "bad skin flag"),
+            (skin_flag + 17, "bad sort flag"),
+        ] {
+            let mut bad = bytes.clone();
+            bad[at] = 2;
+            let body = bad.len() - 4;
+            let checksum = crc32fast::hash(&bad[..body]);
+            bad[body..].copy_from_slice(&checksum.to_le_bytes());
+            assert_eq!(decode(&bad).unwrap_err(), message);
+        }
         let mut not_finite = skinned(true);
         not_finite.state.skin.as_mut().unwrap().built[2][1] = f64::NAN;
         assert_eq!(

@@ -92,7 +92,7 @@ pub struct Candidate {
     pub kernel: Kernel,
     /// How each step's length is chosen.
     pub time_step: TimeStep,
-    /// The skin of reused neighbour lists, in smoothing lengths (none: rebuilt every step).
+    /// The skin of reused neighbour lists, in cut-offs (none: rebuilt every step).
     pub skin: Option<f64>,
     /// How each step advances the state.
     pub integrator: Integrator,

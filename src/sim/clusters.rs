@@ -41,6 +41,24 @@ pub enum PairStructure {
     Lists,
 }
 
+impl PairStructure {
+    /// Every structure.
+    pub const ALL: [PairStructure; 3] = [
+        PairStructure::Tiles,
+        PairStructure::Clusters,
+        PairStructure::Lists,
+    ];
+
+    /// Its name on the command line and in checkpoints.
+    pub fn name(self) -> &'static str {
+        match self {
+            PairStructure::Tiles => "tiles",
+            PairStructure::Clusters => "clusters",
+            PairStructure::Lists => "lists",
+        }
+    }
+}
+
 /// Places per cluster: an `f64x4` register, half an `f64x8` one.
 pub const CLUSTER: usize = 4;
 

@@ -4,7 +4,9 @@
 //! transposed into lanes (for 4 lanes a 256-bit load per slot and an AVX2 transpose; for
 //! 8, a scalar load per field and lane on every instruction set, which measured as fast
 //! on AMD's Zen 4 as AVX-512's transposes, and faster than a gather per field,
-//! `_mm512_i32gather_pd`: `perf/README.md`, round four). Each instruction set is a token type implementing
+//! `_mm512_i32gather_pd`: `perf/README.md`, round four); and 1/sqrt without a divider
+//! (`vrsqrt14pd` and Newton steps), which only the floor's bench runs. Each instruction
+//! set is a token type implementing
 //! [`Gathers`] that can only be made where its instructions run ([`Avx512`]: AVX-512F
 //! and VL; [`Avx2`]; [`Portable`]: plain Rust, on every CPU), so its methods are safe:
 //! every `unsafe` block here rests on the token's check and on the bounds its method
@@ -127,7 +129,8 @@ impl Slots {
     }
 }
 
-/// The left-pack and the 4-lane fetch of records, on one instruction set.
+/// The left-pack, the 4-lane fetch of records and the reciprocal square root, on one
+/// instruction set.
 pub(crate) trait Gathers: Copy {
     /// Writes to the front of `out` `values[k]` for each bit k set in `kept`, in order,
     /// and returns how many (it may write anything to the 16 elements from there).
@@ -138,12 +141,12 @@ pub(crate) trait Gathers: Copy {
     /// The records of the first 4 slots of `at`, transposed: row f holds field f of each.
     fn records4(self, records: &[Record], at: &Slots) -> [[f64; 4]; 4];
     /// 1 / sqrt(x) of 8 positive lanes without a divider where the CPU allows (AVX-512's
-    /// 14-bit `vrsqrt14pd` and two Newton steps, within a few units in the last place);
-    /// elsewhere the exact quotient.
+    /// 14-bit `vrsqrt14pd` and two Newton steps, within 4 epsilon relative); elsewhere a
+    /// rounded square root and a rounded division.
     fn reciprocal_sqrt8(self, x: [f64; 8]) -> [f64; 8];
 }
 
-/// 1 / sqrt(x), lane by lane, exactly rounded sqrt and division.
+/// 1 / sqrt(x), lane by lane: a rounded square root, then a rounded division.
 #[inline(always)]
 fn reciprocal_sqrt_exact(x: [f64; 8]) -> [f64; 8] {
     x.map(|x| 1.0 / x.sqrt())
@@ -364,7 +367,7 @@ mod x86 {
             unsafe { std::mem::transmute(records4_avx2(records, at)) }
         }
 
-        /// AVX2 has no f64 reciprocal square root: the exact quotient.
+        /// AVX2 has no f64 reciprocal square root: a square root and a division.
         #[inline(always)]
         fn reciprocal_sqrt8(self, x: [f64; 8]) -> [f64; 8] {
             reciprocal_sqrt_exact(x)

@@ -30,6 +30,8 @@ pub struct Resumable {
     pub time_step: TimeStep,
     /// How steps advance the state.
     pub integrator: Integrator,
+    /// The structure the SIMD pair loops run on (it decides the order of their sums).
+    pub structure: PairStructure,
     /// Physical time simulated so far (s).
     pub time: f64,
     /// The last step's length and what set it.
@@ -78,7 +80,7 @@ pub struct Simulation {
     time: f64,
     /// The last step's length and what set it (none before the first step).
     last_step: Option<(f64, Limit)>,
-    /// Lists reused with a skin, if the run asked for them.
+    /// Lists reused with a skin, if the model's default or the run asks for them.
     skin: Option<Skin>,
     /// How each step advances the state.
     integrator: Integrator,
@@ -320,9 +322,18 @@ impl Simulation {
         }
         copy.method = method;
         copy.placement += 1;
-        if copy.clusters_built || copy.lists_built {
-            // Until the next build (with a skin, when it goes stale), the copy's passes
-            // run on the tiles of the same cell order.
+        if copy
+            .skin
+            .as_ref()
+            .is_some_and(|skin| !skin.is_stale_by_build())
+        {
+            // The copy's structure as the skin's last build would have found it on the
+            // copy's kernel: kept until the skin goes stale, and what a resume of the
+            // copy's checkpoint rebuilds.
+            copy.find_neighbours_as_built();
+        } else if copy.clusters_built || copy.lists_built {
+            // Until the next step places them, the copy's passes run on the tiles of
+            // the same cell order.
             copy.clusters_built = false;
             copy.lists_built = false;
             copy.find_tiles();
@@ -346,6 +357,7 @@ impl Simulation {
             method: self.method,
             time_step: self.time_step,
             integrator: self.integrator,
+            structure: self.structure,
             time: self.time,
             last_step: self.last_step,
             sparse: self.cells.is_sparse(),
@@ -358,9 +370,8 @@ impl Simulation {
     /// The simulation of a [`Self::resumable`] state: its next step is the one the
     /// checkpointed simulation would have taken. Fails if its particles per metre admit
     /// no grid, the model's state is not the model's, or a skin's last build is not
-    /// that of these particles. Its pair loops run on `structure` (a skin's last build
-    /// is placed on it, as the checkpointed run's was).
-    pub fn resume(state: Resumable, structure: PairStructure) -> Result<Self, String> {
+    /// that of these particles.
+    pub fn resume(state: Resumable) -> Result<Self, String> {
         let mut dynamics = state.method.model.dynamics();
         dynamics.restore(&state.method.model.params(state.ppm), &state.model_state)?;
         let params = Params::with_cutoff(state.ppm, dynamics.cutoff(state.ppm));
@@ -372,7 +383,7 @@ impl Simulation {
         simulation.cells = CellOrder::resumed(state.sparse);
         simulation.time = state.time;
         simulation.last_step = state.last_step;
-        simulation.structure = structure;
+        simulation.structure = state.structure;
         simulation.skin = None;
         if let Some(kept) = state.skin {
             let skin = Skin::restored(params.h, kept).map_err(|error| error.to_string())?;
@@ -399,13 +410,13 @@ impl Simulation {
             }
             self.cells = CellOrder::resumed(kept.sorted_sparse);
             let moved = self.cells.sort_on(skin.grid(), &self.grid, &self.particles);
+            self.particles.p = now;
             if moved || self.cells.is_sparse() != sparse {
                 return Err("its particles are not in the order of its skin's last build".into());
             }
             self.skin = Some(skin);
             self.placement += 1;
-            self.find_neighbours();
-            self.particles.p = now;
+            self.find_neighbours_as_built();
         } else {
             self.skin = Some(skin);
         }
@@ -460,6 +471,11 @@ impl Simulation {
     /// If this CPU does not run it.
     pub fn set_instruction_set(&mut self, isa: InstructionSet) {
         self.lists.set_instruction_set(isa);
+    }
+
+    /// The structure the SIMD pair loops run on from the next placement.
+    pub fn pair_structure(&self) -> PairStructure {
+        self.structure
     }
 
     /// How steps' lengths are chosen.
@@ -659,6 +675,21 @@ impl Simulation {
         } else {
             self.find_tiles();
         }
+    }
+
+    /// The neighbour structure of the current cell order at the positions of the skin's
+    /// last build (at the current positions without a skin): what that build found, on
+    /// the current kernel and structure.
+    fn find_neighbours_as_built(&mut self) {
+        let n = self.particles.len();
+        let now = self.particles.p.clone();
+        if let Some(skin) = &self.skin {
+            for (axis, built) in self.particles.p.iter_mut().zip(skin.built()) {
+                axis[..n].copy_from_slice(&built[..n]);
+            }
+        }
+        self.find_neighbours();
+        self.particles.p = now;
     }
 
     /// The lists of the placement's tiles at the current positions, within the cut-off
@@ -1072,27 +1103,25 @@ mod tests {
         }
     }
 
-    /// Steps `start` `steps` times, and resumes a copy from the checkpointed state of
-    /// every step before: each ends bit for bit where the whole run does. Returns the
-    /// whole run's builds.
+    /// Steps `start` `steps` times, and resumes a copy from the checkpointed state
+    /// before each step (the start's included): each ends bit for bit where the whole
+    /// run does. Returns the whole run's builds.
     fn assert_resumes_bit_for_bit(start: &Simulation, steps: usize) -> u64 {
         let mut whole = start.clone();
         let mut states = Vec::new();
         for _ in 0..steps {
-            whole.step();
             states.push(whole.resumable());
+            whole.step();
         }
-        let end = whole.resumable();
+        // Debug's shortest round-trip digits tell every two f64 apart, -0.0 from 0.0.
+        let end = format!("{:?}", whole.resumable());
         for (done, state) in states.into_iter().enumerate() {
-            let mut resumed = Simulation::resume(state, start.structure).unwrap();
-            for _ in done + 1..steps {
+            let mut resumed = Simulation::resume(state).unwrap();
+            for _ in done..steps {
                 resumed.step();
             }
-            assert!(
-                resumed.resumable() == end,
-                "resumed after step {}",
-                done + 1
-            );
+            let state = format!("{:?}", resumed.resumable());
+            assert!(state == end, "resumed after step {done}");
         }
         whole.skin().unwrap().builds()
     }
@@ -1120,18 +1149,58 @@ mod tests {
             .unwrap();
         let builds = assert_resumes_bit_for_bit(&fluidanimate, 24);
         assert!(builds > 1 && builds < 24, "{builds} builds in 24 steps");
-        let mut cloud = Particles::zeroed(200);
+        // A lattice 3 cm apart (lone particles, more than a cell of h + skin apart),
+        // jittered, 8 of them 4 mm from another.
+        let mut cloud = Particles::zeroed(64);
         let mut random = fastrand::Rng::with_seed(8);
-        for axis in &mut cloud.p {
-            axis.iter_mut()
-                .for_each(|x| *x = -0.05 + 0.1 * random.f64());
+        for (d, axis) in cloud.p.iter_mut().enumerate() {
+            for (slot, x) in axis.iter_mut().enumerate() {
+                let k = [slot % 4, slot / 4 % 4, slot / 16][d];
+                *x = BOX_MIN[d] + 0.01 + 0.03 * k as f64 + 0.002 * random.f64();
+            }
+            for k in 0..8 {
+                axis[k] = axis[k + 32] + 0.004;
+            }
         }
         let mut sparse =
-            Simulation::with_method(150.0, cloud, method(Model::Fluidanimate)).unwrap();
+            Simulation::with_method(150.0, cloud.clone(), method(Model::Fluidanimate)).unwrap();
         sparse.set_skin(Some(0.3 * sparse.params().h)).unwrap();
         sparse.run(1);
         assert!(sparse.cells().is_sparse());
         assert_resumes_bit_for_bit(&sparse, 12);
+        // The weakly compressible model's placement on the cloud: its first sort ran as
+        // after a dense one and found the cloud sparse, so a resume must sort the
+        // build's positions as the build did, not as the next sort will.
+        let cloud = Simulation::with_method(150.0, cloud, method(Model::Wcsph)).unwrap();
+        assert!(cloud.cells().is_sparse());
+        assert!(!cloud.skin().unwrap().kept().sorted_sparse);
+        assert_resumes_bit_for_bit(&cloud, 6);
+        // Kept clusters and tiles; a skin expired by a change of structure, and one set
+        // but not yet built.
+        for structure in [PairStructure::Clusters, PairStructure::Tiles] {
+            let mut other = wcsph.clone();
+            other.set_pair_structure(structure);
+            assert!(other.skin().unwrap().is_stale_by_build());
+            assert_resumes_bit_for_bit(&other, 12);
+        }
+        let mut unbuilt = wcsph.clone();
+        unbuilt.set_skin(Some(0.1 * unbuilt.params().h)).unwrap();
+        assert_resumes_bit_for_bit(&unbuilt, 12);
+        // A copy for another kernel while the skin is fresh: its lists as the build
+        // would have found them on its kernel, which is what its checkpoint rebuilds.
+        let mut stepped = wcsph.clone();
+        stepped.run(3);
+        for kernel in [Kernel::Simd, Kernel::Scalar] {
+            let copy = stepped
+                .clone_with_method(Method {
+                    kernel,
+                    ..stepped.method()
+                })
+                .unwrap();
+            assert!(!copy.skin().unwrap().is_stale(copy.particles()), "fresh");
+            assert_eq!(copy.lists().is_some(), kernel == Kernel::Simd);
+            assert_resumes_bit_for_bit(&copy, 8);
+        }
         // A state whose slots are not in its last build's order is refused: the first and
         // last slots' build positions swapped (the first and last cells').
         let mut moved = wcsph.clone();
@@ -1142,7 +1211,7 @@ mod tests {
             axis.swap(0, last);
         }
         assert_eq!(
-            Simulation::resume(state, PairStructure::Lists).unwrap_err(),
+            Simulation::resume(state).unwrap_err(),
             "its particles are not in the order of its skin's last build"
         );
     }

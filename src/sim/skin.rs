@@ -84,6 +84,11 @@ impl Skin {
         &self.grid
     }
 
+    /// Each slot's position at the last build (empty before the first, or expired).
+    pub fn built(&self) -> &AxisArrays {
+        &self.built
+    }
+
     /// Builds so far.
     pub fn builds(&self) -> u64 {
         self.builds
@@ -130,7 +135,7 @@ impl Skin {
             built.clear();
             built.extend_from_slice(&p[..n]);
         }
-        self.builds += 1;
+        self.builds = self.builds.saturating_add(1);
     }
 
     /// The bytes its recorded positions hold on the heap.

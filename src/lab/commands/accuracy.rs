@@ -45,8 +45,8 @@ pub struct AccuracyArgs {
     /// Integrators, each with every kernel and time-step rule.
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = Integrator::ALL)]
     integrators: Vec<Integrator>,
-    /// Skins of reused neighbour lists, in smoothing lengths, each method also run with
-    /// (default: none, lists rebuilt every step).
+    /// Skins of reused neighbour lists, in cut-offs (the course models' h), each method
+    /// also run with (default: none, lists rebuilt every step).
     #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
     skins: Vec<f64>,
     /// Physical times (s) at which states are compared, ascending (default: every 4 ms to

@@ -53,7 +53,7 @@ pub struct RunArgs {
 
 /// Reads the checkpoint at `path` and checks that it continues the run `simulation`
 /// starts from the input whose CRC-32 is `input` (same input, model, kernel, time-step
-/// rule, integrator and model settings).
+/// rule, integrator, model settings, skin and pair structure).
 fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint, String> {
     let shown = path.display();
     let bytes = read_regular(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
@@ -72,6 +72,8 @@ fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint
         Some("integrator")
     } else if state.skin.as_ref().map(|skin| skin.width) != simulation.skin().map(Skin::width) {
         Some("skin")
+    } else if state.structure != simulation.pair_structure() {
+        Some("pair structure")
     } else if !state.model_state.starts_with(&simulation.model_state()) {
         // The same input and model start from the same state, with which what a model
         // keeps begins: the settings differ.
@@ -143,9 +145,7 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
             return Err(format!("{} is at {beyond}", path.display()).into());
         }
         first = checkpoint.step + 1;
-        let structure = args.simulation.pairs;
-        simulation =
-            Simulation::resume(checkpoint.state, structure).map_err(|error| error.to_string())?;
+        simulation = Simulation::resume(checkpoint.state).map_err(|error| error.to_string())?;
     }
     // Every file is tried, and its room reserved, before simulating.
     let particles = simulation.particles().len();
