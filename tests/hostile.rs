@@ -819,6 +819,17 @@ fn checkpoints_continue_bit_for_bit() {
         "{}",
         stderr(&output)
     );
+    // Nor one that asks for another pair structure (the order of the sums).
+    let output = resume(&[
+        "--model",
+        "wcsph",
+        "--integrator",
+        "verlet",
+        "--pairs",
+        "tiles",
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(stderr(&output).contains("a checkpoint of a run with another pair structure"));
     // A checkpoint of the format before the integrators (version 4, which held the
     // model's values after a one-byte count) is refused, not misread.
     let mut older = std::fs::read(path("part.ck")).unwrap();
