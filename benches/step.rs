@@ -1,11 +1,15 @@
 //! Criterion benchmarks: whole time steps and single stages, on the bundled inputs in their
-//! initial (dense) state and in the blown-up state of the course model after 50 steps, for
-//! every model (single stages: the course and fluidanimate models, whose stages are
-//! SPEC.md's; the weakly compressible model has one pair pass, timed in its whole steps)
-//! and every fast kernel, plus whole steps of generated scenes of 3,000 to 100,000
-//! particles (time per particle-step). Every model's SIMD kernels run on clusters on the
-//! dense states, the default since round three (issue 25); their whole steps are also
-//! timed on the tiles, under the same name ending in `/tiles`.
+//! initial (dense) state, in the blown-up state of the course model after 50 steps and in
+//! its scattered state after 1,000 (the phase of `fluid`'s long runs), for every model
+//! (single stages: the course and fluidanimate models, whose stages are SPEC.md's; the
+//! weakly compressible model has one pair pass, timed in its whole steps) and every fast
+//! kernel; the floor of the per-particle stages (`floor/...`: one read-modify-write pass
+//! over the state arrays, [`fluid::sim::stages::state_floor`], per particle) on the
+//! scattered states; and whole steps of generated scenes of 3,000 to 100,000 particles
+//! (time per particle-step). Every model's SIMD kernels run on neighbour lists on the
+//! dense states, the default since round four; their whole steps are also timed on the
+//! tiles, under the same name ending in `/tiles`. The states are rebuilt every step (no
+//! skin).
 //!
 //! `cargo bench --bench step -- --profile-time 10 <filter>` also writes a flamegraph of
 //! each selected benchmark to `target/criterion/<benchmark>/profile/flamegraph.svg`.
@@ -15,7 +19,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughpu
 use fluid::io::fld;
 use fluid::lab::scene;
 use fluid::sim::clusters::PairStructure;
-use fluid::sim::stages::Stage;
+use fluid::sim::stages::{self, Stage};
 use fluid::Simulation;
 use fluid::{Kernel, Method, Model};
 use pprof::ProfilerGuard;
@@ -27,6 +31,10 @@ const SAMPLING_HZ: i32 = 250;
 
 /// Steps after which the course model has blown up (most particles metres away).
 const BLOW_UP_STEPS: u64 = 50;
+
+/// Steps after which the course model is scattered: almost no particle has a partner
+/// closer than h (the phase of `fluid`'s long runs, issue 35).
+const SCATTERED_STEPS: u64 = 1000;
 
 /// Criterion's hook for `--profile-time`: samples the benchmark with pprof and writes a
 /// flamegraph SVG beside criterion's report.
@@ -62,11 +70,12 @@ fn load(name: &str, method: Method) -> Simulation {
 }
 
 /// The benchmarked states: (label, model, steps run before measuring).
-const STATES: [(&str, Model, u64); 4] = [
+const STATES: [(&str, Model, u64); 5] = [
     ("dense", Model::Course, 0),
     ("dense", Model::Fluidanimate, 0),
     ("dense", Model::Wcsph, 0),
     ("blown-up", Model::Course, BLOW_UP_STEPS),
+    ("scattered", Model::Course, SCATTERED_STEPS),
 ];
 
 /// The state after `steps`, its lists rebuilt every step (a step cloned from a state
@@ -136,6 +145,26 @@ fn single_stages(c: &mut Criterion) {
     }
 }
 
+/// The floor of the per-particle stages on the course model's scattered states: one
+/// read-modify-write pass over the state arrays, per particle.
+fn state_floor(c: &mut Criterion) {
+    for input in ["small.fld", "large.fld"] {
+        let scattered = state(input, Model::Course, Kernel::Simd, SCATTERED_STEPS);
+        let particles = scattered.particles().clone();
+        let dt = scattered.params().dt;
+        let mut group = c.benchmark_group(format!("floor/{input}/scattered"));
+        group.throughput(Throughput::Elements(particles.len() as u64));
+        group.bench_function("state-pass", |b| {
+            b.iter_batched_ref(
+                || particles.clone(),
+                |particles| stages::state_floor(dt, particles),
+                BatchSize::LargeInput,
+            )
+        });
+        group.finish();
+    }
+}
+
 /// Whole steps of the stable model on a block of fluid at 400 particles per metre, from 3,000
 /// to 100,000 particles; throughput is in particle-steps.
 fn scaling(c: &mut Criterion) {
@@ -162,6 +191,6 @@ fn configured() -> Criterion {
 criterion_group! {
     name = benches;
     config = configured();
-    targets = whole_steps, single_stages, scaling
+    targets = whole_steps, single_stages, state_floor, scaling
 }
 criterion_main!(benches);
