@@ -40,8 +40,9 @@ pub struct RunArgs {
     /// The checkpoint file that --checkpoint-every writes.
     #[arg(long, requires = "checkpoint_every")]
     checkpoint: Option<PathBuf>,
-    /// Go on from this checkpoint (of a run of the same input, model, kernel and time
-    /// step) to --steps in all (or to --until), bit for bit as if never stopped;
+    /// Go on from this checkpoint (of a run of the same input, model, kernel, time step,
+    /// integrator, model settings, skin and pair structure) to --steps in all (or to
+    /// --until), bit for bit as if never stopped;
     /// diagnostics then start at the checkpoint's step.
     #[arg(long)]
     resume: Option<PathBuf>,
@@ -70,14 +71,14 @@ fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint
         Some("time step")
     } else if state.integrator != simulation.integrator() {
         Some("integrator")
-    } else if state.skin.as_ref().map(|skin| skin.width) != simulation.skin().map(Skin::width) {
-        Some("skin")
-    } else if state.structure != simulation.pair_structure() {
-        Some("pair structure")
     } else if !state.model_state.starts_with(&simulation.model_state()) {
         // The same input and model start from the same state, with which what a model
         // keeps begins: the settings differ.
         Some("setting of its model")
+    } else if state.skin.as_ref().map(|skin| skin.width) != simulation.skin().map(Skin::width) {
+        Some("skin")
+    } else if state.structure != simulation.pair_structure() {
+        Some("pair structure")
     } else {
         None
     };

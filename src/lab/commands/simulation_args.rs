@@ -175,7 +175,7 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     if let Some(fraction) = args.skin {
         simulation
             .set_skin((fraction > 0.0).then_some(fraction * h))
-            .map_err(|error| format!("--skin: {error}"))?;
+            .map_err(|error| format!("--skin {fraction}: too wide for the box ({error})"))?;
     }
     Ok(Loaded {
         stem: stem.to_string_lossy().into_owned(),
