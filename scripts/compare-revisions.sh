@@ -6,6 +6,9 @@
 #
 # Usage: scripts/compare-revisions.sh "STEPS INPUT" REV [REV ...]
 #   e.g. scripts/compare-revisions.sh "1000 data/in/large.fld" f0edf9e HEAD
+# First runs each revision once and compares its output file byte for byte with the last
+# revision's (a change that only skips or fuses work must leave it identical): prints
+# "same" or "DIFFERENT" per revision, and exits 1 after the timings if any differs.
 # Prints a markdown table of the median, fastest and slowest of 10 runs per revision
 # (also kept in target/revisions/<STEPS>-<input>.md; hyperfine's CSV beside it).
 set -euo pipefail
@@ -36,6 +39,21 @@ for rev in "$@"; do
     commands+=(-n "$rev ($hash)" "$tree/target/release/fluid $steps $input /dev/null")
 done
 report="target/revisions/$steps-$(basename "$input" .fld)"
+outputs=()
+for rev in "$@"; do
+    hash="$(git rev-parse --short "$rev")"
+    outputs+=("$report-$hash.fld")
+    "target/revisions/$hash/target/release/fluid" "$steps" "$input" "${outputs[-1]}" >/dev/null
+done
+differ=0
+for k in "${!outputs[@]}"; do
+    if cmp -s "${outputs[$k]}" "${outputs[-1]}"; then
+        echo "output of ${*:k+1:1}: same as ${*: -1}" >&2
+    else
+        echo "output of ${*:k+1:1}: DIFFERENT from ${*: -1}" >&2
+        differ=1
+    fi
+done
 hyperfine -N --warmup 2 --runs 10 --export-csv "$report.csv" "${commands[@]}" >&2
 # CSV columns: command,mean,stddev,median,user,system,min,max (seconds).
 awk -F, -v what="fluid $steps $input" '
@@ -47,3 +65,4 @@ awk -F, -v what="fluid $steps $input" '
             printf "| %s | %.4f | %.4f | %.4f | %.2fx |\n", name[i], median[i], low[i], high[i],
                 median[i] / median[last]
     }' "$report.csv" | tee "$report.md"
+exit "$differ"

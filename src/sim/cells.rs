@@ -15,6 +15,7 @@
 //! The clamped block still decides the wall stages: each particle's walls are recorded here.
 
 use crate::sim::grid::Grid;
+use crate::sim::isa::{Gathers, InstructionSet, OnInstructionSet};
 use crate::sim::params::BOX_MIN;
 use crate::sim::particles::Particles;
 
@@ -218,7 +219,8 @@ fn wall_bits(grid: &Grid, block: [i64; 3]) -> WallBits {
 /// coarse cell ("lone": no pair within h can involve them). Each particle is counted (up
 /// to 2) in a hashed table of 2x2x2 blocks of cells; the 27 cells around a particle's cell
 /// lie in 8 such blocks, so a particle is lone if those 8 count it alone. Hash collisions
-/// only ever add counts, so a particle it calls lone is lone.
+/// only ever add counts, so a particle it calls lone is lone. A particle's 8 lookups are
+/// one gather ([`Gathers::words8`]) where the CPU has one.
 #[derive(Debug, Clone, Default)]
 struct LoneFilter {
     /// Two bits per hashed block: bit 0 "one particle or more", bit 1 "two or more".
@@ -232,7 +234,7 @@ const BLOCK_BITS: u32 = 16;
 
 impl LoneFilter {
     /// Sets `lone[k]` for each of `cells` (coarse cells) that is lone.
-    fn find(&mut self, cells: &[Cell], lone: &mut Vec<bool>) {
+    fn find<G: Gathers>(&mut self, isa: G, cells: &[Cell], lone: &mut Vec<bool>) {
         // About 64 blocks per particle: a block counts others by mistake rarely.
         let index_bits = (64 * cells.len().max(1)).next_power_of_two().ilog2();
         self.shift = u64::BITS - index_bits;
@@ -254,21 +256,42 @@ impl LoneFilter {
         lone.extend(cells.iter().map(|cell| {
             let first = pack_block(cell.map(|c| (c - 1) >> 1));
             let own = (0..3).fold(0, |k, d| k | (usize::from(cell[d] & 1 == 0) << d));
+            let hashes = offsets.map(|offset| self.hash(first + offset));
+            let words = isa.words8(&self.words, hashes.map(|hash| hash / 32));
             let mut count = 0;
-            for (k, offset) in offsets.iter().enumerate() {
-                let (word, bit) = self.slot(first + offset);
-                let counts = self.words[word] >> bit;
+            for k in 0..8 {
+                let counts = words[k] >> (2 * (hashes[k] % 32));
                 count += (counts & 1) + (counts >> 1 & u64::from(k == own));
             }
             count == 1
         }));
     }
 
+    /// A packed block's position in the table.
+    #[inline(always)]
+    fn hash(&self, packed: u64) -> u64 {
+        packed.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> self.shift
+    }
+
     /// The word and bit of a packed block's counts.
     #[inline(always)]
     fn slot(&self, packed: u64) -> (usize, u32) {
-        let hash = (packed.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> self.shift) as usize;
+        let hash = self.hash(packed) as usize;
         (hash / 32, 2 * (hash % 32) as u32)
+    }
+}
+
+/// [`LoneFilter::find`] on one instruction set.
+struct FindLone<'a> {
+    filter: &'a mut LoneFilter,
+    cells: &'a [Cell],
+    lone: &'a mut Vec<bool>,
+}
+
+impl OnInstructionSet for FindLone<'_> {
+    type Output = ();
+    fn run<G: Gathers>(self, isa: G) {
+        self.filter.find(isa, self.cells, self.lone);
     }
 }
 
@@ -301,6 +324,8 @@ pub struct CellOrder {
     /// particles), so that this one filters them out first.
     sparse: bool,
     lone_filter: LoneFilter,
+    /// The instructions the lone filter's lookups run on.
+    isa: InstructionSet,
     // Reused buffers.
     lone: Vec<bool>,
     cells: Vec<Cell>,
@@ -315,6 +340,15 @@ impl CellOrder {
     /// first (part of what a checkpoint keeps: it decides the next sort's slot order).
     pub fn is_sparse(&self) -> bool {
         self.sparse
+    }
+
+    /// Runs the lone filter's lookups with `isa` from now on.
+    ///
+    /// # Panics
+    /// If this CPU does not run it.
+    pub fn set_instruction_set(&mut self, isa: InstructionSet) {
+        assert!(isa.is_available(), "this CPU does not run {}", isa.name());
+        self.isa = isa;
     }
 
     /// An empty cell order whose next sort runs as after a sort that found the particles
@@ -401,7 +435,11 @@ impl CellOrder {
         let n = self.cells.len();
         self.order.clear();
         if self.sparse {
-            self.lone_filter.find(&self.cells, &mut self.lone);
+            self.isa.run(FindLone {
+                filter: &mut self.lone_filter,
+                cells: &self.cells,
+                lone: &mut self.lone,
+            });
             let lone = &self.lone;
             self.order
                 .extend((0..n as u32).filter(|&slot| !lone[slot as usize]));
@@ -755,6 +793,28 @@ mod tests {
             "{paired} of {truly_lone}"
         );
         assert!(cells.keys()[..paired].is_sorted());
+    }
+
+    #[test]
+    fn the_lone_filter_finds_the_same_particles_on_every_instruction_set() {
+        let grid = grid();
+        let mut unit = uniform(0x5851_f42d_4c95_7f2d);
+        let mut next = || unit() * 10.0 - 5.0;
+        let points: Vec<[f64; 3]> = (0..5000).map(|_| [next(), next(), next()]).collect();
+        let particles = positions(&points);
+        let orders: Vec<Vec<u32>> = InstructionSet::ALL
+            .into_iter()
+            .filter(|isa| isa.is_available())
+            .map(|isa| {
+                let mut cells = CellOrder::resumed(true);
+                cells.set_instruction_set(isa);
+                cells.sort(&grid, &particles);
+                let paired = cells.keys().len() - SENTINELS;
+                assert!(paired < points.len() / 2, "{}: {paired}", isa.name());
+                cells.order().to_vec()
+            })
+            .collect();
+        assert!(orders.windows(2).all(|pair| pair[0] == pair[1]));
     }
 
     #[test]

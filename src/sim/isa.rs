@@ -5,7 +5,8 @@
 //! 8, a scalar load per field and lane on every instruction set, which measured as fast
 //! on AMD's Zen 4 as AVX-512's transposes, and faster than a gather per field,
 //! `_mm512_i32gather_pd`: `perf/README.md`, round four); and 1/sqrt without a divider
-//! (`vrsqrt14pd` and Newton steps), which only the floor's bench runs. Each instruction
+//! (`vrsqrt14pd` and Newton steps), which only the floor's bench runs; and the gather of
+//! 8 words of a table by index (`vpgatherqq`), the lone filter's lookups. Each instruction
 //! set is a token type implementing
 //! [`Gathers`] that can only be made where its instructions run ([`Avx512`]: AVX-512F
 //! and VL; [`Avx2`]; [`Portable`]: plain Rust, on every CPU), so its methods are safe:
@@ -129,8 +130,8 @@ impl Slots {
     }
 }
 
-/// The left-pack, the 4-lane fetch of records and the reciprocal square root, on one
-/// instruction set.
+/// The left-pack, the 4-lane fetch of records, the reciprocal square root and the gather
+/// of words, on one instruction set.
 pub(crate) trait Gathers: Copy {
     /// Writes to the front of `out` `values[k]` for each bit k set in `kept`, in order,
     /// and returns how many (it may write anything to the 16 elements from there).
@@ -144,6 +145,18 @@ pub(crate) trait Gathers: Copy {
     /// 14-bit `vrsqrt14pd` and two Newton steps, within 4 epsilon relative); elsewhere a
     /// rounded square root and a rounded division.
     fn reciprocal_sqrt8(self, x: [f64; 8]) -> [f64; 8];
+    /// `words[at[k]]` for each of 8 indices: one gather on AVX-512 and AVX2.
+    ///
+    /// # Panics
+    /// If any index is not below `words.len()`.
+    fn words8(self, words: &[u64], at: [u64; 8]) -> [u64; 8];
+}
+
+/// Panics unless every index of `at` is below `len`.
+#[inline(always)]
+fn check_words(len: usize, at: &[u64; 8]) {
+    let below = at.iter().fold(true, |all, &k| all & (k < len as u64));
+    assert!(below, "a word index beyond its array");
 }
 
 /// 1 / sqrt(x), lane by lane: a rounded square root, then a rounded division.
@@ -200,6 +213,11 @@ impl Gathers for Portable {
     fn reciprocal_sqrt8(self, x: [f64; 8]) -> [f64; 8] {
         reciprocal_sqrt_exact(x)
     }
+
+    #[inline(always)]
+    fn words8(self, words: &[u64], at: [u64; 8]) -> [u64; 8] {
+        at.map(|k| words[k as usize])
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -207,7 +225,7 @@ pub(crate) use x86::{Avx2, Avx512};
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{check_records, reciprocal_sqrt_exact, Gathers, Record, Slots};
+    use super::{check_records, check_words, reciprocal_sqrt_exact, Gathers, Record, Slots};
     use std::arch::x86_64::*;
 
     /// AVX-512F and AVX-512VL (and AVX2), checked at run time.
@@ -320,6 +338,21 @@ mod x86 {
             }
             out
         }
+
+        #[inline(always)]
+        fn words8(self, words: &[u64], at: [u64; 8]) -> [u64; 8] {
+            check_words(words.len(), &at);
+            let mut out = [0; 8];
+            // SAFETY: the token exists only where AVX-512F runs; the load reads the 8 u64
+            // of `at`, the gather reads `words` at each of them (checked below its length,
+            // scale 8 bytes per word), the store writes the 8 of `out`.
+            unsafe {
+                let at = _mm512_loadu_si512(at.as_ptr().cast());
+                let gathered = _mm512_i64gather_epi64::<8>(at, words.as_ptr().cast());
+                _mm512_storeu_si512(out.as_mut_ptr().cast(), gathered);
+            }
+            out
+        }
     }
 
     /// For each 8-bit mask, the lanes of its set bits in order, then zeros: AVX2's
@@ -372,6 +405,24 @@ mod x86 {
         fn reciprocal_sqrt8(self, x: [f64; 8]) -> [f64; 8] {
             reciprocal_sqrt_exact(x)
         }
+
+        #[inline(always)]
+        fn words8(self, words: &[u64], at: [u64; 8]) -> [u64; 8] {
+            check_words(words.len(), &at);
+            let mut out = [0; 8];
+            // SAFETY: the token exists only where AVX2 runs; the loads read the halves of
+            // `at`'s 8 u64, the gathers read `words` at each of them (checked below its
+            // length, scale 8 bytes per word), the stores write the halves of `out`.
+            unsafe {
+                for half in [0, 4] {
+                    let at = _mm256_loadu_si256(at[half..].as_ptr().cast());
+                    let base = words.as_ptr().cast();
+                    let gathered = _mm256_i64gather_epi64::<8>(base, at);
+                    _mm256_storeu_si256(out[half..].as_mut_ptr().cast(), gathered);
+                }
+            }
+            out
+        }
     }
 }
 
@@ -414,6 +465,10 @@ mod tests {
                 assert_eq!(packed, expected, "mask {kept:016b}");
                 assert_eq!(out[16], u32::MAX, "nothing written past 16");
             }
+            // Words by index, repeated and at both ends.
+            let words: Vec<u64> = (0..40u64).map(|k| k * k * 0x9e37_79b9 + 7).collect();
+            let at = [3, 39, 0, 17, 17, 8, 21, 5];
+            assert_eq!(isa.words8(&words, at), at.map(|k| words[k as usize]));
             // 1 / sqrt over 30 decades, within 4 units in the last place of the exact.
             for decade in -20..10 {
                 let x: [f64; 8] =
@@ -428,7 +483,7 @@ mod tests {
     }
 
     #[test]
-    fn every_available_instruction_set_fetches_packs_and_takes_reciprocal_roots_alike() {
+    fn every_available_instruction_set_fetches_packs_gathers_and_takes_reciprocal_roots_alike() {
         let mut ran = 0;
         for isa in InstructionSet::ALL {
             if isa.is_available() {
@@ -457,6 +512,28 @@ mod tests {
         {
             let fetch = std::panic::catch_unwind(|| isa.run(FetchFrom(&[[1.0; 4]; 8])));
             assert!(fetch.is_err(), "{}", isa.name());
+        }
+    }
+
+    #[test]
+    fn a_word_index_beyond_the_array_is_refused_on_every_instruction_set() {
+        for isa in InstructionSet::ALL
+            .into_iter()
+            .filter(|isa| isa.is_available())
+        {
+            let gather = std::panic::catch_unwind(|| isa.run(WordsFrom(&[1; 8], 8)));
+            assert!(gather.is_err(), "{}", isa.name());
+            assert_eq!(isa.run(WordsFrom(&[1; 8], 7)), [1; 8], "{}", isa.name());
+        }
+    }
+
+    /// Words gathered at index `.1` (and 0) from `.0`.
+    struct WordsFrom<'a>(&'a [u64], u64);
+
+    impl OnInstructionSet for WordsFrom<'_> {
+        type Output = [u64; 8];
+        fn run<G: Gathers>(self, isa: G) -> [u64; 8] {
+            isa.words8(self.0, [0, 0, 0, self.1, 0, 0, 0, 0])
         }
     }
 

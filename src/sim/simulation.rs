@@ -471,6 +471,7 @@ impl Simulation {
     /// If this CPU does not run it.
     pub fn set_instruction_set(&mut self, isa: InstructionSet) {
         self.lists.set_instruction_set(isa);
+        self.cells.set_instruction_set(isa);
     }
 
     /// The structure the SIMD pair loops run on from the next placement.

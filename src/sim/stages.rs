@@ -7,7 +7,7 @@ use crate::sim::cells::{wall_bit, Wall, WallBits, Walls};
 use crate::sim::params::{BOX_MAX, BOX_MIN, COLLISION_STIFFNESS, DAMPING, PARTICLE_SIZE};
 use crate::sim::particles::Particles;
 use crate::sim::timestep::Leapfrog;
-use wide::{f64x4, i32x4};
+use wide::{f64x8, i32x8};
 
 /// The eight stages of a time step, in execution order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -59,33 +59,33 @@ impl Stage {
 }
 
 /// Slots per group of the per-particle stages.
-const LANES: usize = 4;
+const LANES: usize = 8;
 
 /// Masks of the lanes whose block is on the low wall of `axis`, and on the high wall.
 #[inline(always)]
-fn wall_masks(bits: [WallBits; LANES], axis: usize) -> (f64x4, f64x4) {
-    let bits = i32x4::from(bits.map(i32::from));
+fn wall_masks(bits: [WallBits; LANES], axis: usize) -> (f64x8, f64x8) {
+    let bits = i32x8::from(bits.map(i32::from));
     let on = |wall| {
-        let bit = i32x4::splat(i32::from(wall_bit(axis, wall)));
-        f64x4::from_i32x4(bits & bit).simd_ne(f64x4::ZERO)
+        let bit = i32x8::splat(i32::from(wall_bit(axis, wall)));
+        f64x8::from_i32x8(bits & bit).simd_ne(f64x8::ZERO)
     };
     (on(Wall::Low), on(Wall::High))
 }
 
-/// Stage 6 on one axis of four particles: the acceleration after the wall repulsion and
+/// Stage 6 on one axis of eight particles: the acceleration after the wall repulsion and
 /// damping of their blocks' walls, judged by where each particle would be after `dt` at
 /// its half-step velocity (SPEC.md erratum 5: dt the step; 0 under the velocity Verlet,
 /// [`Leapfrog::lookahead`]). Lanes off the walls keep `a` unchanged.
 #[inline(always)]
-fn collide(axis: usize, walls: (f64x4, f64x4), dt: f64, [p, hv, v, a]: [f64x4; 4]) -> f64x4 {
+fn collide(axis: usize, walls: (f64x8, f64x8), dt: f64, [p, hv, v, a]: [f64x8; 4]) -> f64x8 {
     let (low, high) = walls;
-    let (min, max) = (f64x4::splat(BOX_MIN[axis]), f64x4::splat(BOX_MAX[axis]));
+    let (min, max) = (f64x8::splat(BOX_MIN[axis]), f64x8::splat(BOX_MAX[axis]));
     let (size, stiffness, damping) = (
-        f64x4::splat(PARTICLE_SIZE),
-        f64x4::splat(COLLISION_STIFFNESS),
-        f64x4::splat(DAMPING),
+        f64x8::splat(PARTICLE_SIZE),
+        f64x8::splat(COLLISION_STIFFNESS),
+        f64x8::splat(DAMPING),
     );
-    let threshold = f64x4::splat(1e-10);
+    let threshold = f64x8::splat(1e-10);
     let x = p + hv * dt;
     let low_depth = size - (x - min);
     let high_depth = size - (max - x);
@@ -95,16 +95,16 @@ fn collide(axis: usize, walls: (f64x4, f64x4), dt: f64, [p, hv, v, a]: [f64x4; 4
     (low & low_depth.simd_gt(threshold)).select(pushed_up, a)
 }
 
-/// Stage 7 on one axis of four particles: the new [p, hv, v] of
+/// Stage 7 on one axis of eight particles: the new [p, hv, v] of
 /// p += hv dt + a kick dt; v = hv + a sync / 2; hv += a kick (old hv on the right), which
 /// for equal steps (kick = sync = dt) is SPEC.md's p += hv dt + a dt^2; v = hv + a dt / 2;
 /// hv += a dt.
 #[inline(always)]
-fn motion(step: Leapfrog, [p, hv, _, a]: [f64x4; 4]) -> [f64x4; 3] {
+fn motion(step: Leapfrog, [p, hv, _, a]: [f64x8; 4]) -> [f64x8; 3] {
     let (dt, kick, sync) = (
-        f64x4::splat(step.dt),
-        f64x4::splat(step.kick),
-        f64x4::splat(step.sync),
+        f64x8::splat(step.dt),
+        f64x8::splat(step.kick),
+        f64x8::splat(step.sync),
     );
     [
         p + (hv * dt + a * (kick * dt)),
@@ -113,14 +113,14 @@ fn motion(step: Leapfrog, [p, hv, _, a]: [f64x4; 4]) -> [f64x4; 3] {
     ]
 }
 
-/// Stage 8 on one axis of four particles: [p, hv, v], mirrored back with both
+/// Stage 8 on one axis of eight particles: [p, hv, v], mirrored back with both
 /// velocities reversed where a particle ended beyond a wall of its block.
 #[inline(always)]
-fn bounce(axis: usize, walls: (f64x4, f64x4), [p, hv, v]: [f64x4; 3]) -> [f64x4; 3] {
+fn bounce(axis: usize, walls: (f64x8, f64x8), [p, hv, v]: [f64x8; 3]) -> [f64x8; 3] {
     let (low, high) = walls;
-    let (min, max) = (f64x4::splat(BOX_MIN[axis]), f64x4::splat(BOX_MAX[axis]));
-    let below = low & (p - min).simd_lt(f64x4::ZERO);
-    let above = high & (max - p).simd_lt(f64x4::ZERO);
+    let (min, max) = (f64x8::splat(BOX_MIN[axis]), f64x8::splat(BOX_MAX[axis]));
+    let below = low & (p - min).simd_lt(f64x8::ZERO);
+    let above = high & (max - p).simd_lt(f64x8::ZERO);
     let p = below.select(min - (p - min), above.select(max + (max - p), p));
     let crossed = below | above;
     [p, crossed.select(-hv, hv), crossed.select(-v, v)]
@@ -134,7 +134,7 @@ struct AxisFields<'a> {
     a: &'a mut [f64],
 }
 
-/// Calls `update(wall masks, [p, hv, v, a])` on every group of four slots of `0..n` of
+/// Calls `update(wall masks, [p, hv, v, a])` on every group of eight slots of `0..n` of
 /// one axis and stores the fields it returns (of the last group, only its slots below
 /// `n`). The masks are those of `axis` from `walls` (one entry per slot; none if empty).
 #[inline(always)]
@@ -143,7 +143,7 @@ fn for_each_group(
     walls: &[WallBits],
     axis: usize,
     fields: AxisFields,
-    mut update: impl FnMut((f64x4, f64x4), [f64x4; 4]) -> [f64x4; 4],
+    mut update: impl FnMut((f64x8, f64x8), [f64x8; 4]) -> [f64x8; 4],
 ) {
     let AxisFields { p, hv, v, a } = fields;
     let bits = |at: usize, count: usize| {
@@ -168,7 +168,7 @@ fn for_each_group(
         let group = std::array::from_fn(|k| {
             let mut lanes = [0.0; LANES];
             lanes[..count].copy_from_slice(&arrays[k][full..]);
-            f64x4::from(lanes)
+            f64x8::from(lanes)
         });
         let updated = update(wall_masks(bits(full, count), axis), group);
         for (array, lanes) in arrays.iter_mut().zip(updated) {
@@ -177,10 +177,10 @@ fn for_each_group(
     }
 }
 
-/// The four values of `values` from `at` on.
+/// The eight values of `values` from `at` on.
 #[inline(always)]
-fn lanes_at(values: &[f64], at: usize) -> f64x4 {
-    f64x4::from(<[f64; LANES]>::try_from(&values[at..at + LANES]).expect("four slots"))
+fn lanes_at(values: &[f64], at: usize) -> f64x8 {
+    f64x8::from(<[f64; LANES]>::try_from(&values[at..at + LANES]).expect("eight slots"))
 }
 
 /// The [`AxisFields`] of `axis`.
@@ -267,9 +267,9 @@ pub fn state_floor(dt: f64, particles: &mut Particles) {
 }
 
 /// Both walls of an axis, for every lane.
-const EVERY_WALL: (f64x4, f64x4) = (
-    f64x4::new([f64::from_bits(u64::MAX); LANES]),
-    f64x4::new([f64::from_bits(u64::MAX); LANES]),
+const EVERY_WALL: (f64x8, f64x8) = (
+    f64x8::new([f64::from_bits(u64::MAX); LANES]),
+    f64x8::new([f64::from_bits(u64::MAX); LANES]),
 );
 
 /// The leapfrog of `step` for every particle, then every particle beyond a wall of the
