@@ -256,8 +256,15 @@ struct LoneFilter {
 const BLOCK_BITS: u32 = 16;
 
 impl LoneFilter {
-    /// Sets `lone[k]` for each of `cells` (coarse cells) that is lone.
-    fn find<G: Gathers>(&mut self, isa: G, cells: &[Cell], lone: &mut Vec<bool>) {
+    /// The index of each of `cells` (coarse cells) that may have a pair into `paired`, of
+    /// each that is lone into `lone`, both ascending.
+    fn find<G: Gathers>(
+        &mut self,
+        isa: G,
+        cells: &[Cell],
+        paired: &mut Vec<u32>,
+        lone: &mut Vec<u32>,
+    ) {
         // About 64 blocks per particle: a block counts others by mistake rarely.
         let index_bits = (64 * cells.len().max(1)).next_power_of_two().ilog2();
         self.shift = u64::BITS - index_bits;
@@ -275,8 +282,14 @@ impl LoneFilter {
                 sum | ((k as u64 >> d) & 1) << (BLOCK_BITS * d as u32)
             })
         });
+        // Each index written to both lists, the cursor advancing only in its own: no
+        // branch on whether a particle is lone.
+        paired.clear();
+        paired.resize(cells.len(), 0);
         lone.clear();
-        lone.extend(cells.iter().map(|cell| {
+        lone.resize(cells.len(), 0);
+        let (mut paired_end, mut lone_end) = (0, 0);
+        for (index, cell) in cells.iter().enumerate() {
             let first = pack_block(cell.map(|c| (c - 1) >> 1));
             let own = (0..3).fold(0, |k, d| k | (usize::from(cell[d] & 1 == 0) << d));
             let hashes = offsets.map(|offset| self.hash(first + offset));
@@ -286,8 +299,14 @@ impl LoneFilter {
                 let counts = words[k] >> (2 * (hashes[k] % 32));
                 count += (counts & 1) + (counts >> 1 & u64::from(k == own));
             }
-            count == 1
-        }));
+            let is_lone = count == 1;
+            paired[paired_end] = index as u32;
+            lone[lone_end] = index as u32;
+            paired_end += usize::from(!is_lone);
+            lone_end += usize::from(is_lone);
+        }
+        paired.truncate(paired_end);
+        lone.truncate(lone_end);
     }
 
     /// A packed block's position in the table.
@@ -308,13 +327,14 @@ impl LoneFilter {
 struct FindLone<'a> {
     filter: &'a mut LoneFilter,
     cells: &'a [Cell],
-    lone: &'a mut Vec<bool>,
+    paired: &'a mut Vec<u32>,
+    lone: &'a mut Vec<u32>,
 }
 
 impl OnInstructionSet for FindLone<'_> {
     type Output = ();
     fn run<G: Gathers>(self, isa: G) {
-        self.filter.find(isa, self.cells, self.lone);
+        self.filter.find(isa, self.cells, self.paired, self.lone);
     }
 }
 
@@ -350,7 +370,8 @@ pub struct CellOrder {
     /// The instructions the lone filter's lookups run on.
     isa: InstructionSet,
     // Reused buffers.
-    lone: Vec<bool>,
+    /// The lone particles' slots, ascending.
+    lone: Vec<u32>,
     cells: Vec<Cell>,
     wall_bits: Vec<WallBits>,
     spare_keys: Vec<u64>,
@@ -476,11 +497,9 @@ impl CellOrder {
             self.isa.run(FindLone {
                 filter: &mut self.lone_filter,
                 cells: &self.cells,
+                paired: &mut self.order,
                 lone: &mut self.lone,
             });
-            let lone = &self.lone;
-            self.order
-                .extend((0..n as u32).filter(|&slot| !lone[slot as usize]));
         } else {
             self.order.extend(0..n as u32);
         }
@@ -511,20 +530,20 @@ impl CellOrder {
             self.radix_sort();
         }
         if paired < n {
-            let lone = &self.lone;
-            self.order
-                .extend((0..n as u32).filter(|&slot| lone[slot as usize]));
+            self.order.extend_from_slice(&self.lone);
         }
         let cells = n - paired + self.keys.chunk_by(|a, b| a == b).count();
         self.sparse = 2 * cells > n;
         self.keys.extend([u64::MAX; SENTINELS]);
+        // The walls in the new order, and whether any particle moved, in one pass.
+        let mut moved = false;
         self.walls.bits.clear();
-        let walls = self.order.iter().map(|&old| self.wall_bits[old as usize]);
+        let walls = self.order.iter().enumerate().map(|(slot, &old)| {
+            moved |= slot != old as usize;
+            self.wall_bits[old as usize]
+        });
         self.walls.bits.extend(walls);
-        self.order
-            .iter()
-            .enumerate()
-            .any(|(slot, &old)| slot != old as usize)
+        moved
     }
 
     /// Stable LSD radix sort of `keys` (carrying `order`) in as few digits as the key
