@@ -7,7 +7,7 @@
 # Usage: scripts/compare-revisions.sh "STEPS INPUT" REV [REV ...]
 #   e.g. scripts/compare-revisions.sh "1000 data/in/large.fld" f0edf9e HEAD
 # First runs each revision once and compares its output file byte for byte with the last
-# revision's (a change that only skips or fuses work must leave it identical): prints
+# revision's (each but the last) (a change that only skips or fuses work must leave it identical): prints
 # "same" or "DIFFERENT" per revision, and exits 1 after the timings if any differs.
 # Prints a markdown table of the median, fastest and slowest of 10 runs per revision
 # (also kept in target/revisions/<STEPS>-<input>.md; hyperfine's CSV beside it).
@@ -46,7 +46,7 @@ for rev in "$@"; do
     "target/revisions/$hash/target/release/fluid" "$steps" "$input" "${outputs[-1]}" >/dev/null
 done
 differ=0
-for k in "${!outputs[@]}"; do
+for ((k = 0; k < ${#outputs[@]} - 1; k++)); do
     if cmp -s "${outputs[$k]}" "${outputs[-1]}"; then
         echo "output of ${*:k+1:1}: same as ${*: -1}" >&2
     else
