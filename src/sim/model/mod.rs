@@ -36,7 +36,8 @@ pub enum Model {
     /// Weakly compressible SPH as the validated codes run water (`sim::wcsph`): Tait's
     /// equation of state (gamma 7, sound speed ten times the fastest fall), density by
     /// the continuity equation with delta-SPH, Monaghan's viscosity, the Wendland kernel
-    /// (support 2.6 spacings), free-slip mirror walls, and a CFL time step by default.
+    /// (support 2.6 spacings), mirror walls (no-slip by default), and a CFL time step by
+    /// default.
     Wcsph,
 }
 
