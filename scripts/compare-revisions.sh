@@ -6,9 +6,11 @@
 #
 # Usage: scripts/compare-revisions.sh "STEPS INPUT" REV [REV ...]
 #   e.g. scripts/compare-revisions.sh "1000 data/in/large.fld" f0edf9e HEAD
-# First runs each revision once and compares its output file byte for byte with the last
-# revision's (each but the last) (a change that only skips or fuses work must leave it identical): prints
-# "same" or "DIFFERENT" per revision, and exits 1 after the timings if any differs.
+# First runs each revision once and compares its output file byte for byte with that of
+# the last revision: a change that only skips or fuses work must leave it identical. It
+# prints "same" or "DIFFERENT" for each revision but the last, and exits 3 after the
+# timings if any differs.
+
 # Prints a markdown table of the median, fastest and slowest of 10 runs per revision
 # (also kept in target/revisions/<STEPS>-<input>.md; hyperfine's CSV beside it).
 set -euo pipefail
@@ -51,7 +53,7 @@ for ((k = 0; k < ${#outputs[@]} - 1; k++)); do
         echo "output of ${*:k+1:1}: same as ${*: -1}" >&2
     else
         echo "output of ${*:k+1:1}: DIFFERENT from ${*: -1}" >&2
-        differ=1
+        differ=3
     fi
 done
 hyperfine -N --warmup 2 --runs 10 --export-csv "$report.csv" "${commands[@]}" >&2

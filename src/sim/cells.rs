@@ -243,7 +243,7 @@ fn wall_bits(grid: &Grid, block: [i64; 3]) -> WallBits {
 /// to 2) in a hashed table of 2x2x2 blocks of cells; the 27 cells around a particle's cell
 /// lie in 8 such blocks, so a particle is lone if those 8 count it alone. Hash collisions
 /// only ever add counts, so a particle it calls lone is lone. A particle's 8 lookups are
-/// one gather ([`Gathers::words8`]) where the CPU has one.
+/// one gather ([`Gathers::words8`]) on AVX-512, two on AVX2.
 #[derive(Debug, Clone, Default)]
 struct LoneFilter {
     /// Two bits per hashed block: bit 0 "one particle or more", bit 1 "two or more".
@@ -370,8 +370,6 @@ pub struct CellOrder {
     /// The instructions the lone filter's lookups run on.
     isa: InstructionSet,
     // Reused buffers.
-    /// The lone particles' slots, ascending.
-    lone: Vec<u32>,
     cells: Vec<Cell>,
     wall_bits: Vec<WallBits>,
     spare_keys: Vec<u64>,
@@ -384,6 +382,11 @@ impl CellOrder {
     /// first (part of what a checkpoint keeps: it decides the next sort's slot order).
     pub fn is_sparse(&self) -> bool {
         self.sparse
+    }
+
+    /// The instruction set the lone filter's lookups run on.
+    pub fn instruction_set(&self) -> InstructionSet {
+        self.isa
     }
 
     /// Runs the lone filter's lookups with `isa` from now on.
@@ -411,7 +414,6 @@ impl CellOrder {
             + bytes(&self.order)
             + bytes(&self.walls.bits)
             + bytes(&self.lone_filter.words)
-            + bytes(&self.lone)
             + bytes(&self.cells)
             + bytes(&self.wall_bits)
             + bytes(&self.spare_keys)
@@ -493,18 +495,23 @@ impl CellOrder {
     fn finish(&mut self) -> bool {
         let n = self.cells.len();
         self.order.clear();
-        if self.sparse {
+        // The slots that may have a pair first, then the lone ones in their order (the
+        // radix sort's spare buffer holds them on the way).
+        let paired = if self.sparse {
             self.isa.run(FindLone {
                 filter: &mut self.lone_filter,
                 cells: &self.cells,
                 paired: &mut self.order,
-                lone: &mut self.lone,
+                lone: &mut self.spare_order,
             });
+            let paired = self.order.len();
+            self.order.extend_from_slice(&self.spare_order);
+            paired
         } else {
             self.order.extend(0..n as u32);
-        }
-        let (lowest, highest) = self
-            .order
+            n
+        };
+        let (lowest, highest) = self.order[..paired]
             .iter()
             .map(|&slot| self.cells[slot as usize])
             .fold(([i32::MAX; 3], [i32::MIN; 3]), |(lo, hi), c| {
@@ -513,24 +520,19 @@ impl CellOrder {
                     std::array::from_fn(|d| hi[d].max(c[d])),
                 )
             });
-        self.layout = if self.order.is_empty() {
+        self.layout = if paired == 0 {
             CellLayout::default()
         } else {
             CellLayout::covering(lowest, highest)
         };
         let layout = self.layout;
         self.keys.clear();
-        let keys = self
-            .order
+        let keys = self.order[..paired]
             .iter()
             .map(|&slot| layout.key(self.cells[slot as usize]));
         self.keys.extend(keys);
-        let paired = self.order.len();
         if !self.keys.is_sorted() {
             self.radix_sort();
-        }
-        if paired < n {
-            self.order.extend_from_slice(&self.lone);
         }
         let cells = n - paired + self.keys.chunk_by(|a, b| a == b).count();
         self.sparse = 2 * cells > n;
@@ -546,8 +548,9 @@ impl CellOrder {
         moved
     }
 
-    /// Stable LSD radix sort of `keys` (carrying `order`) in as few digits as the key
-    /// bits need, skipping digits that are equal for every key.
+    /// Stable LSD radix sort of `keys` (carrying the slots at the front of `order`, one
+    /// per key) in as few digits as the key bits need, skipping digits that are equal
+    /// for every key.
     fn radix_sort(&mut self) {
         let n = self.keys.len();
         let bits = self.layout.key_bits();
@@ -575,14 +578,15 @@ impl CellOrder {
                 (*count, total) = (total, total + *count);
             }
             let shift = pass as u32 * digit_bits;
-            for (&key, &old) in self.keys.iter().zip(&self.order) {
+            for (&key, &old) in self.keys.iter().zip(&self.order[..n]) {
                 let cursor = &mut starts[((key >> shift) & mask) as usize];
                 self.spare_keys[*cursor as usize] = key;
                 self.spare_order[*cursor as usize] = old;
                 *cursor += 1;
             }
             std::mem::swap(&mut self.keys, &mut self.spare_keys);
-            std::mem::swap(&mut self.order, &mut self.spare_order);
+            // Copied back rather than swapped: the lone slots follow in `order`.
+            self.order[..n].copy_from_slice(&self.spare_order[..n]);
         }
     }
 
@@ -724,13 +728,38 @@ mod tests {
                 "at {p}"
             );
         }
-        // Eight at a time on lanes, alike.
-        for group in values.chunks_exact(8) {
-            let lanes = coarse_coordinates(group.try_into().unwrap(), BOX_MIN.x, size, exact[0]);
-            let one_by_one = group
-                .iter()
-                .map(|&p| coarse_coordinate(p, BOX_MIN.x, size, exact[0]));
-            assert!(lanes.into_iter().eq(one_by_one), "at {group:?}");
+        // Eight at a time on lanes, alike: these values on every axis's grid, and whole
+        // cells (min 0, size 1) on each side of every octave for every exactness.
+        values.resize(values.len().next_multiple_of(8), 0.5);
+        let check = |values: &[f64], min: f64, size: f64, exact: u32| {
+            for group in values.chunks_exact(8) {
+                let lanes = coarse_coordinates(group.try_into().unwrap(), min, size, exact);
+                let one_by_one = group
+                    .iter()
+                    .map(|&p| coarse_coordinate(p, min, size, exact));
+                assert!(lanes.into_iter().eq(one_by_one), "at {group:?}");
+            }
+        };
+        for d in 0..3 {
+            check(&values, BOX_MIN[d], grid.block_size[d], exact[d]);
+        }
+        let mut whole = Vec::new();
+        for e in 0..31 {
+            let octave = f64::from(1u32 << e);
+            for p in [
+                octave - 1.0,
+                octave,
+                octave + 1.0,
+                octave - 0.5,
+                octave + 0.5,
+            ] {
+                whole.extend([p, -p]);
+            }
+        }
+        whole.extend([CELL_LIMIT, -CELL_LIMIT, CELL_LIMIT + 1.0, -CELL_LIMIT - 1.0]);
+        whole.resize(whole.len().next_multiple_of(8), -0.0);
+        for exact in 2..=11 {
+            check(&whole, 0.0, 1.0, exact);
         }
     }
 
@@ -862,25 +891,59 @@ mod tests {
     }
 
     #[test]
-    fn the_lone_filter_finds_the_same_particles_on_every_instruction_set() {
+    fn the_lone_filter_calls_lone_exactly_what_its_rule_does_on_every_instruction_set() {
         let grid = grid();
         let mut unit = uniform(0x5851_f42d_4c95_7f2d);
         let mut next = || unit() * 10.0 - 5.0;
         let points: Vec<[f64; 3]> = (0..5000).map(|_| [next(), next(), next()]).collect();
         let particles = positions(&points);
-        let orders: Vec<Vec<u32>> = InstructionSet::ALL
-            .into_iter()
-            .filter(|isa| isa.is_available())
-            .map(|isa| {
-                let mut cells = CellOrder::resumed(true);
-                cells.set_instruction_set(isa);
-                cells.sort(&grid, &particles);
-                let paired = cells.keys().len() - SENTINELS;
-                assert!(paired < points.len() / 2, "{}: {paired}", isa.name());
-                cells.order().to_vec()
+        // The filter's rule, one particle at a time from a map of counts per hashed
+        // block: lone where the 8 blocks around its cell hold no other particle.
+        let coarse: Vec<Cell> = points
+            .iter()
+            .map(|&p| coarse_cell(&grid, cell_of(&grid, p)))
+            .collect();
+        let index_bits = (64 * points.len()).next_power_of_two().ilog2();
+        let table = LoneFilter {
+            shift: u64::BITS - index_bits,
+            ..LoneFilter::default()
+        };
+        let slot_of = |block: Cell| table.hash(pack_block(block));
+        let mut counts = std::collections::HashMap::<u64, u32>::new();
+        for cell in &coarse {
+            *counts.entry(slot_of(cell.map(|c| c >> 1))).or_default() += 1;
+        }
+        let count = |block: Cell| counts.get(&slot_of(block)).copied().unwrap_or(0);
+        let expected_lone: Vec<u32> = (0..points.len() as u32)
+            .filter(|&slot| {
+                let cell = coarse[slot as usize];
+                let mut total = u32::from(count(cell.map(|c| c >> 1)) >= 2);
+                for k in 0..8 {
+                    let block = std::array::from_fn(|d| ((cell[d] - 1) >> 1) + (k >> d & 1));
+                    total += u32::from(count(block) >= 1);
+                }
+                total == 1
             })
             .collect();
-        assert!(orders.windows(2).all(|pair| pair[0] == pair[1]));
+        assert!(!expected_lone.is_empty() && expected_lone.len() < points.len());
+        let mut ran = 0;
+        for isa in InstructionSet::ALL
+            .into_iter()
+            .filter(|isa| isa.is_available())
+        {
+            let mut cells = CellOrder::resumed(true);
+            cells.set_instruction_set(isa);
+            cells.sort(&grid, &particles);
+            let paired = cells.keys().len() - SENTINELS;
+            assert_eq!(cells.order()[paired..], expected_lone, "{}", isa.name());
+            let mut order = cells.order().to_vec();
+            order.sort_unstable();
+            assert!(order.iter().copied().eq(0..points.len() as u32));
+            ran += 1;
+        }
+        if cfg!(target_arch = "x86_64") && InstructionSet::Avx2.is_available() {
+            assert!(ran >= 2);
+        }
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! The instructions the neighbour-list loops need and `wide` does not offer: the
+//! The instructions the neighbour-list loops and stage 1's lone filter need and `wide`
+//! does not offer: the
 //! left-pack (compress) of the slots a filter keeps (`vpcompressd` on AVX-512, a
 //! permutation table on AVX2), and the fetch of 4-field records by 32-bit slot indices,
 //! transposed into lanes (for 4 lanes a 256-bit load per slot and an AVX2 transpose; for
@@ -19,7 +20,7 @@
 //! baseline x86-64 still takes every path its host runs, correctly, with the intrinsics
 //! called rather than inlined (slower: such a build is not what the benches measure).
 
-/// An instruction set of the list loops.
+/// An instruction set of the list loops and the lone filter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum InstructionSet {
     /// AVX-512F and AVX-512VL: the compress of 16 lanes (and AVX2's transposes).
@@ -145,7 +146,7 @@ pub(crate) trait Gathers: Copy {
     /// 14-bit `vrsqrt14pd` and two Newton steps, within 4 epsilon relative); elsewhere a
     /// rounded square root and a rounded division.
     fn reciprocal_sqrt8(self, x: [f64; 8]) -> [f64; 8];
-    /// `words[at[k]]` for each of 8 indices: one gather on AVX-512 and AVX2.
+    /// `words[at[k]]` for each of 8 indices: one gather on AVX-512, two on AVX2.
     ///
     /// # Panics
     /// If any index is not below `words.len()`.

@@ -398,28 +398,34 @@ impl Simulation {
     /// order the build left them, or it found them sparse and now does not (or the
     /// reverse).
     fn place_as_built(&mut self, skin: Skin, sparse: bool) -> Result<(), String> {
-        let kept = skin.kept();
         let n = self.particles.len();
-        if !skin.is_stale_by_build() {
-            if kept.built.iter().any(|axis| axis.len() != n) {
-                return Err("its skin's last build is of another number of particles".into());
-            }
-            let now = self.particles.p.clone();
-            for (axis, built) in self.particles.p.iter_mut().zip(&kept.built) {
-                axis[..n].copy_from_slice(built);
-            }
-            self.cells = CellOrder::resumed(kept.sorted_sparse);
-            let moved = self.cells.sort_on(skin.grid(), &self.grid, &self.particles);
-            self.particles.p = now;
-            if moved || self.cells.is_sparse() != sparse {
-                return Err("its particles are not in the order of its skin's last build".into());
-            }
+        if skin.is_stale_by_build() {
             self.skin = Some(skin);
-            self.placement += 1;
-            self.find_neighbours_as_built();
-        } else {
-            self.skin = Some(skin);
+            return Ok(());
         }
+        if skin.built().iter().any(|axis| axis.len() != n) {
+            return Err("its skin's last build is of another number of particles".into());
+        }
+        // The build's positions (padded as the current ones) in place of the current
+        // ones, for the sort and the search, then the current ones back.
+        let padded = self.particles.p[0].len();
+        let built = skin.built().clone().map(|mut axis| {
+            axis.resize(padded, 0.0);
+            axis
+        });
+        let now = std::mem::replace(&mut self.particles.p, built);
+        let isa = self.cells.instruction_set();
+        self.cells = CellOrder::resumed(skin.sorted_sparse());
+        self.cells.set_instruction_set(isa);
+        let moved = self.cells.sort_on(skin.grid(), &self.grid, &self.particles);
+        if moved || self.cells.is_sparse() != sparse {
+            self.particles.p = now;
+            return Err("its particles are not in the order of its skin's last build".into());
+        }
+        self.skin = Some(skin);
+        self.placement += 1;
+        self.find_neighbours();
+        self.particles.p = now;
         Ok(())
     }
 
@@ -464,8 +470,8 @@ impl Simulation {
         self.structure = structure;
     }
 
-    /// Builds and runs the neighbour lists with `isa` from now on (the
-    /// detected one by default).
+    /// Builds and runs the neighbour lists, and runs the cell order's lone filter, with
+    /// `isa` from now on (the detected one by default).
     ///
     /// # Panics
     /// If this CPU does not run it.

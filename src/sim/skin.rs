@@ -89,6 +89,12 @@ impl Skin {
         &self.built
     }
 
+    /// Whether the sort before its last build ran as after a sort that found the
+    /// particles sparse.
+    pub fn sorted_sparse(&self) -> bool {
+        self.sorted_sparse
+    }
+
     /// Builds so far.
     pub fn builds(&self) -> u64 {
         self.builds

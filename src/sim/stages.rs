@@ -428,15 +428,15 @@ mod tests {
 
     #[test]
     fn advance_is_stages_six_seven_and_eight_in_turn() {
-        // Seven particles (a partial last group) around and beyond the walls, with the
-        // blocks a 3 x 3 x 3 grid gives their positions.
+        // Thirteen particles (a full group of 8, then a partial one) around and beyond
+        // the walls, with the blocks a 3 x 3 x 3 grid gives their positions.
         let grid = Grid {
             dims: [3, 3, 3],
             block_size: (BOX_MAX - BOX_MIN) / 3.0,
         };
-        let mut particles = Particles::zeroed(7);
-        for slot in 0..7 {
-            let t = slot as f64 / 6.0;
+        let mut particles = Particles::zeroed(13);
+        for slot in 0..13 {
+            let t = slot as f64 / 12.0;
             for axis in 0..3 {
                 let span = BOX_MAX[axis] - BOX_MIN[axis];
                 particles.p[axis][slot] = BOX_MIN[axis] - 0.001 + (span + 0.002) * t;
@@ -455,8 +455,11 @@ mod tests {
         interact_with_boundary(&walls, &mut in_turn);
         advance(&walls, Leapfrog::fixed(TIME_STEP), &mut particles);
         assert_eq!(particles, in_turn);
-        assert!(walls.bits().iter().any(|&bits| bits != 0));
+        // Particles on walls in both groups, and one mirrored back in each.
+        assert!(walls.bits()[..8].iter().any(|&bits| bits != 0));
+        assert!(walls.bits()[8..].iter().any(|&bits| bits != 0));
         assert_ne!(particles.p[0][0], BOX_MIN.x - 0.001);
+        assert!(particles.p[0][12] <= BOX_MAX.x);
     }
 
     #[test]
