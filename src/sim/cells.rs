@@ -18,7 +18,7 @@ use crate::sim::grid::Grid;
 use crate::sim::isa::{Gathers, InstructionSet, OnInstructionSet};
 use crate::sim::params::BOX_MIN;
 use crate::sim::particles::Particles;
-use wide::{f64x8, i64x8};
+use wide::{f64x8, i64x8, u64x8};
 
 /// Largest cell coordinate magnitude kept; beyond it (about 9,000 km from the box at 204
 /// particles per metre) coordinates saturate, which keeps adjacent cells adjacent.
@@ -242,8 +242,9 @@ fn wall_bits(grid: &Grid, block: [i64; 3]) -> WallBits {
 /// coarse cell ("lone": no pair within h can involve them). Each particle is counted (up
 /// to 2) in a hashed table of 2x2x2 blocks of cells; the 27 cells around a particle's cell
 /// lie in 8 such blocks, so a particle is lone if those 8 count it alone. Hash collisions
-/// only ever add counts, so a particle it calls lone is lone. A particle's 8 lookups are
-/// one gather ([`Gathers::words8`]) on AVX-512, two on AVX2.
+/// only ever add counts, so a particle it calls lone is lone. The lookups run on lanes of
+/// 8 particles, each block's 8 lookups one gather ([`Gathers::words8`]) on AVX-512, two on
+/// AVX2.
 #[derive(Debug, Clone, Default)]
 struct LoneFilter {
     /// Two bits per hashed block: bit 0 "one particle or more", bit 1 "two or more".
@@ -254,6 +255,19 @@ struct LoneFilter {
 
 /// Bits per block coordinate in a packed block; coordinates are offset to be positive.
 const BLOCK_BITS: u32 = 16;
+
+/// The lone filter's hash: a packed block times this, its top bits.
+const HASH_MULTIPLIER: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// Particles per group of the lone filter's lookups.
+const LANES: usize = 8;
+
+/// Which of the 8 blocks around a cell (numbered as the lone filter's offsets) holds the
+/// cell itself: bit d set where the cell's coordinate d is even.
+#[inline(always)]
+fn own_block(cell: Cell) -> u64 {
+    (0..3).fold(0, |k, d| k | (u64::from(cell[d] & 1 == 0) << d))
+}
 
 impl LoneFilter {
     /// The index of each of `cells` (coarse cells) that may have a pair into `paired`, of
@@ -289,30 +303,73 @@ impl LoneFilter {
         lone.clear();
         lone.resize(cells.len(), 0);
         let (mut paired_end, mut lone_end) = (0, 0);
-        for (index, cell) in cells.iter().enumerate() {
-            let first = pack_block(cell.map(|c| (c - 1) >> 1));
-            let own = (0..3).fold(0, |k, d| k | (usize::from(cell[d] & 1 == 0) << d));
-            let hashes = offsets.map(|offset| self.hash(first + offset));
-            let words = isa.words8(&self.words, hashes.map(|hash| hash / 32));
-            let mut count = 0;
-            for k in 0..8 {
-                let counts = words[k] >> (2 * (hashes[k] % 32));
-                count += (counts & 1) + (counts >> 1 & u64::from(k == own));
-            }
-            let is_lone = count == 1;
+        let mut record = |index: usize, is_lone: bool| {
             paired[paired_end] = index as u32;
             lone[lone_end] = index as u32;
             paired_end += usize::from(!is_lone);
             lone_end += usize::from(is_lone);
+        };
+        let mut groups = cells.chunks_exact(LANES);
+        for (group, eight) in groups.by_ref().enumerate() {
+            let lone_lanes = self.lone_lanes(isa, &offsets, eight.try_into().expect("8"));
+            for lane in 0..LANES {
+                record(group * LANES + lane, lone_lanes >> lane & 1 != 0);
+            }
+        }
+        let rest = groups.remainder();
+        for (k, cell) in rest.iter().enumerate() {
+            record(
+                cells.len() - rest.len() + k,
+                self.is_lone(isa, &offsets, cell),
+            );
         }
         paired.truncate(paired_end);
         lone.truncate(lone_end);
     }
 
+    /// Which of 8 cells are lone (bit k for `cells[k]`), on lanes of 8 particles: each
+    /// of a particle's 8 blocks hashed from one product, (b + o) K = b K + o K (wrapping).
+    #[inline(always)]
+    fn lone_lanes<G: Gathers>(&self, isa: G, offsets: &[u64; 8], cells: &[Cell; LANES]) -> u8 {
+        let (mut first, mut own) = ([0; LANES], [0; LANES]);
+        for (lane, cell) in cells.iter().enumerate() {
+            first[lane] = pack_block(cell.map(|c| (c - 1) >> 1));
+            own[lane] = own_block(*cell);
+        }
+        let (first, own) = (u64x8::from(first), u64x8::from(own));
+        let first_hashed = first * u64x8::splat(HASH_MULTIPLIER);
+        let one = u64x8::splat(1);
+        let mut count = u64x8::splat(0);
+        for (k, offset) in offsets.iter().enumerate() {
+            let offset_hashed = u64x8::splat(offset.wrapping_mul(HASH_MULTIPLIER));
+            let hash: u64x8 = (first_hashed + offset_hashed) >> self.shift;
+            let words = u64x8::from(isa.words8(&self.words, (hash >> 5_u32).to_array()));
+            let counts = words >> ((hash & u64x8::splat(31)) << 1);
+            let own_counts = own.simd_eq(u64x8::splat(k as u64)) & (counts >> 1);
+            count = count + (counts & one) + (own_counts & one);
+        }
+        count.simd_eq(one).to_bitmask() as u8
+    }
+
+    /// Whether `cell` is lone, one particle at a time.
+    #[inline(always)]
+    fn is_lone<G: Gathers>(&self, isa: G, offsets: &[u64; 8], cell: &Cell) -> bool {
+        let first = pack_block(cell.map(|c| (c - 1) >> 1));
+        let own = own_block(*cell) as usize;
+        let hashes = offsets.map(|offset| self.hash(first + offset));
+        let words = isa.words8(&self.words, hashes.map(|hash| hash / 32));
+        let mut count = 0;
+        for k in 0..8 {
+            let counts = words[k] >> (2 * (hashes[k] % 32));
+            count += (counts & 1) + (counts >> 1 & u64::from(k == own));
+        }
+        count == 1
+    }
+
     /// A packed block's position in the table.
     #[inline(always)]
     fn hash(&self, packed: u64) -> u64 {
-        packed.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> self.shift
+        packed.wrapping_mul(HASH_MULTIPLIER) >> self.shift
     }
 
     /// The word and bit of a packed block's counts.
@@ -895,7 +952,7 @@ mod tests {
         let grid = grid();
         let mut unit = uniform(0x5851_f42d_4c95_7f2d);
         let mut next = || unit() * 10.0 - 5.0;
-        let points: Vec<[f64; 3]> = (0..5000).map(|_| [next(), next(), next()]).collect();
+        let points: Vec<[f64; 3]> = (0..5003).map(|_| [next(), next(), next()]).collect();
         let particles = positions(&points);
         // The filter's rule, one particle at a time from a map of counts per hashed
         // block: lone where the 8 blocks around its cell hold no other particle.
