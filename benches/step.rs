@@ -4,7 +4,8 @@
 //! (single stages: the course and fluidanimate models, whose stages are SPEC.md's; the
 //! weakly compressible model has one pair pass, timed in its whole steps) and every fast
 //! kernel; the floor of the per-particle stages (`floor/...`: one read-modify-write pass
-//! over the state arrays, [`fluid::sim::stages::state_floor`], per particle) on the
+//! over the state arrays, [`fluid::sim::stages::state_floor`], per particle) and stage 1's
+//! parts (`stage1/...`: the cell order, the gather, the tile search, per particle) on the
 //! scattered states; and whole steps of generated scenes of 3,000 to 100,000 particles
 //! (time per particle-step). Every model's SIMD kernels run on neighbour lists on the
 //! dense states, the default since round four; their whole steps are also timed on the
@@ -19,9 +20,10 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughpu
 use fluid::io::fld;
 use fluid::lab::scene;
 use fluid::sim::clusters::PairStructure;
+use fluid::sim::neighbours::TileSearch;
 use fluid::sim::stages::{self, Stage};
-use fluid::Simulation;
 use fluid::{Kernel, Method, Model};
+use fluid::{Particles, Simulation};
 use pprof::ProfilerGuard;
 use std::fs::File;
 use std::path::Path;
@@ -165,6 +167,36 @@ fn state_floor(c: &mut Criterion) {
     }
 }
 
+/// Stage 1's parts on the course model's scattered states, per particle: the cell order
+/// (cells, the lone filter, the radix sort of the particles it keeps, the walls), the
+/// gather of the state into that order, and the tile search over the kept particles.
+fn stage_one_parts(c: &mut Criterion) {
+    for input in ["small.fld", "large.fld"] {
+        let scattered = state(input, Model::Course, Kernel::Simd, SCATTERED_STEPS);
+        let (grid, particles) = (*scattered.grid(), scattered.particles());
+        let mut sorted = scattered.cells().clone();
+        sorted.sort(&grid, particles);
+        let mut group = c.benchmark_group(format!("stage1/{input}/scattered"));
+        group.throughput(Throughput::Elements(particles.len() as u64));
+        group.bench_function("cell-order", |b| {
+            b.iter_batched_ref(
+                || scattered.cells().clone(),
+                |cells| cells.sort(&grid, particles),
+                BatchSize::LargeInput,
+            )
+        });
+        group.bench_function("gather", |b| {
+            let mut placed = Particles::default();
+            b.iter(|| placed.gather_kinematics(particles, sorted.order()))
+        });
+        group.bench_function("tile-search", |b| {
+            let mut search = TileSearch::default();
+            b.iter(|| search.find(sorted.keys(), sorted.layout()))
+        });
+        group.finish();
+    }
+}
+
 /// Whole steps of the stable model on a block of fluid at 400 particles per metre, from 3,000
 /// to 100,000 particles; throughput is in particle-steps.
 fn scaling(c: &mut Criterion) {
@@ -191,6 +223,6 @@ fn configured() -> Criterion {
 criterion_group! {
     name = benches;
     config = configured();
-    targets = whole_steps, single_stages, state_floor, scaling
+    targets = whole_steps, single_stages, state_floor, stage_one_parts, scaling
 }
 criterion_main!(benches);
