@@ -54,8 +54,9 @@ fn cell_float(p: f64, min: f64, size: f64) -> f64 {
 /// [`coarsen`] of [`cell_coordinate`], computed from the float: for a coordinate of
 /// magnitude m >= 2^`exact_bits`, the exponent of m is its octave and the leading bits of
 /// its mantissa are the bits `coarsen` keeps, so shifting the bits of m right by
-/// 52 - `exact_bits` gives both at once.
-#[inline(always)]
+/// 52 - `exact_bits` gives both at once. One position at a time: the rule that
+/// [`coarse_coordinates`], which stage 1 runs, is tested against.
+#[cfg(test)]
 fn coarse_coordinate(p: f64, min: f64, size: f64, exact_bits: u32) -> i32 {
     let cell = cell_float(p, min, size);
     let magnitude = cell.abs();
@@ -90,6 +91,20 @@ fn coarse_coordinates(p: [f64; 8], min: f64, size: f64, exact_bits: u32) -> [i32
         wide::bytemuck::cast(magnitude.simd_ge(f64x8::splat(f64::from(1u32 << exact_bits))));
     let coordinates = is_far.select(far, cell.trunc_int()).to_array();
     coordinates.map(|c| c as i32)
+}
+
+/// The coarse cells of 8 positions (per axis), on lanes.
+#[inline(always)]
+fn group_cells(p: [[f64; 8]; 3], min: [f64; 3], size: [f64; 3], exact: [u32; 3]) -> [Cell; 8] {
+    let mut axes = [[0; 8]; 3];
+    for (d, axis) in axes.iter_mut().enumerate() {
+        *axis = coarse_coordinates(p[d], min[d], size[d], exact[d]);
+    }
+    let mut cells = [[0; 3]; 8];
+    for (k, cell) in cells.iter_mut().enumerate() {
+        *cell = [axes[0][k], axes[1][k], axes[2][k]];
+    }
+    cells
 }
 
 /// Merges cells far from the box: coordinates below 2^`exact_bits` in magnitude are kept,
@@ -316,12 +331,15 @@ impl LoneFilter {
                 record(group * LANES + lane, lone_lanes >> lane & 1 != 0);
             }
         }
+        // The last few on lanes too, the spare lanes repeating one of them.
         let rest = groups.remainder();
-        for (k, cell) in rest.iter().enumerate() {
-            record(
-                cells.len() - rest.len() + k,
-                self.is_lone(isa, &offsets, cell),
-            );
+        if let Some(&last) = rest.last() {
+            let mut eight = [last; LANES];
+            eight[..rest.len()].copy_from_slice(rest);
+            let lone_lanes = self.lone_lanes(isa, &offsets, &eight);
+            for lane in 0..rest.len() {
+                record(cells.len() - rest.len() + lane, lone_lanes >> lane & 1 != 0);
+            }
         }
         paired.truncate(paired_end);
         lone.truncate(lone_end);
@@ -349,21 +367,6 @@ impl LoneFilter {
             count = count + (counts & one) + (own_counts & one);
         }
         count.simd_eq(one).to_bitmask() as u8
-    }
-
-    /// Whether `cell` is lone, one particle at a time.
-    #[inline(always)]
-    fn is_lone<G: Gathers>(&self, isa: G, offsets: &[u64; 8], cell: &Cell) -> bool {
-        let first = pack_block(cell.map(|c| (c - 1) >> 1));
-        let own = own_block(*cell) as usize;
-        let hashes = offsets.map(|offset| self.hash(first + offset));
-        let words = isa.words8(&self.words, hashes.map(|hash| hash / 32));
-        let mut count = 0;
-        for k in 0..8 {
-            let counts = words[k] >> (2 * (hashes[k] % 32));
-            count += (counts & 1) + (counts >> 1 & u64::from(k == own));
-        }
-        count == 1
     }
 
     /// A packed block's position in the table.
@@ -527,26 +530,25 @@ impl CellOrder {
         self.cells.resize(n, [0; 3]);
         let exact = exact_bits(grid);
         let (min, size) = (BOX_MIN.to_array(), grid.block_size.to_array());
-        // Eight particles at a time on f64x8 lanes, each axis in turn.
+        // Eight particles at a time on f64x8 lanes.
         let mut groups = self.cells.chunks_exact_mut(GROUP);
         for (group, cells) in groups.by_ref().enumerate() {
             let at = group * GROUP;
-            let mut axes = [[0; GROUP]; 3];
-            for (d, axis) in axes.iter_mut().enumerate() {
-                let p = particles.p[d][at..at + GROUP].try_into().expect("a group");
-                *axis = coarse_coordinates(p, min[d], size[d], exact[d]);
-            }
-            for (k, cell) in cells.iter_mut().enumerate() {
-                *cell = [axes[0][k], axes[1][k], axes[2][k]];
-            }
+            let p = particles
+                .p
+                .each_ref()
+                .map(|axis| <[f64; GROUP]>::try_from(&axis[at..at + GROUP]).expect("a group"));
+            cells.copy_from_slice(&group_cells(p, min, size, exact));
         }
+        // The last few on lanes too, the spare lanes at 0.
         let rest = groups.into_remainder();
         let at = n - rest.len();
-        for (k, cell) in rest.iter_mut().enumerate() {
-            *cell = std::array::from_fn(|d| {
-                coarse_coordinate(particles.p[d][at + k], min[d], size[d], exact[d])
-            });
+        let mut p = [[0.0; GROUP]; 3];
+        for (axis, positions) in p.iter_mut().zip(&particles.p) {
+            axis[..rest.len()].copy_from_slice(&positions[at..n]);
         }
+        let last = group_cells(p, min, size, exact);
+        rest.copy_from_slice(&last[..rest.len()]);
     }
 
     fn finish(&mut self) -> bool {
