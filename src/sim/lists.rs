@@ -15,7 +15,7 @@
 use crate::sim::isa::{Gathers, InstructionSet, OnInstructionSet};
 use crate::sim::neighbours::Tile;
 use crate::sim::particles::{AxisArrays, PADDING};
-use wide::{f32x16, u32x16};
+use wide::f32x16;
 
 /// Entries after the last list, so that a group of 8 read from any list's start stays in
 /// the array.
@@ -23,9 +23,6 @@ pub const TAIL: usize = 8;
 
 /// Candidates the build tests at once, in f32 lanes.
 const FILTER_LANES: usize = 16;
-
-/// The own particles from which a cell's candidates are narrowed per octant.
-const SPLIT_FROM: usize = 4;
 
 /// The most partners the lists hold per slot, on average, before a build gives up: a
 /// collapsed scene's pairs grow as the square of its particles, and lists of them would
@@ -52,8 +49,6 @@ pub struct NeighbourLists {
     narrowed: [Vec<f32>; 3],
     /// The build's candidates of one cell.
     candidates: Candidates,
-    /// Those candidates narrowed to each octant of the cell's own particles.
-    octants: Octants,
 }
 
 impl NeighbourLists {
@@ -136,10 +131,6 @@ impl NeighbourLists {
             + self.narrowed.iter().map(bytes).sum::<usize>()
             + self.candidates.p.iter().map(bytes).sum::<usize>()
             + bytes(&self.candidates.slots)
-            + (self.octants.runs.iter())
-                .map(|run| run.p.iter().map(bytes).sum::<usize>() + bytes(&run.slots))
-                .sum::<usize>()
-            + bytes(&self.octants.of)
     }
 }
 
@@ -167,7 +158,6 @@ impl OnInstructionSet for Build<'_> {
             slots,
             narrowed,
             candidates,
-            octants,
             ..
         } = lists;
         let n = *slots;
@@ -188,6 +178,7 @@ impl OnInstructionSet for Build<'_> {
         let epsilon = f64::from(f32::EPSILON);
         let limit = (reach + 2.0 * epsilon * largest) * (1.0 + 4.0 * epsilon);
         let limit2 = f32x16::splat((limit * limit) as f32);
+        let lane = f32x16::from(std::array::from_fn::<f32, FILTER_LANES, _>(|k| k as f32));
         let [x, y, z] = &*narrowed;
         // Every entry, and so every start, stays within u32.
         let capacity = n
@@ -209,26 +200,17 @@ impl OnInstructionSet for Build<'_> {
                 candidates.add(tile.second as usize..tile.second_end as usize, [x, y, z]);
             }
             candidates.pad();
-            let split = own.len() >= SPLIT_FROM;
-            if split {
-                octants.split(own.clone(), [x, y, z], candidates, limit2, isa);
-            }
             // Slots without tiles (lone, or alone in a cell without forward neighbours)
             // have empty lists.
             starts.resize(own.start, end as u32);
             for i in own.clone() {
-                let run = if split {
-                    octants.run_of(i - own.start)
-                } else {
-                    &*candidates
-                };
                 // Room for the list were every candidate kept, the last group's store of
                 // 16 and the tail (grown by an eighth at least: the lists' memory stays
                 // close to what they hold).
-                if end + run.len() > capacity {
+                if end + candidates.len() > capacity {
                     return Err(TooManyPairs);
                 }
-                let room = end + run.len() + FILTER_LANES + TAIL;
+                let room = end + candidates.len() + FILTER_LANES + TAIL;
                 if partners.len() < room {
                     let grown = room.max(partners.len() + partners.len() / 8);
                     partners.reserve_exact(grown - partners.len());
@@ -236,14 +218,14 @@ impl OnInstructionSet for Build<'_> {
                 }
                 starts.push(end as u32);
                 let first = [x[i], y[i], z[i]].map(f32x16::splat);
-                let slot = u32x16::splat(i as u32);
-                for g in (0..run.len()).step_by(FILTER_LANES) {
-                    let [cx, cy, cz] = run.positions(g);
+                let position = (i - own.start) as f32;
+                for g in (0..candidates.len()).step_by(FILTER_LANES) {
+                    let [cx, cy, cz] = candidates.positions(g);
                     let (dx, dy, dz) = (first[0] - cx, first[1] - cy, first[2] - cz);
                     let r2 = dx * dx + dy * dy + dz * dz;
-                    let after = u32x16::from(*run.slots(g)).simd_gt(slot).to_bitmask();
-                    let kept = (r2.simd_lt(limit2).to_bitmask() & after) as u16;
-                    end += isa.left_pack(kept, run.slots(g), &mut partners[end..]);
+                    let after = lane.simd_gt(f32x16::splat(position - g as f32));
+                    let kept = (r2.simd_lt(limit2) & after).to_bitmask() as u16;
+                    end += isa.left_pack(kept, candidates.slots(g), &mut partners[end..]);
                 }
             }
         }
@@ -314,18 +296,6 @@ impl Candidates {
         self.len
     }
 
-    /// Appends the candidates of `from`'s group from `g` whose bits are set in `kept`.
-    #[inline(always)]
-    fn add_kept<G: Gathers>(&mut self, kept: u16, from: &Candidates, g: usize, isa: G) {
-        for (copy, axis) in self.p.iter_mut().zip(&from.p) {
-            let mut packed = [0; FILTER_LANES];
-            isa.left_pack(kept, &group_of(axis, g).map(f32::to_bits), &mut packed);
-            *group_of_mut(copy, self.len) = packed.map(f32::from_bits);
-        }
-        isa.left_pack(kept, from.slots(g), &mut self.slots[self.len..]);
-        self.len += kept.count_ones() as usize;
-    }
-
     /// The positions of the group from `g`.
     #[inline(always)]
     fn positions(&self, g: usize) -> [f32x16; 3] {
@@ -338,84 +308,6 @@ impl Candidates {
     #[inline(always)]
     fn slots(&self, g: usize) -> &[u32; FILTER_LANES] {
         group_of(&self.slots, g)
-    }
-}
-
-/// A cell's candidates narrowed to each octant of its own particles (split at the middle
-/// of their bounding box): those closer than the filter's limit to the bounding box of
-/// the octant's particles, in the same order. Every candidate a particle's filter would
-/// keep is among its octant's (the distance to a box is computed by the same rounded
-/// operations and is no larger), so the lists come out the same, from about 40% fewer
-/// candidates where a cell is as wide as the reach.
-#[derive(Debug, Clone, Default)]
-struct Octants {
-    /// Each octant's candidates.
-    runs: [Candidates; 8],
-    /// The octant of each of the cell's own particles.
-    of: Vec<u8>,
-}
-
-impl Octants {
-    /// Narrows `all`, the candidates of the cell whose own slots are `own` (positions
-    /// `p`), to each octant with particles, within the filter's `limit2`.
-    #[inline(always)]
-    fn split<G: Gathers>(
-        &mut self,
-        own: std::ops::Range<usize>,
-        p: [&Vec<f32>; 3],
-        all: &Candidates,
-        limit2: f32x16,
-        isa: G,
-    ) {
-        let mut low = [f32::INFINITY; 3];
-        let mut high = [f32::NEG_INFINITY; 3];
-        for i in own.clone() {
-            for axis in 0..3 {
-                low[axis] = low[axis].min(p[axis][i]);
-                high[axis] = high[axis].max(p[axis][i]);
-            }
-        }
-        let middle: [f32; 3] = std::array::from_fn(|axis| 0.5 * low[axis] + 0.5 * high[axis]);
-        let mut boxes = [([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]); 8];
-        self.of.clear();
-        for i in own {
-            let octant = (0..3).fold(0, |o, axis| {
-                o | usize::from(p[axis][i] > middle[axis]) << axis
-            });
-            self.of.push(octant as u8);
-            let (low, high) = &mut boxes[octant];
-            for axis in 0..3 {
-                low[axis] = low[axis].min(p[axis][i]);
-                high[axis] = high[axis].max(p[axis][i]);
-            }
-        }
-        for (run, (low, high)) in self.runs.iter_mut().zip(boxes) {
-            if low[0] > high[0] {
-                continue;
-            }
-            run.clear(all.len());
-            let (low, high) = (low.map(f32x16::splat), high.map(f32x16::splat));
-            for g in (0..all.len()).step_by(FILTER_LANES) {
-                let c = all.positions(g);
-                let d: [f32x16; 3] = std::array::from_fn(|axis| {
-                    (low[axis] - c[axis])
-                        .max(c[axis] - high[axis])
-                        .max(f32x16::ZERO)
-                });
-                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                // Kept unless surely beyond (a NaN distance is kept: each particle's own
-                // test decides).
-                let kept = !(d2.simd_ge(limit2).to_bitmask() as u16);
-                run.add_kept(kept, all, g, isa);
-            }
-            run.pad();
-        }
-    }
-
-    /// The candidates of the octant of the cell's own particle `k`.
-    #[inline(always)]
-    fn run_of(&self, k: usize) -> &Candidates {
-        &self.runs[usize::from(self.of[k])]
     }
 }
 
