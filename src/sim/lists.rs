@@ -15,7 +15,7 @@
 use crate::sim::isa::{Gathers, InstructionSet, OnInstructionSet};
 use crate::sim::neighbours::Tile;
 use crate::sim::particles::{AxisArrays, PADDING};
-use wide::{f32x16, f64x8};
+use wide::f32x16;
 
 /// Entries after the last list, so that a group of 8 read from any list's start stays in
 /// the array.
@@ -80,23 +80,6 @@ impl NeighbourLists {
             self.partners.shrink_to_fit();
         }
         built
-    }
-
-    /// The pairs of `outer`'s lists closer than `reach` at positions `p`, in the same
-    /// order: lists kept with a wide skin narrowed each step to a thin one (the inner
-    /// list of a dual pair list).
-    pub fn prune(&mut self, outer: &NeighbourLists, p: &AxisArrays, reach: f64) {
-        let n = outer.slots;
-        assert!(p.iter().all(|axis| axis.len() >= n));
-        self.slots = n;
-        self.isa = outer.isa;
-        self.starts.clear();
-        self.isa.run(Prune {
-            inner: self,
-            outer,
-            p,
-            reach,
-        });
     }
 
     /// The instruction set the lists are built and run with.
@@ -250,57 +233,6 @@ impl OnInstructionSet for Build<'_> {
         partners.resize(partners.len().max(end + TAIL), 0);
         partners[end..end + TAIL].fill(0);
         Ok(())
-    }
-}
-
-/// The prune on one instruction set.
-struct Prune<'a> {
-    inner: &'a mut NeighbourLists,
-    outer: &'a NeighbourLists,
-    p: &'a AxisArrays,
-    reach: f64,
-}
-
-impl OnInstructionSet for Prune<'_> {
-    type Output = ();
-
-    fn run<G: Gathers>(self, isa: G) {
-        let Prune {
-            inner,
-            outer,
-            p,
-            reach,
-        } = self;
-        let [x, y, z] = p;
-        let (starts, partners) = (&mut inner.starts, &mut inner.partners);
-        let entries = outer.entries();
-        partners.resize(partners.len().max(outer.pairs() + FILTER_LANES + TAIL), 0);
-        // Within a hundredth of a percent: the passes test the cut-off themselves.
-        let limit2 = f64x8::splat(reach * reach * (1.0 + 1e-4));
-        let lane = f64x8::from(std::array::from_fn::<f64, 8, _>(|k| k as f64));
-        let mut end = 0;
-        for i in 0..outer.slots {
-            starts.push(end as u32);
-            let range = outer.range(i);
-            let first = [x[i], y[i], z[i]].map(f64x8::splat);
-            for k in range.clone().step_by(8) {
-                let at: [u32; 8] = entries[k..k + 8].try_into().expect("8 entries");
-                let fetch = |axis: &Vec<f64>| f64x8::from(at.map(|j| axis[j as usize]));
-                let (dx, dy, dz) = (
-                    first[0] - fetch(x),
-                    first[1] - fetch(y),
-                    first[2] - fetch(z),
-                );
-                let r2 = dx * dx + dy * dy + dz * dz;
-                let within = lane.simd_lt(f64x8::splat((range.end - k) as f64));
-                let kept = (r2.simd_lt(limit2) & within).to_bitmask() as u16;
-                let mut values = [0; FILTER_LANES];
-                values[..8].copy_from_slice(&at);
-                end += isa.left_pack(kept, &values, &mut partners[end..]);
-            }
-        }
-        starts.push(end as u32);
-        partners[end..end + TAIL].fill(0);
     }
 }
 

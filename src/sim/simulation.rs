@@ -69,9 +69,6 @@ pub struct Simulation {
     clusters_built: bool,
     /// The neighbour lists of the current placement, if built ([`Self::build_lists`]).
     lists: NeighbourLists,
-    /// The lists pruned to the cut-off each step (experiment).
-    pruned: NeighbourLists,
-    prune: bool,
     lists_built: bool,
     /// Counts the placements and kernel changes ([`Context::placement`]).
     placement: u64,
@@ -198,8 +195,6 @@ impl Simulation {
             clusters: Clusters::default(),
             clusters_built: false,
             lists: NeighbourLists::default(),
-            pruned: NeighbourLists::default(),
-            prune: std::env::var_os("FLUID_PRUNE").is_some(),
             lists_built: false,
             placement: 0,
             spare: Particles::default(),
@@ -613,11 +608,7 @@ impl Simulation {
             kernel: self.method.kernel,
             tiles: self.search.tiles(),
             clusters: self.clusters_built.then_some(&self.clusters),
-            lists: self.lists_built.then_some(if self.prune {
-                &self.pruned
-            } else {
-                &self.lists
-            }),
+            lists: self.lists_built.then_some(&self.lists),
             walls: self.cells.walls(),
             placement: self.placement,
             integrator: self.integrator,
@@ -643,14 +634,6 @@ impl Simulation {
     /// changed), resets what the pair passes sum into, and finds the step's tiles; with a
     /// skin, only when the lists are stale (else the walls alone are recomputed).
     fn reposition(&mut self) {
-        self.reposition_and_keep();
-        if self.prune && self.lists_built {
-            self.pruned
-                .prune(&self.lists, &self.particles.p, self.params.h);
-        }
-    }
-
-    fn reposition_and_keep(&mut self) {
         self.placement += 1;
         let sorted_sparse = self.cells.is_sparse();
         let moved = match &self.skin {
