@@ -1,6 +1,7 @@
 //! `fluid-lab`: the workbench binary (see [`fluid::lab`]).
 
 use clap::Parser;
+use fluid::io::case::CaseError;
 use fluid::io::fld::FileError;
 use std::io::Write;
 use std::process::ExitCode;
@@ -17,7 +18,11 @@ fn main() -> ExitCode {
             };
             let line = [&b"fluid-lab: error: "[..], &message, b"\n"].concat();
             let _ = std::io::stderr().write_all(&line);
-            ExitCode::FAILURE
+            // A case file refused is a usage error, as clap's are.
+            match error.is::<CaseError>() {
+                true => ExitCode::from(2),
+                false => ExitCode::FAILURE,
+            }
         }
     }
 }

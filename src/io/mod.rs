@@ -4,8 +4,10 @@
 //! any output file whole or not at all (and [`signals`] cleans up after one that a signal
 //! stops), [`trace`] reads the course's per-stage traces,
 //! [`export`] writes a state as VTK or CSV, [`checkpoint`] a run's full state to resume
-//! from, and [`gformat`] prints numbers as C++ does. It builds on [`crate::sim`] only.
+//! from, [`case`] reads case files (a scene and how to run it, in TOML), and [`gformat`]
+//! prints numbers as C++ does. It builds on [`crate::sim`] only.
 
+pub mod case;
 pub mod checkpoint;
 pub mod export;
 pub mod fld;

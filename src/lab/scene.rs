@@ -2,6 +2,7 @@
 //! of fluid at rest on a cubic lattice of spacing 1/ppm (the spacing at which the particle
 //! mass gives the rest density), or a random cloud, at a chosen ppm and seed.
 
+use crate::io::case;
 use crate::sim::grid::Grid;
 use crate::sim::params::{Params, BOX_MAX, BOX_MIN};
 use crate::sim::particles::Particles;
@@ -47,6 +48,147 @@ impl SceneKind {
     }
 }
 
+/// A region of fluid of a lattice scene (the fills of a case file).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Region {
+    /// The points p with `low` <= p < `high` on every axis.
+    Box {
+        /// The low corner (m).
+        low: DVec3,
+        /// The high corner (m).
+        high: DVec3,
+    },
+    /// The points closer than `radius` to `centre`.
+    Sphere {
+        /// The centre (m).
+        centre: DVec3,
+        /// The radius (m).
+        radius: f64,
+    },
+}
+
+impl Region {
+    /// Whether `point` is in it.
+    fn holds(&self, point: DVec3) -> bool {
+        match *self {
+            Region::Box { low, high } => point.cmpge(low).all() && point.cmplt(high).all(),
+            Region::Sphere { centre, radius } => point.distance(centre) < radius,
+        }
+    }
+
+    /// The fills of a case's fluid.
+    pub fn of_case(fluid: &case::Fluid) -> Vec<Region> {
+        let boxes = fluid.boxes.iter().map(|fill| Region::Box {
+            low: DVec3::from_array(fill.get_ref().min_m),
+            high: DVec3::from_array(fill.get_ref().max_m),
+        });
+        let spheres = fluid.spheres.iter().map(|fill| Region::Sphere {
+            centre: DVec3::from_array(fill.get_ref().centre_m),
+            radius: fill.get_ref().radius_m,
+        });
+        boxes.chain(spheres).collect()
+    }
+
+    /// As a case's fill: the case's boxes or spheres, to which it adds it.
+    fn add_to(&self, fluid: &mut case::Fluid) {
+        match *self {
+            Region::Box { low, high } => fluid.boxes.push(toml::Spanned::new(
+                0..0,
+                case::BoxFill {
+                    min_m: low.to_array(),
+                    max_m: high.to_array(),
+                },
+            )),
+            Region::Sphere { centre, radius } => fluid.spheres.push(toml::Spanned::new(
+                0..0,
+                case::SphereFill {
+                    centre_m: centre.to_array(),
+                    radius_m: radius,
+                },
+            )),
+        }
+    }
+}
+
+impl SceneKind {
+    /// The regions of fluid of a lattice scene; `None` for the random cloud and the corner
+    /// block, which are not fills of a lattice.
+    pub fn regions(self) -> Option<Vec<Region>> {
+        let extent = BOX_MAX - BOX_MIN;
+        let height = |fraction: f64| BOX_MIN.y + fraction * extent.y;
+        let below = |top: f64| Region::Box {
+            low: BOX_MIN,
+            high: DVec3::new(BOX_MAX.x, top, BOX_MAX.z),
+        };
+        match self {
+            SceneKind::DamBreak => Some(vec![Region::Box {
+                low: BOX_MIN,
+                high: DVec3::new(BOX_MIN.x + 0.4 * extent.x, height(0.7), BOX_MAX.z),
+            }]),
+            SceneKind::Drop => Some(vec![
+                below(height(0.15)),
+                Region::Sphere {
+                    centre: DVec3::new(0.0, height(0.65), 0.0),
+                    radius: 0.025,
+                },
+            ]),
+            SceneKind::FilledBox => Some(vec![below(height(0.5))]),
+            SceneKind::RandomCloud | SceneKind::CornerBlock => None,
+        }
+    }
+
+    /// The case file of the scene at `ppm` and `seed`, run with the weakly compressible
+    /// model (the water model) for `until` seconds; `None` for the scenes that are not
+    /// fills of a lattice.
+    pub fn case(self, ppm: f32, seed: u64, until: f64) -> Option<case::Case> {
+        let mut fluid = case::Fluid {
+            particles_per_m: toml::Spanned::new(0..0, ppm.into()),
+            seed,
+            boxes: Vec::new(),
+            spheres: Vec::new(),
+        };
+        for region in self.regions()? {
+            region.add_to(&mut fluid);
+        }
+        Some(case::Case {
+            domain: case::Domain::default(),
+            fluid,
+            model: case::ModelSettings {
+                name: Some(toml::Spanned::new(0..0, "wcsph".into())),
+                ..Default::default()
+            },
+            run: case::RunSettings {
+                until_s: Some(toml::Spanned::new(0..0, until)),
+                ..Default::default()
+            },
+            output: case::OutputSettings::default(),
+        })
+    }
+}
+
+/// The lattice points at `ppm` particles per metre in any of `regions`, jittered from
+/// `seed`.
+pub fn filled(ppm: f64, seed: u64, regions: &[Region]) -> Result<Particles, String> {
+    check_ppm(ppm)?;
+    let [nx, ny, nz] = lattice_dims(ppm).map(|n| n as f64);
+    let points = nx * ny * nz;
+    if points > MAX_PARTICLES as f64 {
+        return Err(format!(
+            "the box at {ppm} particles per metre is a lattice of {points} points; the \
+             limit is {MAX_PARTICLES}"
+        ));
+    }
+    let scene = lattice(ppm, seed, |point| {
+        regions.iter().any(|region| region.holds(point))
+    });
+    if scene.is_empty() {
+        return Err(format!(
+            "the fills hold no lattice point at {ppm} particles per metre"
+        ));
+    }
+    Ok(scene)
+}
+
 /// Generates `kind` at `ppm` particles per metre; `seed` drives the jitter and the random
 /// cloud, `particles` the size of the random cloud and the corner block.
 pub fn generate(
@@ -63,7 +205,6 @@ pub fn generate(
             kind.name()
         ));
     }
-    let extent = BOX_MAX - BOX_MIN;
     let [nx, ny, nz] = lattice_dims(ppm).map(|n| n as f64);
     let count = match (kind, particles) {
         (SceneKind::RandomCloud, None) => (0.3 * nx * ny * nz) as usize,
@@ -80,20 +221,12 @@ pub fn generate(
             kind.name()
         ));
     }
-    let height = |fraction: f64| BOX_MIN.y + fraction * extent.y;
-    let scene = match kind {
-        SceneKind::DamBreak => lattice(ppm, seed, |p| {
-            p.x < BOX_MIN.x + 0.4 * extent.x && p.y < height(0.7)
+    let scene = match (kind, kind.regions()) {
+        (_, Some(regions)) => lattice(ppm, seed, |point| {
+            regions.iter().any(|region| region.holds(point))
         }),
-        SceneKind::Drop => {
-            let centre = DVec3::new(0.0, height(0.65), 0.0);
-            lattice(ppm, seed, |p| {
-                p.y < height(0.15) || p.distance(centre) < 0.025
-            })
-        }
-        SceneKind::FilledBox => lattice(ppm, seed, |p| p.y < height(0.5)),
-        SceneKind::RandomCloud => random_cloud(count, seed),
-        SceneKind::CornerBlock => corner_block(ppm, count)?,
+        (SceneKind::RandomCloud, None) => random_cloud(count, seed),
+        (_, None) => corner_block(ppm, count)?,
     };
     if scene.is_empty() {
         return Err(format!(
@@ -270,6 +403,39 @@ mod tests {
             sphere.len()
         );
         assert!(sphere.iter().all(|p| p.y > pool_top + 0.05));
+    }
+
+    #[test]
+    fn the_case_of_a_lattice_scene_fills_the_same_particles() {
+        for kind in [SceneKind::DamBreak, SceneKind::Drop, SceneKind::FilledBox] {
+            let case = kind.case(150.0, 9, 0.5).unwrap();
+            // Through the file's text and back.
+            let text = toml::to_string(&case).unwrap();
+            let read = case::parse(&text, "scene.toml").unwrap();
+            let fills = Region::of_case(&read.fluid);
+            assert_eq!(Some(fills.clone()), kind.regions(), "{kind:?}");
+            let ppm = *read.fluid.particles_per_m.get_ref();
+            let filled = filled(ppm, read.fluid.seed, &fills).unwrap();
+            assert_eq!(filled, generate(kind, 150.0, 9, None).unwrap(), "{kind:?}");
+        }
+        for kind in [SceneKind::RandomCloud, SceneKind::CornerBlock] {
+            assert!(kind.case(150.0, 9, 0.5).is_none());
+        }
+    }
+
+    #[test]
+    fn fills_that_hold_no_point_or_too_many_are_errors() {
+        let speck = Region::Sphere {
+            centre: DVec3::ZERO,
+            radius: 1e-6,
+        };
+        let error = filled(100.0, 0, &[speck]).unwrap_err();
+        assert_eq!(
+            error,
+            "the fills hold no lattice point at 100 particles per metre"
+        );
+        let error = filled(3000.0, 0, &[speck]).unwrap_err();
+        assert!(error.contains("the limit is 50000000"), "{error}");
     }
 
     #[test]

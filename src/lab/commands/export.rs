@@ -1,7 +1,7 @@
 //! `fluid-lab export`: a state, or a run every k steps or every t simulated seconds, as VTK (legacy ASCII, or XML with
 //! binary arrays and a `.pvd` time series, for ParaView) or CSV files.
 
-use super::simulation_args::{load, run_visiting, Loaded, SimulationArgs, Span};
+use super::simulation_args::{load, needed, run_visiting, Loaded, SimulationArgs, Span};
 use crate::io::export::{pvd_collection, Snapshot};
 use crate::io::output::OutputFile;
 use clap::builder::RangedI64ValueParser;
@@ -16,7 +16,8 @@ pub struct ExportArgs {
     #[command(flatten)]
     simulation: SimulationArgs,
     /// Folder for the files, named INPUT-STEM_STEP.vtk (or .csv, .vtp).
-    output_dir: PathBuf,
+    #[arg(required_unless_present = "case")]
+    output_dir: Option<PathBuf>,
     /// Also export every this many steps (and step 0) [default: the final state only].
     #[arg(long, allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
     every: Option<u64>,
@@ -40,17 +41,19 @@ pub enum ExportFormat {
 }
 
 /// Runs the scene and writes the states asked for, one file each.
-pub fn exec(args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    args.simulation.read_case(&mut args.output_dir)?;
+    let output_dir = needed(args.output_dir.take(), "output folder")?;
     let Loaded {
         stem,
         name,
         mut simulation,
         ..
     } = load(&args.simulation)?;
-    super::create_output_dir(&args.output_dir)?;
-    let extent = args.span.extent(args.simulation.steps);
+    super::create_output_dir(&output_dir)?;
+    let extent = args.simulation.extent(args.span.until);
     let visits = args.span.frames(args.every);
-    let collection = args.output_dir.join(format!("{stem}.pvd"));
+    let collection = output_dir.join(format!("{stem}.pvd"));
     let mut frames = Vec::new();
     run_visiting(&mut simulation, extent, visits, |simulation, step| {
         let snapshot = Snapshot::of(simulation, step);
@@ -65,7 +68,7 @@ pub fn exec(args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
             ExportFormat::Vtp => (snapshot.to_vtp(), "vtp"),
         };
         let file = format!("{stem}_{step:06}.{extension}");
-        let path = args.output_dir.join(&file);
+        let path = output_dir.join(&file);
         OutputFile::create(&path)?.commit(&bytes)?;
         writeln!(stdout, "wrote {}", path.display())?;
         if args.format == ExportFormat::Vtp {

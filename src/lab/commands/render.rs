@@ -1,6 +1,8 @@
 //! `fluid-lab render`: a state as a PNG, or a run as an animated GIF or a PNG series.
 
-use super::simulation_args::{load, run_visiting, Extent, Frames, Loaded, SimulationArgs, Span};
+use super::simulation_args::{
+    load, needed, run_visiting, Extent, Frames, Loaded, SimulationArgs, Span,
+};
 use crate::io::export::Snapshot;
 use crate::io::output::OutputFile;
 use crate::lab::render::{self, Animation, Colouring};
@@ -17,7 +19,8 @@ pub struct RenderArgs {
     simulation: SimulationArgs,
     /// Output: .png for the final state (a numbered series with --every or
     /// --frame-every), .gif for an animation of the run.
-    output: PathBuf,
+    #[arg(required_unless_present = "case")]
+    output: Option<PathBuf>,
     /// Draw every this many steps (and step 0) [default for .gif: 50 frames, by steps or,
     /// with --until, by simulated time].
     #[arg(long, allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
@@ -58,10 +61,11 @@ impl Picture {
 
 /// Runs the scene and draws the states asked for as PNG files or one GIF. Each file is
 /// written whole or not at all, and the first is opened before anything is simulated.
-pub fn exec(args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let output = &args.output;
+pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    args.simulation.read_case(&mut args.output)?;
+    let output = &needed(args.output.take(), "output (.png or .gif)")?;
     let picture = Picture::of(output)?;
-    let extent = args.span.extent(args.simulation.steps);
+    let extent = args.simulation.extent(args.span.until);
     let series = args.span.is_series(args.every);
     let frame_path = |step: u64| match series {
         true => {

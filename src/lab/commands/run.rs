@@ -91,10 +91,13 @@ fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint
 }
 
 /// Runs the scene, timed, and writes the timing line, the diagnostics and the final state.
-pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let steps = args.simulation.steps;
-    let extent = args.until.map_or(Extent::Steps(steps), Extent::Until);
-    let input = &args.simulation.input;
+pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    args.simulation.read_case(&mut args.output)?;
+    if let (None, Some(case)) = (&args.output, &args.simulation.read) {
+        args.output = case.output.final_state.as_ref().map(PathBuf::from);
+    }
+    let extent = args.simulation.extent(args.until);
+    let input = &args.simulation.source().to_path_buf();
     // The side files must be files of their own: not the input, the output or each other
     // (the output may be the input, as with `fluid`).
     let sides = [
@@ -179,7 +182,10 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         Extent::Steps(steps) => Extent::Steps(steps + 1 - first),
         until => until,
     });
-    let end = args.until.unwrap_or(f64::INFINITY);
+    let end = match extent {
+        Extent::Until(end) => end,
+        Extent::Steps(_) => f64::INFINITY,
+    };
     let mut seconds = 0.0;
     let mut step = first - 1;
     while !extent.is_over(&simulation, step) {
@@ -227,8 +233,8 @@ pub fn exec(args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>
         "model={} kernel={} particles={particles} steps={run} seconds={seconds:.6} \
          ns_per_particle_step={:.3} simulated_s={simulated:.6} \
          seconds_per_simulated_s={per_simulated_second}{builds}",
-        args.simulation.model.name(),
-        args.simulation.kernel.name(),
+        args.simulation.model().name(),
+        args.simulation.kernel().name(),
         per_particle_step * 1e9,
     )?;
     // The final state first, then the diagnostics, which are written even when the state

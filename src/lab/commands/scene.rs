@@ -25,11 +25,37 @@ pub struct SceneArgs {
     /// Number of particles (random-cloud and corner-block only).
     #[arg(long, allow_negative_numbers = true)]
     particles: Option<usize>,
+    /// Write the scene's case file (TOML, docs/case-files.md) to OUTPUT instead of its
+    /// particles: its fills, run with the weakly compressible model to 0.5 s (dam-break,
+    /// drop and filled-box, the fills of a lattice).
+    #[arg(long, conflicts_with = "particles")]
+    case_file: bool,
 }
+
+/// The physical time a scene's case runs to (s).
+const CASE_UNTIL: f64 = 0.5;
 
 /// Generates the scene and writes it as a `.fld` file.
 pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
     let output = OutputFile::create(&args.output)?;
+    if args.case_file {
+        let case = args
+            .kind
+            .case(args.ppm, args.seed, CASE_UNTIL)
+            .ok_or_else(|| {
+                format!(
+                    "{} is not a fill of a lattice: it has no case file",
+                    args.kind.name()
+                )
+            })?;
+        let text = format!(
+            "# The {} scene of `fluid-lab scene`, as a case file (docs/case-files.md).\n\n{}",
+            args.kind.name(),
+            toml::to_string(&case)?
+        );
+        output.commit(text.as_bytes())?;
+        return Ok(());
+    }
     let particles = scene::generate(args.kind, args.ppm.into(), args.seed, args.particles)?;
     let bytes = fld::encode(args.ppm, &particles)
         .map_err(|unstorable| unstorable.for_output(args.output.as_os_str()))?;

@@ -1,8 +1,11 @@
 //! The simulation a subcommand runs: its arguments (input, steps, model, kernel, time
 //! step), the input placed for it, and a run with a progress bar that visits chosen steps.
 
+use crate::io::case::{self, Case, CaseError};
 use crate::io::fld;
+use crate::io::input::read_regular;
 use crate::lab::diagnostics::Vitals;
+use crate::lab::scene::{self, Region};
 use crate::sim::clusters::PairStructure;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
@@ -11,26 +14,36 @@ use crate::sim::model::{Dynamics, Model, Wcsph};
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
 use clap::Args;
+use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::error::Error;
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// A simulation to run: input, steps, model and kernel.
 #[derive(Debug, Args)]
 pub struct SimulationArgs {
-    /// Input .fld file.
-    pub input: PathBuf,
-    /// Time steps to run (at most 2^63-1, as `fluid` takes).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1,
+    /// Input .fld file (none with --case).
+    #[arg(required_unless_present = "case")]
+    pub input: Option<PathBuf>,
+    /// A case file (TOML, docs/case-files.md): the scene, its model and settings, how far
+    /// to run and where to write; a flag given beside it overrides the case's value. With
+    /// a case, the command's output is its only positional argument.
+    #[arg(long, value_name = "FILE")]
+    pub case: Option<PathBuf>,
+    /// The case read from --case (by [`SimulationArgs::read_case`]).
+    #[arg(skip)]
+    pub read: Option<Case>,
+    /// Time steps to run (at most 2^63-1, as `fluid` takes) [default: 1]
+    #[arg(long, allow_negative_numbers = true,
           value_parser = clap::builder::RangedI64ValueParser::<u64>::new().range(0..))]
-    pub steps: u64,
-    /// Physical model.
-    #[arg(long, value_enum, default_value_t = Model::Course)]
-    pub model: Model,
-    /// Pair-loop implementation (default: the widest f64 lanes the build's CPU has).
-    #[arg(long, value_enum, default_value_t = Kernel::NATIVE)]
-    pub kernel: Kernel,
+    pub steps: Option<u64>,
+    /// Physical model [default: course]
+    #[arg(long, value_enum)]
+    pub model: Option<Model>,
+    /// Pair-loop implementation [default: the widest f64 lanes the build's CPU has]
+    #[arg(long, value_enum)]
+    pub kernel: Option<Kernel>,
     /// Time step in seconds (fixed; default: the model's own rule, the course's 1 ms or
     /// the weakly compressible model's CFL step).
     #[arg(long, allow_negative_numbers = true, value_parser = parse_time_step)]
@@ -49,12 +62,12 @@ pub struct SimulationArgs {
     /// (perf/README.md).
     #[arg(long, allow_negative_numbers = true, value_name = "FRACTION_OF_CUTOFF", value_parser = parse_skin)]
     pub skin: Option<f64>,
-    /// The neighbour structure of the SIMD pair loops on dense scenes.
-    #[arg(long, value_enum, default_value_t = PairStructure::default())]
-    pub pairs: PairStructure,
-    /// How each step advances the state.
-    #[arg(long, value_enum, default_value_t = Integrator::default())]
-    pub integrator: Integrator,
+    /// The neighbour structure of the SIMD pair loops on dense scenes [default: lists]
+    #[arg(long, value_enum)]
+    pub pairs: Option<PairStructure>,
+    /// How each step advances the state [default: leapfrog]
+    #[arg(long, value_enum)]
+    pub integrator: Option<Integrator>,
     /// The weakly compressible model's choices.
     #[command(flatten)]
     pub water: WaterArgs,
@@ -130,7 +143,98 @@ impl WaterArgs {
 impl SimulationArgs {
     /// The time-step rule the arguments ask for, or the model's own.
     pub fn time_step(&self) -> TimeStep {
-        asked_time_step(self.adaptive, self.dt).unwrap_or(self.model.default_time_step())
+        asked_time_step(self.adaptive, self.dt).unwrap_or(self.model().default_time_step())
+    }
+
+    /// The model asked for.
+    pub fn model(&self) -> Model {
+        self.model.unwrap_or(Model::Course)
+    }
+
+    /// The kernel asked for.
+    pub fn kernel(&self) -> Kernel {
+        self.kernel.unwrap_or(Kernel::NATIVE)
+    }
+
+    /// The neighbour structure asked for.
+    pub fn pairs(&self) -> PairStructure {
+        self.pairs.unwrap_or_default()
+    }
+
+    /// The integrator asked for.
+    pub fn integrator(&self) -> Integrator {
+        self.integrator.unwrap_or_default()
+    }
+
+    /// How far to run: `until` (the command's `--until`), else `--steps`, else the case's
+    /// steps or time, else 1 step.
+    pub fn extent(&self, until: Option<f64>) -> Extent {
+        let run = self.read.as_ref().map(|case| &case.run);
+        match (until, self.steps, run) {
+            (Some(end), _, _) => Extent::Until(end),
+            (None, Some(steps), _) => Extent::Steps(steps),
+            (None, None, Some(run)) => match (&run.until_s, &run.steps) {
+                (Some(end), _) => Extent::Until(*end.get_ref()),
+                (None, Some(steps)) => Extent::Steps(*steps.get_ref()),
+                (None, None) => Extent::Steps(1),
+            },
+            (None, None, None) => Extent::Steps(1),
+        }
+    }
+
+    /// The file the scene comes from: the case, or the input.
+    pub fn source(&self) -> &Path {
+        self.case
+            .as_deref()
+            .or(self.input.as_deref())
+            .expect("an input or a case (clap requires one)")
+    }
+
+    /// Reads --case, if given, and takes from it every setting the command line leaves
+    /// out. With a case, the one positional argument clap gave the input is the command's
+    /// `output`, which it moves there.
+    ///
+    /// # Errors
+    /// A case that cannot be read, or is refused ([`CaseError`]).
+    pub fn read_case(&mut self, output: &mut Option<PathBuf>) -> Result<(), Box<dyn Error>> {
+        let Some(path) = &self.case else {
+            return Ok(());
+        };
+        if let Some(given) = self.input.take() {
+            if output.is_some() {
+                return Err("with --case, give only the output (the case makes the scene)".into());
+            }
+            *output = Some(given);
+        }
+        let shown = path.display().to_string();
+        let bytes = read_regular(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
+        let text = String::from_utf8(bytes).map_err(|_| CaseError {
+            file: shown.clone(),
+            at: None,
+            message: "not UTF-8 text".into(),
+        })?;
+        let case = case::parse(&text, &shown)?;
+        let settings = &case.model;
+        self.model = self.model.or(named(&settings.name));
+        self.kernel = self.kernel.or(named(&settings.kernel));
+        self.integrator = self.integrator.or(named(&settings.integrator));
+        self.pairs = self.pairs.or(named(&settings.pairs));
+        if self.dt.is_none() && self.adaptive.is_none() {
+            self.dt = settings.time_step_s.as_ref().map(|dt| *dt.get_ref());
+            self.adaptive = settings.adaptive_courant.as_ref().map(|c| *c.get_ref());
+        }
+        self.skin = self
+            .skin
+            .or(settings.skin_cutoffs.as_ref().map(|skin| *skin.get_ref()));
+        let water = &mut self.water;
+        water.walls = water.walls.or(named(&settings.walls));
+        water.artificial_viscosity = water.artificial_viscosity.or(settings.artificial_viscosity);
+        water.laminar_viscosity = water.laminar_viscosity.or(settings.laminar_viscosity_m2_s);
+        water.smoothing = water.smoothing.or(settings.smoothing_spacings);
+        water.sound_speed = water.sound_speed.or(settings.sound_speed_factor);
+        water.density_diffusion = water.density_diffusion.or(settings.density_diffusion);
+        self.read = Some(case);
+        Ok(())
     }
 }
 
@@ -156,21 +260,46 @@ pub struct Loaded {
     pub simulation: Simulation,
 }
 
-/// Reads and places the input of `args` with its model, kernel and time step.
+/// The choice a case names, if any (its names were checked when the case was read).
+fn named<T: ValueEnum>(name: &Option<toml::Spanned<String>>) -> Option<T> {
+    name.as_ref()
+        .map(|name| T::from_str(name.get_ref(), false).expect("a name checked by the case"))
+}
+
+/// The output a command needs: the one given, or the one its case names.
+pub fn needed(output: Option<PathBuf>, what: &str) -> Result<PathBuf, String> {
+    output.ok_or_else(|| format!("give the {what}"))
+}
+
+/// Reads and places the input of `args` (or makes the scene of its case) with its model,
+/// kernel and time step.
 pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
-    let name = args.input.display().to_string();
-    let scene = fld::read(&args.input)?;
-    let method = Method {
-        model: args.model,
-        kernel: args.kernel,
+    let source = args.source();
+    let name = source.display().to_string();
+    let scene = match &args.read {
+        Some(case) => {
+            let ppm = *case.fluid.particles_per_m.get_ref();
+            let regions = Region::of_case(&case.fluid);
+            let particles = scene::filled(ppm, case.fluid.seed, &regions)
+                .map_err(|error| format!("{name}: {error}"))?;
+            fld::Scene {
+                ppm: ppm as f32,
+                particles,
+            }
+        }
+        None => fld::read(source)?,
     };
-    let stem = args.input.file_stem().unwrap_or_default();
+    let method = Method {
+        model: args.model(),
+        kernel: args.kernel(),
+    };
+    let stem = source.file_stem().unwrap_or_default();
     let ppm = scene.ppm;
-    let dynamics = args.water.dynamics(args.model)?;
+    let dynamics = args.water.dynamics(args.model())?;
     let mut simulation = scene.into_simulation_with(method, dynamics, &name)?;
     simulation.set_time_step(args.time_step());
-    simulation.set_integrator(args.integrator);
-    simulation.set_pair_structure(args.pairs);
+    simulation.set_integrator(args.integrator());
+    simulation.set_pair_structure(args.pairs());
     let h = simulation.params().h;
     if let Some(fraction) = args.skin {
         simulation
@@ -211,11 +340,6 @@ pub struct Span {
 }
 
 impl Span {
-    /// The run's extent: `--until`, else `steps`.
-    pub fn extent(&self, steps: u64) -> Extent {
-        self.until.map_or(Extent::Steps(steps), Extent::Until)
-    }
-
     /// The states written besides the last: `--frame-every`, else every `every` steps.
     pub fn frames(&self, every: Option<u64>) -> Frames {
         match (self.frame_every, every) {

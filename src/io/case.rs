@@ -1,0 +1,568 @@
+//! Case files: a scene and how to run it, described in TOML (`docs/case-files.md` is the
+//! reference of every key, its unit and its default). A case names its domain box, the
+//! fluid's fills (boxes and spheres on a lattice of so many particles per metre), the
+//! model with every setting the command lines give, and how far to run and where to
+//! write. Reading one checks it whole: unknown keys, wrong types and values out of range
+//! are refused, each with the file, the line and the column of the value at fault.
+
+use crate::sim::params::{BOX_MAX, BOX_MIN};
+use clap::ValueEnum;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::ops::Range;
+use toml::Spanned;
+
+/// A case file's scene and run, as read (values the file leaves out are `None` or
+/// empty: their defaults are the command line's).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    /// The box the particles live in.
+    #[serde(default)]
+    pub domain: Domain,
+    /// Where the fluid is at the start.
+    pub fluid: Fluid,
+    /// The model and its settings.
+    #[serde(default)]
+    pub model: ModelSettings,
+    /// How far to run.
+    #[serde(default)]
+    pub run: RunSettings,
+    /// Where the outputs go.
+    #[serde(default, skip_serializing_if = "OutputSettings::is_empty")]
+    pub output: OutputSettings,
+}
+
+/// The domain: the box whose walls hold the particles.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Domain {
+    /// The box's low corner (m).
+    pub box_min_m: Spanned<[f64; 3]>,
+    /// The box's high corner (m).
+    pub box_max_m: Spanned<[f64; 3]>,
+}
+
+impl Default for Domain {
+    fn default() -> Domain {
+        Domain {
+            box_min_m: Spanned::new(0..0, BOX_MIN.to_array()),
+            box_max_m: Spanned::new(0..0, BOX_MAX.to_array()),
+        }
+    }
+}
+
+/// The fluid at the start: lattice points at `particles_per_m` inside any of the fills.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fluid {
+    /// Particles per metre: the lattice spacing is its inverse, and the particle mass gives
+    /// the rest density at it.
+    pub particles_per_m: Spanned<f64>,
+    /// The seed of the lattice's jitter.
+    #[serde(default)]
+    pub seed: u64,
+    /// Boxes of fluid.
+    #[serde(default, rename = "box", skip_serializing_if = "Vec::is_empty")]
+    pub boxes: Vec<Spanned<BoxFill>>,
+    /// Spheres of fluid.
+    #[serde(default, rename = "sphere", skip_serializing_if = "Vec::is_empty")]
+    pub spheres: Vec<Spanned<SphereFill>>,
+}
+
+/// A box of fluid: the lattice points p with min <= p < max on every axis.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxFill {
+    /// The low corner (m).
+    pub min_m: [f64; 3],
+    /// The high corner (m).
+    pub max_m: [f64; 3],
+}
+
+/// A sphere of fluid: the lattice points closer than the radius to the centre.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereFill {
+    /// The centre (m).
+    pub centre_m: [f64; 3],
+    /// The radius (m).
+    pub radius_m: f64,
+}
+
+/// The model and every setting the command lines give; each left out takes the command
+/// line's default.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSettings {
+    /// The model's name, as `--model` takes it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<Spanned<String>>,
+    /// The pair-loop implementation, as `--kernel` takes it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kernel: Option<Spanned<String>>,
+    /// A fixed time step (s), as `--dt`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_step_s: Option<Spanned<f64>>,
+    /// An adaptive time step's Courant number, as `--adaptive`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive_courant: Option<Spanned<f64>>,
+    /// The integrator, as `--integrator` takes it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrator: Option<Spanned<String>>,
+    /// The skin of kept neighbour lists, in cut-offs, as `--skin`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub skin_cutoffs: Option<Spanned<f64>>,
+    /// The neighbour structure, as `--pairs` takes it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pairs: Option<Spanned<String>>,
+    /// The weakly compressible model's walls, as `--walls` takes them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub walls: Option<Spanned<String>>,
+    /// Monaghan's artificial viscosity alpha, as `--artificial-viscosity`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub artificial_viscosity: Option<f64>,
+    /// The laminar term's kinematic viscosity (m^2/s), as `--laminar-viscosity`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub laminar_viscosity_m2_s: Option<f64>,
+    /// The smoothing length in lattice spacings, as `--smoothing`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub smoothing_spacings: Option<f64>,
+    /// The sound speed over sqrt(2 g H), as `--sound-speed`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sound_speed_factor: Option<f64>,
+    /// The delta-SPH density diffusion coefficient, as `--density-diffusion`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub density_diffusion: Option<f64>,
+}
+
+/// How far to run: a number of steps or a physical time (not both).
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunSettings {
+    /// Time steps to run, as `--steps`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub steps: Option<Spanned<u64>>,
+    /// The physical time to run to (s), as `--until`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub until_s: Option<Spanned<f64>>,
+}
+
+/// Where the outputs go.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSettings {
+    /// The final state's `.fld` file (relative to the current folder), if it is written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub final_state: Option<String>,
+}
+
+impl OutputSettings {
+    /// Whether it names no output.
+    fn is_empty(&self) -> bool {
+        *self == OutputSettings::default()
+    }
+}
+
+/// What is wrong with a case file, and where: one line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CaseError {
+    /// The file as given.
+    pub file: String,
+    /// The line and column of the fault (1-based), where the file has one.
+    pub at: Option<(usize, usize)>,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for CaseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.at {
+            Some((line, column)) => write!(f, "{}:{line}:{column}: {}", self.file, self.message),
+            None => write!(f, "{}: {}", self.file, self.message),
+        }
+    }
+}
+
+impl std::error::Error for CaseError {}
+
+/// The most particles a case's fills may hold: what the `.fld` format and the memory of a
+/// workstation allow (1.8 GB of state at this count).
+pub const MAX_PARTICLES: f64 = 50_000_000.0;
+
+/// Reads a case from `text`, the contents of `file`, and checks it whole.
+pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
+    let error_at = |span: Option<Range<usize>>, message: String| CaseError {
+        file: file.to_string(),
+        at: span.map(|span| line_and_column(text, span.start)),
+        message,
+    };
+    let case: Case = toml::from_str(text).map_err(|error| {
+        // toml's message may run over lines (a snippet of the file): its first line.
+        let message = error
+            .message()
+            .lines()
+            .next()
+            .unwrap_or("not a case")
+            .trim();
+        error_at(error.span(), message.to_string())
+    })?;
+    case.check()
+        .map_err(|(span, message)| error_at(Some(span), message))?;
+    Ok(case)
+}
+
+/// The line and column (1-based, in characters) of byte `offset` of `text`.
+fn line_and_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..text.floor_char_boundary(offset.min(text.len()))];
+    let line = before.matches('\n').count() + 1;
+    let column = before
+        .rsplit('\n')
+        .next()
+        .map_or(0, |last| last.chars().count())
+        + 1;
+    (line, column)
+}
+
+/// A fault in a case: where (a span of its text) and what.
+type Fault = (Range<usize>, String);
+
+/// Whether `name` is one of `T`'s command-line names; the fault lists them if not.
+pub fn choice<T: ValueEnum>(name: &Spanned<String>, key: &str) -> Result<T, Fault> {
+    T::from_str(name.get_ref(), false).map_err(|_| {
+        let names: Vec<String> = T::value_variants()
+            .iter()
+            .filter_map(|value| value.to_possible_value())
+            .map(|value| value.get_name().to_string())
+            .collect();
+        (
+            name.span(),
+            format!(
+                "{key} = \"{}\" is none of {}",
+                name.get_ref(),
+                names.join(", ")
+            ),
+        )
+    })
+}
+
+impl Case {
+    /// The checks beyond types: sizes, ranges, fills inside the box, names.
+    fn check(&self) -> Result<(), Fault> {
+        let (low, high) = (&self.domain.box_min_m, &self.domain.box_max_m);
+        let finite = |corner: &[f64; 3]| corner.iter().all(|x| x.is_finite());
+        if !finite(low.get_ref()) || !finite(high.get_ref()) {
+            return Err((low.span(), "the box's corners must be finite".into()));
+        }
+        if (0..3).any(|axis| low.get_ref()[axis] >= high.get_ref()[axis]) {
+            return Err((
+                high.span(),
+                "box_max_m must exceed box_min_m on every axis".into(),
+            ));
+        }
+        if *low.get_ref() != BOX_MIN.to_array() || *high.get_ref() != BOX_MAX.to_array() {
+            return Err((
+                low.span(),
+                format!(
+                    "this version runs every model in the course's box, box_min_m = {:?} and \
+                     box_max_m = {:?}",
+                    BOX_MIN.to_array(),
+                    BOX_MAX.to_array()
+                ),
+            ));
+        }
+        let ppm = &self.fluid.particles_per_m;
+        let spacing_ok = ppm.get_ref().is_finite()
+            && *ppm.get_ref() > 0.0
+            && (*ppm.get_ref() as f32).is_normal();
+        if !spacing_ok {
+            return Err((
+                ppm.span(),
+                format!(
+                    "particles_per_m = {} is not a number > 0 (the lattice spacing is its \
+                     inverse)",
+                    ppm.get_ref()
+                ),
+            ));
+        }
+        if self.fluid.boxes.is_empty() && self.fluid.spheres.is_empty() {
+            return Err((ppm.span(), "the fluid has no box and no sphere".into()));
+        }
+        let inside = |point: [f64; 3]| {
+            (0..3).all(|axis| {
+                low.get_ref()[axis] <= point[axis] && point[axis] <= high.get_ref()[axis]
+            })
+        };
+        let mut volume = 0.0;
+        for fill in &self.fluid.boxes {
+            let BoxFill { min_m, max_m } = fill.get_ref();
+            if !(finite(min_m) && finite(max_m)) || (0..3).any(|axis| min_m[axis] >= max_m[axis]) {
+                return Err((
+                    fill.span(),
+                    "a box's max_m must exceed its min_m on every axis".into(),
+                ));
+            }
+            if !(inside(*min_m) && inside(*max_m)) {
+                return Err((
+                    fill.span(),
+                    "a box of fluid reaches outside the domain".into(),
+                ));
+            }
+            volume += (0..3)
+                .map(|axis| max_m[axis] - min_m[axis])
+                .product::<f64>();
+        }
+        for fill in &self.fluid.spheres {
+            let SphereFill { centre_m, radius_m } = fill.get_ref();
+            if !(finite(centre_m) && radius_m.is_finite() && *radius_m > 0.0) {
+                return Err((
+                    fill.span(),
+                    "a sphere needs a finite centre and a radius > 0".into(),
+                ));
+            }
+            let corner = |sign: f64| centre_m.map(|x| x + sign * radius_m);
+            if !(inside(corner(-1.0)) && inside(corner(1.0))) {
+                return Err((
+                    fill.span(),
+                    "a sphere of fluid reaches outside the domain".into(),
+                ));
+            }
+            volume += 4.0 / 3.0 * std::f64::consts::PI * radius_m.powi(3);
+        }
+        let most = volume * ppm.get_ref().powi(3);
+        if most > MAX_PARTICLES {
+            return Err((
+                ppm.span(),
+                format!(
+                    "the fills would hold about {most:.3e} particles at {} per metre; the \
+                     limit is {MAX_PARTICLES:.0e}",
+                    ppm.get_ref()
+                ),
+            ));
+        }
+        self.model.check()?;
+        let run = &self.run;
+        if let (Some(_), Some(until)) = (&run.steps, &run.until_s) {
+            return Err((until.span(), "give steps or until_s, not both".into()));
+        }
+        if let Some(until) = &run.until_s {
+            if !(until.get_ref().is_finite() && *until.get_ref() > 0.0) {
+                return Err((until.span(), "until_s must be a time > 0".into()));
+            }
+        }
+        if let Some(steps) = &run.steps {
+            if *steps.get_ref() > i64::MAX as u64 {
+                return Err((steps.span(), "steps must be at most 2^63-1".into()));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ModelSettings {
+    /// The names and the numbers' ranges (the model's own checks come when it is made).
+    fn check(&self) -> Result<(), Fault> {
+        use crate::sim::clusters::PairStructure;
+        use crate::sim::kernel::Kernel;
+        use crate::sim::model::wcsph::WallFriction;
+        use crate::sim::model::Model;
+        use crate::sim::timestep::Integrator;
+        if let Some(name) = &self.name {
+            choice::<Model>(name, "name")?;
+        }
+        if let Some(name) = &self.kernel {
+            choice::<Kernel>(name, "kernel")?;
+        }
+        if let Some(name) = &self.integrator {
+            choice::<Integrator>(name, "integrator")?;
+        }
+        if let Some(name) = &self.pairs {
+            choice::<PairStructure>(name, "pairs")?;
+        }
+        if let Some(name) = &self.walls {
+            choice::<WallFriction>(name, "walls")?;
+        }
+        if let (Some(_), Some(courant)) = (&self.time_step_s, &self.adaptive_courant) {
+            return Err((
+                courant.span(),
+                "give time_step_s or adaptive_courant, not both".into(),
+            ));
+        }
+        if let Some(dt) = &self.time_step_s {
+            if !(dt.get_ref().is_finite() && *dt.get_ref() > 0.0) {
+                return Err((dt.span(), "time_step_s must be a time > 0".into()));
+            }
+        }
+        if let Some(courant) = &self.adaptive_courant {
+            let c = *courant.get_ref();
+            if !(c.is_finite() && c > 0.0 && c <= 1.0) {
+                return Err((courant.span(), "adaptive_courant must be in (0, 1]".into()));
+            }
+        }
+        if let Some(skin) = &self.skin_cutoffs {
+            if !(skin.get_ref().is_finite() && *skin.get_ref() >= 0.0) {
+                return Err((skin.span(), "skin_cutoffs must be 0 or more".into()));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DAM: &str = r#"
+[domain]
+box_min_m = [-0.065, -0.08, -0.065]
+box_max_m = [0.065, 0.1, 0.065]
+
+[fluid]
+particles_per_m = 200.0
+
+[[fluid.box]]
+min_m = [-0.065, -0.08, -0.065]
+max_m = [-0.013, 0.046, 0.065]
+
+[model]
+name = "wcsph"
+walls = "free-slip"
+
+[run]
+until_s = 0.01
+"#;
+
+    #[test]
+    fn a_case_reads_with_its_values() {
+        let case = parse(DAM, "dam.toml").unwrap();
+        assert_eq!(*case.fluid.particles_per_m.get_ref(), 200.0);
+        assert_eq!(case.fluid.boxes.len(), 1);
+        assert_eq!(case.fluid.boxes[0].get_ref().max_m, [-0.013, 0.046, 0.065]);
+        assert_eq!(case.model.name.as_ref().unwrap().get_ref(), "wcsph");
+        assert_eq!(*case.run.until_s.as_ref().unwrap().get_ref(), 0.01);
+        assert!(case.run.steps.is_none());
+        // Written and read again, the same case.
+        let written = toml::to_string(&case).unwrap();
+        let again = parse(&written, "again.toml").unwrap();
+        assert_eq!(toml::to_string(&again).unwrap(), written);
+    }
+
+    /// The error of `DAM` with `from` replaced by `to`.
+    fn error_of(from: &str, to: &str) -> CaseError {
+        assert!(DAM.contains(from), "{from}");
+        parse(&DAM.replacen(from, to, 1), "dam.toml").unwrap_err()
+    }
+
+    #[test]
+    fn each_fault_is_named_with_its_line_and_column() {
+        let cases = [
+            (
+                "until_s = 0.01",
+                "until_seconds = 0.01",
+                (18, 1),
+                "unknown field",
+            ),
+            (
+                "particles_per_m = 200.0",
+                "particles_per_m = \"many\"",
+                (7, 19),
+                "invalid type",
+            ),
+            (
+                "particles_per_m = 200.0",
+                "particles_per_m = -5.0",
+                (7, 19),
+                "not a number > 0",
+            ),
+            (
+                "particles_per_m = 200.0",
+                "particles_per_m = 0.0",
+                (7, 19),
+                "not a number > 0",
+            ),
+            (
+                "max_m = [-0.013, 0.046, 0.065]",
+                "max_m = [-0.013, 0.046, 0.2]",
+                (9, 1),
+                "outside the domain",
+            ),
+            (
+                "max_m = [-0.013, 0.046, 0.065]",
+                "max_m = [-0.07, 0.046, 0.065]",
+                (9, 1),
+                "must exceed",
+            ),
+            (
+                "walls = \"free-slip\"",
+                "walls = \"sticky\"",
+                (15, 9),
+                "none of free-slip, no-slip",
+            ),
+            (
+                "name = \"wcsph\"",
+                "name = \"sph\"",
+                (14, 8),
+                "none of course, fluidanimate, wcsph",
+            ),
+            (
+                "until_s = 0.01",
+                "until_s = 0.01\nsteps = 3",
+                (18, 11),
+                "not both",
+            ),
+            ("until_s = 0.01", "until_s = -1.0", (18, 11), "time > 0"),
+            (
+                "particles_per_m = 200.0",
+                "particles_per_m = 1e6",
+                (7, 19),
+                "the limit is",
+            ),
+            (
+                "box_max_m = [0.065, 0.1, 0.065]",
+                "box_max_m = [1.0, 0.1, 0.065]",
+                (3, 13),
+                "course's box",
+            ),
+            ("[run]", "[run\n", (17, 5), ""),
+        ];
+        for (from, to, at, words) in cases {
+            let error = error_of(from, to);
+            assert_eq!(error.at, Some(at), "{to}: {error}");
+            assert!(error.message.contains(words), "{to}: {error}");
+            let line = error.to_string();
+            assert!(
+                line.starts_with(&format!("dam.toml:{}:{}: ", at.0, at.1)),
+                "{line}"
+            );
+            assert!(!line.contains('\n'), "one line: {line}");
+        }
+    }
+
+    #[test]
+    fn lines_and_columns_count_characters() {
+        assert_eq!(line_and_column("a = 1\nbé = x", 10), (2, 4));
+        assert_eq!(line_and_column("x", 0), (1, 1));
+        assert_eq!(line_and_column("x", 99), (1, 2));
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+        /// Any text, and any case with bytes changed, reads or is refused in one line:
+        /// never a panic.
+        #[test]
+        fn no_text_panics_the_reader(
+            text in ".{0,200}",
+            at in 0usize..400,
+            byte in proptest::prelude::any::<u8>(),
+        ) {
+            let mut mutated = DAM.as_bytes().to_vec();
+            let at = at % mutated.len();
+            mutated[at] = byte;
+            for candidate in [text.as_str(), &String::from_utf8_lossy(&mutated)] {
+                if let Err(error) = parse(candidate, "fuzz.toml") {
+                    proptest::prop_assert!(!error.to_string().contains('\n'));
+                }
+            }
+        }
+    }
+}
