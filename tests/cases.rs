@@ -218,3 +218,164 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
     let entries = std::fs::read_dir(dir.path()).unwrap().count();
     assert_eq!(entries, 1, "only the case file in the folder");
 }
+
+/// A tank at rest, 0.1 m deep at 100 per metre, its gauges read every 10 ms into `folder`,
+/// run to `until` seconds.
+fn tank(folder: &Path, until: f64) -> String {
+    format!(
+        "[fluid]\nparticles_per_m = 100\n[[fluid.box]]\nmin_m = [-0.065, -0.08, -0.065]\n\
+         max_m = [0.065, 0.02, 0.065]\n[model]\nname = \"wcsph\"\n[run]\nuntil_s = {until}\n\
+         [output]\nfolder = \"{}\"\n[gauges]\ninterval_s = 0.01\n\
+         [[gauges.point]]\nname = \"deep\"\nat_m = [0.0, -0.055, 0.0]\n\
+         [[gauges.point]]\nname = \"air\"\nat_m = [0.0, 0.09, 0.0]\n\
+         [[gauges.height]]\nname = \"middle\"\nat_m = [0.0, 0.0]\n",
+        folder.display()
+    )
+}
+
+#[test]
+fn a_run_reads_its_gauges_into_a_table_and_charts() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("out");
+    let path = dir.path().join("tank.toml");
+    std::fs::write(&path, tank(&folder, 0.05)).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), path.as_os_str()]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let report = stdout(&output);
+    let gauge_seconds: f64 = report
+        .split_once(" gauge_seconds=")
+        .map(|(_, value)| value.trim().parse().unwrap())
+        .expect("the gauges' cost");
+    let seconds: f64 = report
+        .split_once(" seconds=")
+        .and_then(|(_, rest)| rest.split(' ').next()?.parse().ok())
+        .unwrap();
+    assert!(gauge_seconds > 0.0 && gauge_seconds <= seconds, "{report}");
+    let table = std::fs::read_to_string(folder.join("gauges.csv")).unwrap();
+    let mut lines = table.lines();
+    let header = lines.next().unwrap();
+    assert_eq!(
+        header,
+        "time_s,deep_pressure_pa,deep_vx_m_s,deep_vy_m_s,deep_vz_m_s,deep_density_kg_m3,\
+         air_pressure_pa,air_vx_m_s,air_vy_m_s,air_vz_m_s,air_density_kg_m3,middle_surface_m"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|line| line.split(',').collect()).collect();
+    // At 0 and at the first state past each 10 ms: 6 readings.
+    assert_eq!(rows.len(), 6, "{table}");
+    let times: Vec<f64> = rows.iter().map(|row| row[0].parse().unwrap()).collect();
+    assert_eq!(times[0], 0.0);
+    for (k, pair) in times.windows(2).enumerate() {
+        assert!(
+            pair[1] > pair[0] && pair[1] >= 0.01 * (k + 1) as f64 - 1e-12,
+            "{times:?}"
+        );
+    }
+    for (k, row) in rows.iter().enumerate() {
+        // 7.5 cm deep: rho_0 g d = 735 Pa, from the hydrostatic start (then within the
+        // first acoustic oscillations).
+        let pressure: f64 = row[1].parse().unwrap();
+        let tolerance = if k == 0 { 0.03 } else { 0.2 };
+        assert!(
+            (pressure / 735.0 - 1.0).abs() < tolerance,
+            "{k}: {pressure}"
+        );
+        // In the air: no reading, not 0.
+        assert!(row[6..11].iter().all(|field| field.is_empty()), "{row:?}");
+        let surface: f64 = row[11].parse().unwrap();
+        assert!((surface - 0.02).abs() < 0.005, "{surface}");
+    }
+    for chart in ["gauges-pressure", "gauges-surface"] {
+        let png = std::fs::read(folder.join(format!("{chart}.png"))).unwrap();
+        assert!(png.starts_with(b"\x89PNG"));
+        let svg = std::fs::read_to_string(folder.join(format!("{chart}.svg"))).unwrap();
+        assert!(svg.contains("deep") || svg.contains("middle"), "{chart}");
+    }
+}
+
+#[test]
+fn bad_gauges_are_refused_with_their_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("out");
+    let good = tank(&folder, 0.05);
+    let bad = [
+        ("interval_s = 0.01\n", "", "gauges need [gauges] interval_s"),
+        (
+            "at_m = [0.0, 0.09, 0.0]",
+            "at_m = [0.0, 0.3, 0.0]",
+            "point gauge outside",
+        ),
+        ("name = \"air\"", "name = \"deep\"", "two gauges are named"),
+        ("name = \"air\"", "name = \"a,b\"", "letters, digits"),
+        (
+            "at_m = [0.0, 0.0]",
+            "at_m = [0.0, 0.0, 0.0]",
+            "invalid length 3",
+        ),
+    ];
+    for (from, to, words) in bad {
+        assert!(good.contains(from), "{from}");
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
+        let output = run_lab(&["run".as_ref(), "--case".as_ref(), path.as_os_str()]);
+        assert_eq!(exit_code(&output), 2, "{to}: {}", stderr(&output));
+        let message = stderr(&output);
+        assert!(message.contains(words), "{to}: {message}");
+        assert_eq!(message.lines().count(), 1, "{message}");
+        assert!(!folder.exists(), "nothing written");
+    }
+}
+
+#[test]
+fn still_water_is_checked_against_hydrostatics() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("still.toml");
+    std::fs::write(&path, tank(&dir.path().join("unused"), 0.3)).unwrap();
+    let folder = dir.path().join("checks");
+    let output = run_lab(&[
+        "validate".as_ref(),
+        "still-water".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let checks = std::fs::read_to_string(folder.join("still-water-checks.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = checks
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 7, "{checks}");
+    // The four pressures within 3% of rho_0 g d already 0.3 s in, at 100 per metre; the
+    // surface flat; nothing lost.
+    for row in rows[..5].iter().chain(&rows[6..]) {
+        assert_eq!(row[6], "true", "{checks}");
+        let deviation: f64 = row[4].parse().unwrap();
+        let limit: f64 = row[5].parse().unwrap();
+        assert!(deviation.abs() <= limit, "{checks}");
+    }
+    let expected: Vec<f64> = rows[..4]
+        .iter()
+        .map(|row| row[2].parse().unwrap())
+        .collect();
+    for (value, depth) in expected.iter().zip([0.025, 0.05, 0.075, 0.095]) {
+        assert!(
+            (value / (1000.0 * 9.8 * depth) - 1.0).abs() < 1e-9,
+            "{checks}"
+        );
+    }
+    let readings = std::fs::read_to_string(folder.join("still-water.csv")).unwrap();
+    assert!(readings.lines().count() > 100);
+    assert!(std::fs::read(folder.join("still-water.png"))
+        .unwrap()
+        .starts_with(b"\x89PNG"));
+    // Without a case, or a dam break with one: refused.
+    let output = run_lab(&["validate", "still-water", "--output-dir", "x"]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("give --case FILE"),
+        "{}",
+        stderr(&output)
+    );
+}

@@ -7,7 +7,8 @@
 
 use crate::sim::params::{BOX_MAX, BOX_MIN};
 use clap::ValueEnum;
-use serde::{Deserialize, Serialize};
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
 use std::ops::Range;
 use toml::Spanned;
@@ -31,6 +32,54 @@ pub struct Case {
     /// Where the outputs go.
     #[serde(default, skip_serializing_if = "OutputSettings::is_empty")]
     pub output: OutputSettings,
+    /// What is measured where, and how often.
+    #[serde(default, skip_serializing_if = "Gauges::is_empty")]
+    pub gauges: Gauges,
+}
+
+/// The gauges: point gauges (pressure, velocity and density at a point) and height
+/// gauges (the free surface along a vertical line), read every `interval_s`.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Gauges {
+    /// Simulated seconds between readings (the first at the start); required with gauges.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interval_s: Option<Spanned<f64>>,
+    /// Point gauges.
+    #[serde(default, rename = "point", skip_serializing_if = "Vec::is_empty")]
+    pub points: Vec<Spanned<PointGauge>>,
+    /// Height gauges.
+    #[serde(default, rename = "height", skip_serializing_if = "Vec::is_empty")]
+    pub heights: Vec<Spanned<HeightGauge>>,
+}
+
+impl Gauges {
+    /// Whether it has no gauge and no interval.
+    pub fn is_empty(&self) -> bool {
+        *self == Gauges::default()
+    }
+}
+
+/// A point gauge.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointGauge {
+    /// The prefix of its columns (letters, digits, `-` and `_`).
+    pub name: String,
+    /// The point (m).
+    #[serde(deserialize_with = "exactly")]
+    pub at_m: [f64; 3],
+}
+
+/// A height gauge: the vertical line through a point of the floor.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeightGauge {
+    /// The prefix of its column (letters, digits, `-` and `_`).
+    pub name: String,
+    /// The line's x and z (m).
+    #[serde(deserialize_with = "exactly")]
+    pub at_m: [f64; 2],
 }
 
 /// The domain: the box whose walls hold the particles.
@@ -38,8 +87,10 @@ pub struct Case {
 #[serde(deny_unknown_fields)]
 pub struct Domain {
     /// The box's low corner (m).
+    #[serde(deserialize_with = "exactly_spanned")]
     pub box_min_m: Spanned<[f64; 3]>,
     /// The box's high corner (m).
+    #[serde(deserialize_with = "exactly_spanned")]
     pub box_max_m: Spanned<[f64; 3]>,
 }
 
@@ -75,8 +126,10 @@ pub struct Fluid {
 #[serde(deny_unknown_fields)]
 pub struct BoxFill {
     /// The low corner (m).
+    #[serde(deserialize_with = "exactly")]
     pub min_m: [f64; 3],
     /// The high corner (m).
+    #[serde(deserialize_with = "exactly")]
     pub max_m: [f64; 3],
 }
 
@@ -85,6 +138,7 @@ pub struct BoxFill {
 #[serde(deny_unknown_fields)]
 pub struct SphereFill {
     /// The centre (m).
+    #[serde(deserialize_with = "exactly")]
     pub centre_m: [f64; 3],
     /// The radius (m).
     pub radius_m: f64,
@@ -155,6 +209,9 @@ pub struct OutputSettings {
     /// The final state's `.fld` file (relative to the current folder), if it is written.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub final_state: Option<String>,
+    /// The folder of the gauges' CSV and charts (relative to the current folder).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub folder: Option<String>,
 }
 
 impl OutputSettings {
@@ -162,6 +219,30 @@ impl OutputSettings {
     fn is_empty(&self) -> bool {
         *self == OutputSettings::default()
     }
+}
+
+/// Exactly `N` numbers (serde's arrays would take the first `N` of a longer list).
+fn exactly<'de, D: Deserializer<'de>, const N: usize>(
+    deserializer: D,
+) -> Result<[f64; N], D::Error> {
+    let numbers = Vec::<f64>::deserialize(deserializer)?;
+    let count = numbers.len();
+    numbers
+        .try_into()
+        .map_err(|_| D::Error::invalid_length(count, &format!("an array of {N} numbers").as_str()))
+}
+
+/// The same, with where they are.
+fn exactly_spanned<'de, D: Deserializer<'de>, const N: usize>(
+    deserializer: D,
+) -> Result<Spanned<[f64; N]>, D::Error> {
+    let numbers = Spanned::<Vec<f64>>::deserialize(deserializer)?;
+    let span = numbers.span();
+    let count = numbers.get_ref().len();
+    let array = numbers.into_inner().try_into().map_err(|_| {
+        D::Error::invalid_length(count, &format!("an array of {N} numbers").as_str())
+    })?;
+    Ok(Spanned::new(span, array))
 }
 
 /// What is wrong with a case file, and where: one line.
@@ -355,6 +436,55 @@ impl Case {
                 return Err((steps.span(), "steps must be at most 2^63-1".into()));
             }
         }
+        self.check_gauges(inside)
+    }
+
+    /// The gauges: an interval with them, names of their own, places inside the domain,
+    /// a folder to write to.
+    fn check_gauges(&self, inside: impl Fn([f64; 3]) -> bool) -> Result<(), Fault> {
+        let gauges = &self.gauges;
+        let points = gauges.points.iter().map(|g| (g.span(), &g.get_ref().name));
+        let heights = gauges.heights.iter().map(|g| (g.span(), &g.get_ref().name));
+        let named: Vec<_> = points.chain(heights).collect();
+        let Some((first, _)) = named.first() else {
+            return Ok(());
+        };
+        let Some(interval) = &gauges.interval_s else {
+            return Err((first.clone(), "gauges need [gauges] interval_s".into()));
+        };
+        if !(interval.get_ref().is_finite() && *interval.get_ref() > 0.0) {
+            return Err((interval.span(), "interval_s must be a time > 0".into()));
+        }
+        if self.output.folder.is_none() {
+            return Err((
+                first.clone(),
+                "gauges need [output] folder, where gauges.csv goes".into(),
+            ));
+        }
+        for (index, (span, name)) in named.iter().enumerate() {
+            let fits = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_';
+            if name.is_empty() || !name.chars().all(fits) {
+                return Err((
+                    span.clone(),
+                    format!("gauge name \"{name}\" must be letters, digits, - and _"),
+                ));
+            }
+            if named[..index].iter().any(|(_, other)| other == name) {
+                return Err((span.clone(), format!("two gauges are named \"{name}\"")));
+            }
+        }
+        for gauge in &gauges.points {
+            if !inside(gauge.get_ref().at_m) {
+                return Err((gauge.span(), "a point gauge outside the domain".into()));
+            }
+        }
+        let low = self.domain.box_min_m.get_ref()[1];
+        for gauge in &gauges.heights {
+            let [x, z] = gauge.get_ref().at_m;
+            if !inside([x, low, z]) {
+                return Err((gauge.span(), "a height gauge outside the domain".into()));
+            }
+        }
         Ok(())
     }
 }
@@ -524,6 +654,18 @@ until_s = 0.01
                 "course's box",
             ),
             ("[run]", "[run\n", (17, 5), ""),
+            (
+                "\nmin_m = [-0.065, -0.08, -0.065]",
+                "\nmin_m = [-0.065, -0.08, -0.065, 1.0]",
+                (10, 9),
+                "invalid length 4, expected an array of 3 numbers",
+            ),
+            (
+                "box_max_m = [0.065, 0.1, 0.065]",
+                "box_max_m = [0.065, 0.1]",
+                (4, 13),
+                "invalid length 2",
+            ),
         ];
         for (from, to, at, words) in cases {
             let error = error_of(from, to);

@@ -10,11 +10,13 @@ pub mod chart;
 mod commands;
 pub mod diagnostics;
 pub mod energy;
+pub mod gauges;
 pub mod machine;
 pub mod render;
 pub mod scene;
 pub mod slurm;
 pub mod stability;
+pub mod still_water;
 pub mod sweep;
 pub mod validation;
 

@@ -162,6 +162,7 @@ impl SceneKind {
                 ..Default::default()
             },
             output: case::OutputSettings::default(),
+            gauges: case::Gauges::default(),
         })
     }
 }

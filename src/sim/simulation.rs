@@ -226,6 +226,11 @@ impl Simulation {
         self.dynamics.smoothing_length(&self.params)
     }
 
+    /// The pressure (Pa) of fluid at `density` under the model's equation of state.
+    pub fn pressure(&self, density: f64) -> f64 {
+        self.dynamics.pressure(density)
+    }
+
     /// The particles in cell order (their `id` field gives the file order).
     pub fn particles(&self) -> &Particles {
         &self.particles

@@ -9,7 +9,10 @@ use crate::io::checkpoint::{self, Checkpoint};
 use crate::io::fld;
 use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
+use crate::lab::chart;
 use crate::lab::diagnostics::{self, Diagnostics};
+use crate::lab::gauges::GaugeTable;
+use crate::lab::machine::Machine;
 use crate::sim::simulation::Simulation;
 use crate::sim::skin::Skin;
 use clap::builder::RangedI64ValueParser;
@@ -118,6 +121,20 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
             .into());
         }
     }
+    // The case's gauges, and the folder their table and charts go to.
+    let case = args.simulation.read.as_ref();
+    let mut gauges = case.map_or(GaugeTable::new(Vec::new()), |case| {
+        GaugeTable::of_case(&case.gauges)
+    });
+    let gauge_folder = case.and_then(|case| case.output.folder.as_ref().map(PathBuf::from));
+    let interval = case.and_then(|case| case.gauges.interval_s.as_ref().map(|i| *i.get_ref()));
+    let gauges_file = match (&gauge_folder, gauges.is_empty()) {
+        (Some(folder), false) => {
+            super::create_output_dir(folder)?;
+            Some((OutputFile::create(&folder.join("gauges.csv"))?, folder))
+        }
+        _ => None,
+    };
     let mut output = args.output.as_deref().map(OutputFile::create).transpose()?;
     let mut diagnostics_file = args
         .diagnostics
@@ -178,6 +195,24 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         diagnose(&simulation, first - 1);
     }
     let start_time = simulation.time();
+    // Gauges read at the start and at the first state at or past each interval after,
+    // their time counted in the run's.
+    let mut gauge_seconds = 0.0;
+    let mut next_reading = start_time;
+    let mut read_gauges = |simulation: &Simulation, gauges: &mut GaugeTable| {
+        let Some(interval) = interval.filter(|_| !gauges.is_empty()) else {
+            return;
+        };
+        if simulation.time() >= next_reading * (1.0 - 1e-12) {
+            let started = Instant::now();
+            gauges.read(simulation);
+            gauge_seconds += started.elapsed().as_secs_f64();
+            while next_reading <= simulation.time() * (1.0 + 1e-12) {
+                next_reading += interval;
+            }
+        }
+    };
+    read_gauges(&simulation, &mut gauges);
     let progress = progress_over(match extent {
         Extent::Steps(steps) => Extent::Steps(steps + 1 - first),
         until => until,
@@ -193,6 +228,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         let started = Instant::now();
         simulation.step_towards(end);
         seconds += started.elapsed().as_secs_f64();
+        read_gauges(&simulation, &mut gauges);
         extent.show(&progress, &simulation);
         // A run that failed (NaN or infinities, a collapsed step) stops here, naming the
         // step, instead of writing its state out; its diagnostics are written.
@@ -218,11 +254,15 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     progress.finish_and_clear();
     let particles = simulation.particles().len();
     let run = step + 1 - first;
+    let seconds = seconds + gauge_seconds;
     let per_particle_step = seconds / (run.max(1) as f64 * particles as f64);
     let simulated = simulation.time() - start_time;
-    let builds = simulation.skin().map_or(String::new(), |skin| {
+    let mut builds = simulation.skin().map_or(String::new(), |skin| {
         format!(" list_builds={}", skin.builds())
     });
+    if gauges_file.is_some() {
+        builds.push_str(&format!(" gauge_seconds={gauge_seconds:.6}"));
+    }
     let per_simulated_second = if simulated > 0.0 {
         format!("{:.3}", seconds / simulated)
     } else {
@@ -247,7 +287,24 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     };
     let diagnosed = diagnostics_file.map_or(Ok(()), |file| file.commit(rows.as_bytes()));
     stored?;
-    Ok(diagnosed?)
+    diagnosed?;
+    if let Some((file, folder)) = gauges_file {
+        file.commit(gauges.csv().as_bytes())?;
+        let machine = Machine::this();
+        let footer = format!(
+            "{}: {} on {} particles, {} kernel; {}, commit {}",
+            args.simulation.source().display(),
+            args.simulation.model().name(),
+            particles,
+            args.simulation.kernel().name(),
+            machine.cpu_model,
+            machine.commit
+        );
+        for chart in gauges.charts(&footer) {
+            chart::render(&chart, folder, (900, 560))?;
+        }
+    }
+    Ok(())
 }
 
 /// The bytes a diagnostics row usually takes, for the room reserved before a run.

@@ -141,6 +141,24 @@ impl WaterArgs {
 }
 
 impl SimulationArgs {
+    /// The simulation of the case at `path`, with no flag beside it.
+    pub fn of_case(path: &Path) -> SimulationArgs {
+        SimulationArgs {
+            input: None,
+            case: Some(path.to_path_buf()),
+            read: None,
+            steps: None,
+            model: None,
+            kernel: None,
+            dt: None,
+            adaptive: None,
+            skin: None,
+            pairs: None,
+            integrator: None,
+            water: WaterArgs::default(),
+        }
+    }
+
     /// The time-step rule the arguments ask for, or the model's own.
     pub fn time_step(&self) -> TimeStep {
         asked_time_step(self.adaptive, self.dt).unwrap_or(self.model().default_time_step())

@@ -3,21 +3,26 @@
 //! experimental point as a CSV, and a chart of Z against T with the experiment's points.
 
 use super::create_output_dir;
-use super::simulation_args::{asked_time_step, parse_courant, parse_time_step, WaterArgs};
+use super::simulation_args::{
+    asked_time_step, failure, load, parse_courant, parse_time_step, Extent, Loaded, SimulationArgs,
+    WaterArgs,
+};
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
+use crate::lab::still_water::{self, Tank};
 use crate::lab::validation::{self, Collapse, Comparison, DamBreak, EXPERIMENTS};
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
+use crate::sim::params::{FLUID_DENSITY, GRAVITY};
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::TimeStep;
 use clap::{Args, ValueEnum};
 use plotters::prelude::SeriesLabelPosition;
 use std::error::Error;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The experiments a model can be validated against.
@@ -26,6 +31,10 @@ pub enum Experiment {
     /// The collapse of a water column 2a high on a dry floor: the surge fronts of Martin
     /// and Moyce (1952), n^2 = 2, and of Koshizuka and Oka (1996).
     DamBreak,
+    /// A tank at rest (--case, e.g. cases/still-water.toml, whose settings it runs with):
+    /// the pressures at four depths against hydrostatics, the surface's flatness, the
+    /// largest speed, the particles lost.
+    StillWater,
 }
 
 /// The arguments of `fluid-lab validate`.
@@ -34,9 +43,14 @@ pub struct ValidateArgs {
     /// The experiment.
     #[arg(value_enum)]
     experiment: Experiment,
-    /// Folder for dam-break.csv, dam-break-errors.csv and dam-break.{png,svg}.
+    /// Folder for dam-break.csv, dam-break-errors.csv and dam-break.{png,svg} (or
+    /// still-water.csv, still-water-checks.csv and still-water.{png,svg}).
     #[arg(long)]
     output_dir: PathBuf,
+    /// The case to validate (still-water: a tank of one box of fluid on the floor, run to
+    /// its until_s; the flags below are the dam break's).
+    #[arg(long, value_name = "FILE")]
+    case: Option<PathBuf>,
     /// Models to run.
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = Model::ALL)]
     models: Vec<Model>,
@@ -96,7 +110,22 @@ struct Validated {
 /// Runs every model at every resolution against the experiment and writes the CSVs, the
 /// chart and a summary line per run.
 pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let Experiment::DamBreak = args.experiment;
+    match (args.experiment, &args.case) {
+        (Experiment::StillWater, Some(case)) => {
+            return still_water(case, &args.output_dir, stdout);
+        }
+        (Experiment::StillWater, None) => {
+            return Err("validate still-water runs a case: give --case FILE \
+                        (cases/still-water.toml)"
+                .into());
+        }
+        (Experiment::DamBreak, Some(_)) => {
+            return Err(
+                "validate dam-break builds its column from its flags: it takes no --case".into(),
+            );
+        }
+        (Experiment::DamBreak, None) => {}
+    }
     if !(args.until.is_finite() && args.until > 0.0) {
         return Err(format!("--until: {} is not a positive, finite T", args.until).into());
     }
@@ -359,4 +388,104 @@ fn front_chart(runs: &[Validated], footer: &str) -> PointChart {
         legend: SeriesLabelPosition::UpperLeft,
         footer: footer.to_string(),
     }
+}
+
+/// Runs the still-water case at `path` to its end, reading its tank's gauges, and writes
+/// the readings, the checks and the chart of each pressure over its hydrostatic value.
+fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let mut args = SimulationArgs::of_case(path);
+    args.read_case(&mut None)?;
+    let case = args.read.as_ref().expect("a case read");
+    let tank = Tank::of_case(case).map_err(|error| format!("{}: {error}", path.display()))?;
+    let Extent::Until(end) = args.extent(None) else {
+        return Err(format!(
+            "{}: a still-water case runs to [run] until_s",
+            path.display()
+        )
+        .into());
+    };
+    create_output_dir(folder)?;
+    let readings_path = folder.join("still-water.csv");
+    let checks_path = folder.join("still-water-checks.csv");
+    let (readings_file, checks_file) = (
+        OutputFile::create(&readings_path)?,
+        OutputFile::create(&checks_path)?,
+    );
+    let Loaded { mut simulation, .. } = load(&args)?;
+    let particles = simulation.particles().len();
+    let mut table = tank.gauges();
+    let interval = end / 200.0;
+    let mut next = 0.0;
+    let started = Instant::now();
+    while !simulation.has_reached(end) {
+        if simulation.time() >= next * (1.0 - 1e-12) {
+            table.read(&simulation);
+            next += interval;
+        }
+        simulation.step_towards(end);
+        if let Some(failure) = failure(&simulation, Extent::Until(end), 0) {
+            return Err(failure.into());
+        }
+    }
+    table.read(&simulation);
+    let seconds = started.elapsed().as_secs_f64();
+    let checks = still_water::checks(&tank, &table, &simulation, particles);
+    readings_file.commit(table.csv().as_bytes())?;
+    checks_file.commit(still_water::checks_csv(&checks).as_bytes())?;
+    for check in &checks {
+        writeln!(
+            stdout,
+            "{}: {:.6} {} (expected {:.6}), deviation {:.4} within {:.4}: {}",
+            check.name,
+            check.measured,
+            check.unit,
+            check.expected,
+            check.deviation,
+            check.limit,
+            if check.passed() { "pass" } else { "FAIL" }
+        )?;
+    }
+    let machine = Machine::this();
+    let footer = format!(
+        "{}: {} on {particles} particles, {} kernel, H = {} m, {:.0} CPU s; {}, commit {}",
+        path.display(),
+        args.model().name(),
+        args.kernel().name(),
+        tank.depth(),
+        seconds,
+        machine.cpu_model,
+        machine.commit
+    );
+    let series = still_water::DEPTHS
+        .iter()
+        .enumerate()
+        .map(|(index, &(name, fraction))| {
+            let expected = tank.gauge_depth(fraction) * FLUID_DENSITY * -GRAVITY.y;
+            let points = table.rows().iter().filter_map(|(time, values)| {
+                values[5 * index].map(|pressure| (*time, pressure / expected))
+            });
+            (name.replace('_', " "), points.collect())
+        });
+    let chart = PointChart {
+        name: "still-water",
+        title: "Still water: pressure at each depth over rho0 g d".into(),
+        x_label: "simulated time (s)".into(),
+        x_log: false,
+        y_label: "pressure / (rho0 g d)".into(),
+        y_log: false,
+        series: series.collect(),
+        measured: 0,
+        lines: true,
+        fronts: Vec::new(),
+        notes: Vec::new(),
+        legend: SeriesLabelPosition::LowerRight,
+        footer,
+    };
+    for written in chart::render(&chart, folder, (900, 560))?
+        .iter()
+        .chain([&readings_path, &checks_path])
+    {
+        writeln!(stdout, "wrote {}", written.display())?;
+    }
+    Ok(())
 }

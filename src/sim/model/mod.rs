@@ -117,6 +117,9 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// The time-step rule unless told otherwise (a fixed rule runs at [`Params::dt`]).
     fn default_time_step(&self) -> TimeStep;
 
+    /// The pressure (Pa) of fluid at `density` (kg/m^3): the model's equation of state.
+    fn pressure(&self, density: f64) -> f64;
+
     /// The skin its neighbour lists are kept over steps with unless told otherwise, as
     /// a fraction of the cut-off (none: rebuilt every step; [`crate::sim::skin`]).
     fn default_skin(&self) -> Option<f64> {

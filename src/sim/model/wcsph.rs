@@ -353,6 +353,10 @@ impl Wcsph {
 }
 
 impl Dynamics for Wcsph {
+    fn pressure(&self, density: f64) -> f64 {
+        Wcsph::pressure(self, density)
+    }
+
     fn cutoff(&self, ppm: f64) -> f64 {
         self.settings.support(ppm)
     }

@@ -1,0 +1,475 @@
+//! Gauges, as DualSPHysics users know them: what a state says at chosen places.
+//! A point gauge interpolates the pressure, the velocity and the density at a point
+//! from the particles within the cut-off (Shepard-normalised: a sum weighted by each
+//! particle's kernel value and volume, divided by the sum of the weights); a point with
+//! no particle that near has no value, which the CSV leaves empty. A height gauge finds
+//! the free surface along a vertical line: the highest point of the line where the
+//! particles' kernel-weighted volume, sampled every quarter spacing, still reaches half of
+//! the full fluid's.
+
+use crate::io::case;
+use crate::lab::chart::PointChart;
+use crate::sim::simulation::Simulation;
+use glam::{DVec2, DVec3};
+use plotters::chart::SeriesLabelPosition;
+use std::fmt::Write;
+
+/// A gauge: where, and what it measures.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Gauge {
+    /// Pressure, velocity and density at a point.
+    Point {
+        /// The column names' prefix.
+        name: String,
+        /// The point (m).
+        at: DVec3,
+    },
+    /// The free surface's height along the vertical line through a point of the floor.
+    Height {
+        /// The column name's prefix.
+        name: String,
+        /// The line's x and z (m).
+        at: DVec2,
+    },
+}
+
+/// What a point gauge reads.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointReading {
+    /// The pressure (Pa).
+    pub pressure: f64,
+    /// The velocity (m/s).
+    pub velocity: DVec3,
+    /// The density (kg/m^3).
+    pub density: f64,
+}
+
+/// The Wendland C2 kernel of support `support`, normalised in 3-D.
+fn wendland(r: f64, support: f64) -> f64 {
+    let q = r / support;
+    if q >= 1.0 {
+        return 0.0;
+    }
+    let sigma = 21.0 / (2.0 * std::f64::consts::PI * support.powi(3));
+    sigma * (1.0 - q).powi(4) * (1.0 + 4.0 * q)
+}
+
+/// The slots of the particles within `support` of `at`, or of the vertical line through
+/// it where `vertical`.
+fn near(simulation: &Simulation, at: DVec3, support: f64, vertical: bool) -> Vec<usize> {
+    let p = &simulation.particles().p;
+    (0..simulation.particles().len())
+        .filter(|&slot| {
+            let (dx, dz) = (p[0][slot] - at.x, p[2][slot] - at.z);
+            let dy = if vertical { 0.0 } else { p[1][slot] - at.y };
+            dx * dx + dy * dy + dz * dz < support * support
+        })
+        .collect()
+}
+
+/// The support the gauges interpolate with: the model's cut-off.
+fn support(simulation: &Simulation) -> f64 {
+    simulation.params().h
+}
+
+/// The Shepard interpolation at `at` of the values each sample carries: each sample
+/// (position, volume, values) weighted by its kernel value times its volume, the sum
+/// divided by the weights'; `None` with no sample within `support`.
+pub fn interpolate<const N: usize>(
+    samples: impl Iterator<Item = (DVec3, f64, [f64; N])>,
+    at: DVec3,
+    support: f64,
+) -> Option<[f64; N]> {
+    let mut weights = 0.0;
+    let mut sums = [0.0; N];
+    for (position, volume, values) in samples {
+        let weight = wendland(position.distance(at), support) * volume;
+        weights += weight;
+        for (sum, value) in sums.iter_mut().zip(values) {
+            *sum += weight * value;
+        }
+    }
+    (weights > 0.0).then(|| sums.map(|sum| sum / weights))
+}
+
+/// The reading of a point gauge at `at` on `state` (whose densities are those of its
+/// positions: [`Simulation::with_fresh_densities`]), or `None` with no particle within the
+/// cut-off.
+pub fn read_point(state: &Simulation, at: DVec3) -> Option<PointReading> {
+    let support = support(state);
+    let particles = state.particles();
+    let mass = state.params().mass;
+    let samples = near(state, at, support, false).into_iter().map(|slot| {
+        let rho = particles.rho[slot];
+        let v = crate::sim::particles::vector_at(&particles.v, slot);
+        let values = [state.pressure(rho), v.x, v.y, v.z, rho];
+        (particles.position(slot), mass / rho, values)
+    });
+    let [pressure, vx, vy, vz, density] = interpolate(samples, at, support)?;
+    Some(PointReading {
+        pressure,
+        velocity: DVec3::new(vx, vy, vz),
+        density,
+    })
+}
+
+/// The free surface's height along the vertical line through `at` (x, z) on `state` (with
+/// fresh densities, as for [`read_point`]): the highest y,
+/// from the floor up in quarter spacings, at which the kernel-weighted volume of the
+/// particles reaches half of the full fluid's (linear between samples), or `None` where
+/// no fluid is on the line.
+pub fn read_height(state: &Simulation, at: DVec2) -> Option<f64> {
+    let support = support(state);
+    let particles = state.particles();
+    let mass = state.params().mass;
+    let line = DVec3::new(at.x, 0.0, at.y);
+    let slots = near(state, line, support, true);
+    if slots.is_empty() {
+        return None;
+    }
+    let heights = slots.iter().map(|&slot| particles.p[1][slot]);
+    let (bottom, top) = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
+        (lo.min(y), hi.max(y))
+    });
+    let fraction = |y: f64| {
+        let point = DVec3::new(at.x, y, at.y);
+        slots
+            .iter()
+            .map(|&slot| {
+                let r = particles.position(slot).distance(point);
+                wendland(r, support) * mass / particles.rho[slot]
+            })
+            .sum::<f64>()
+    };
+    let step = 0.25 / state.params().ppm;
+    let mut surface = None;
+    let mut y = bottom;
+    let mut last = fraction(y);
+    while y <= top + support {
+        let next = fraction(y + step);
+        if last >= 0.5 && next < 0.5 {
+            surface = Some(y + step * (last - 0.5) / (last - next));
+        }
+        last = next;
+        y += step;
+    }
+    surface
+}
+
+/// The columns of a point gauge, after its name.
+const POINT_COLUMNS: [&str; 5] = ["pressure_pa", "vx_m_s", "vy_m_s", "vz_m_s", "density_kg_m3"];
+
+/// The gauges' readings over a run: a row per reading, a column per gauge and quantity.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GaugeTable {
+    gauges: Vec<Gauge>,
+    /// Each reading's time (s) and values (`None`: no fluid near), in the columns' order.
+    rows: Vec<(f64, Vec<Option<f64>>)>,
+}
+
+impl GaugeTable {
+    /// No readings yet of `gauges`.
+    pub fn new(gauges: Vec<Gauge>) -> GaugeTable {
+        GaugeTable {
+            gauges,
+            rows: Vec::new(),
+        }
+    }
+
+    /// The gauges of a case.
+    pub fn of_case(gauges: &case::Gauges) -> GaugeTable {
+        let points = gauges.points.iter().map(|gauge| Gauge::Point {
+            name: gauge.get_ref().name.clone(),
+            at: DVec3::from_array(gauge.get_ref().at_m),
+        });
+        let heights = gauges.heights.iter().map(|gauge| Gauge::Height {
+            name: gauge.get_ref().name.clone(),
+            at: DVec2::from_array(gauge.get_ref().at_m),
+        });
+        GaugeTable::new(points.chain(heights).collect())
+    }
+
+    /// Whether it has no gauge.
+    pub fn is_empty(&self) -> bool {
+        self.gauges.is_empty()
+    }
+
+    /// The columns after `time_s`, unit in the name.
+    pub fn columns(&self) -> Vec<String> {
+        let mut columns = Vec::new();
+        for gauge in &self.gauges {
+            match gauge {
+                Gauge::Point { name, .. } => columns.extend(
+                    POINT_COLUMNS
+                        .iter()
+                        .map(|column| format!("{name}_{column}")),
+                ),
+                Gauge::Height { name, .. } => columns.push(format!("{name}_surface_m")),
+            }
+        }
+        columns
+    }
+
+    /// Reads every gauge at the state of `simulation` (on a copy with the densities of its
+    /// positions).
+    pub fn read(&mut self, simulation: &Simulation) {
+        let state = simulation.with_fresh_densities();
+        let simulation = &state;
+        let mut values = Vec::new();
+        for gauge in &self.gauges {
+            match gauge {
+                Gauge::Point { at, .. } => match read_point(simulation, *at) {
+                    Some(reading) => values.extend(
+                        [
+                            reading.pressure,
+                            reading.velocity.x,
+                            reading.velocity.y,
+                            reading.velocity.z,
+                            reading.density,
+                        ]
+                        .map(Some),
+                    ),
+                    None => values.extend([None; POINT_COLUMNS.len()]),
+                },
+                Gauge::Height { at, .. } => values.push(read_height(simulation, *at)),
+            }
+        }
+        self.rows.push((simulation.time(), values));
+    }
+
+    /// The readings so far.
+    pub fn rows(&self) -> &[(f64, Vec<Option<f64>>)] {
+        &self.rows
+    }
+
+    /// The readings as CSV: `time_s`, then the columns; a gauge with no fluid near leaves
+    /// its fields empty.
+    pub fn csv(&self) -> String {
+        let mut text = String::from("time_s");
+        for column in self.columns() {
+            write!(text, ",{column}").expect("a string");
+        }
+        text.push('\n');
+        for (time, values) in &self.rows {
+            write!(text, "{time}").expect("a string");
+            for value in values {
+                match value {
+                    Some(value) => write!(text, ",{value}").expect("a string"),
+                    None => text.push(','),
+                }
+            }
+            text.push('\n');
+        }
+        text
+    }
+
+    /// The charts against time: the point gauges' pressures and the height gauges'
+    /// surfaces (each where the case has such gauges), with `footer`.
+    pub fn charts(&self, footer: &str) -> Vec<PointChart> {
+        let columns = self.columns();
+        let series = |suffix: &str| -> Vec<(String, Vec<(f64, f64)>)> {
+            let picked = columns
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| c.ends_with(suffix));
+            picked
+                .map(|(index, column)| {
+                    let points = self
+                        .rows
+                        .iter()
+                        .filter_map(|(time, values)| values[index].map(|value| (*time, value)));
+                    (
+                        column.trim_end_matches(suffix).to_string(),
+                        points.collect(),
+                    )
+                })
+                .collect()
+        };
+        let chart = |name: &'static str, title: &str, y_label: &str, suffix: &str| PointChart {
+            name,
+            title: title.to_string(),
+            x_label: "simulated time (s)".into(),
+            x_log: false,
+            y_label: y_label.into(),
+            y_log: false,
+            series: series(suffix),
+            measured: 0,
+            lines: true,
+            fronts: Vec::new(),
+            notes: Vec::new(),
+            legend: SeriesLabelPosition::UpperRight,
+            footer: footer.to_string(),
+        };
+        [
+            chart(
+                "gauges-pressure",
+                "Pressure at the point gauges",
+                "pressure (Pa)",
+                "_pressure_pa",
+            ),
+            chart(
+                "gauges-surface",
+                "Free surface at the height gauges",
+                "height (m)",
+                "_surface_m",
+            ),
+        ]
+        .into_iter()
+        .filter(|chart| !chart.series.is_empty())
+        .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::method::Method;
+    use crate::sim::model::Model;
+    use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY};
+    use crate::sim::particles::Particles;
+
+    #[test]
+    fn the_kernel_is_normalised() {
+        let support = 0.01;
+        let shells = 20_000;
+        let volume: f64 = (0..shells)
+            .map(|k| {
+                let r = (k as f64 + 0.5) / shells as f64 * support;
+                4.0 * std::f64::consts::PI * r * r * wendland(r, support) * support / shells as f64
+            })
+            .sum();
+        assert!((volume - 1.0).abs() < 1e-6, "{volume}");
+    }
+
+    /// A slab of water at rest, `depth` deep over the whole floor, at `ppm`, with the
+    /// densities of its positions.
+    fn slab(ppm: f64, depth: f64) -> Simulation {
+        let spacing = 1.0 / ppm;
+        let extent = BOX_MAX - BOX_MIN;
+        let [nx, nz] = [extent.x, extent.z].map(|e| (e * ppm).floor() as usize);
+        let ny = (depth * ppm).round() as usize;
+        let mut particles = Particles::zeroed(nx * ny * nz);
+        for (slot, k) in (0..ny)
+            .flat_map(|y| (0..nz).flat_map(move |z| (0..nx).map(move |x| [x, y, z])))
+            .enumerate()
+        {
+            for axis in 0..3 {
+                particles.p[axis][slot] = BOX_MIN[axis] + (k[axis] as f64 + 0.5) * spacing;
+            }
+        }
+        let method = Method {
+            model: Model::Fluidanimate,
+            kernel: crate::sim::kernel::Kernel::Scalar,
+        };
+        Simulation::with_method(ppm, particles, method)
+            .unwrap()
+            .with_fresh_densities()
+    }
+
+    #[test]
+    fn shepard_interpolation_keeps_a_linear_field_on_a_lattice() {
+        // A field linear in position, carried by a lattice around the point: the weights
+        // are symmetric, so the interpolation is the field at the point.
+        let spacing = 0.005;
+        let field = |p: DVec3| [1000.0 + 100.0 * p.y, 3.0 * p.x - 2.0 * p.z];
+        let at = DVec3::new(0.0011, -0.0023, 0.0007);
+        let lattice = (-6..=6).flat_map(|x| {
+            (-6..=6)
+                .flat_map(move |y| (-6..=6).map(move |z| DVec3::new(x as f64, y as f64, z as f64)))
+        });
+        let samples = lattice.map(|k| {
+            let p = k * spacing;
+            (p, spacing.powi(3), field(p))
+        });
+        let [a, b] = interpolate(samples.clone(), at, 2.6 * spacing).unwrap();
+        let [ea, eb] = field(at);
+        // Within the field's change over a fraction of a spacing: Shepard's is exact for
+        // constants, first-order for a linear field on a lattice.
+        assert!((a - ea).abs() < 100.0 * 0.3 * spacing, "{a} {ea}");
+        assert!((b - eb).abs() < 5.0 * 0.3 * spacing, "{b} {eb}");
+        assert_eq!(interpolate(samples, DVec3::splat(1.0), 2.6 * spacing), None);
+        // A constant is kept to rounding.
+        let constant = (0..20).map(|k| (DVec3::new(k as f64 * 1e-3, 0.0, 0.0), 1e-9, [7.0]));
+        let [c] = interpolate(constant, DVec3::new(0.004, 0.0, 0.001), 0.01).unwrap();
+        assert!((c - 7.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_point_gauge_reads_the_state_and_says_where_there_is_no_fluid() {
+        let simulation = slab(150.0, 0.06);
+        let at = DVec3::new(0.003, BOX_MIN.y + 0.03, -0.002);
+        let reading = read_point(&simulation, at).expect("fluid near");
+        // The density of a full lattice, near the rest density; the pressure the model's
+        // of it; at rest.
+        assert!(
+            (reading.density / FLUID_DENSITY - 1.0).abs() < 0.1,
+            "{reading:?}"
+        );
+        let pressure = simulation.pressure(reading.density);
+        assert!(
+            (reading.pressure - pressure).abs() < 0.05 * pressure.abs() + 1e-9,
+            "{reading:?}"
+        );
+        assert_eq!(reading.velocity, DVec3::ZERO);
+        // Above the water, nothing: no value rather than 0.
+        assert_eq!(read_point(&simulation, DVec3::new(0.0, 0.05, 0.0)), None);
+    }
+
+    #[test]
+    fn a_height_gauge_finds_the_surface_within_a_spacing() {
+        for depth in [0.04, 0.06] {
+            let ppm = 150.0;
+            let simulation = slab(ppm, depth);
+            let height = read_height(&simulation, DVec2::new(0.001, -0.003)).unwrap();
+            let surface = BOX_MIN.y + depth;
+            assert!(
+                (height - surface).abs() < 1.0 / ppm,
+                "{depth}: {height} {surface}"
+            );
+        }
+        let simulation = slab(150.0, 0.04);
+        assert_eq!(read_height(&simulation, DVec2::new(1.0, 1.0)), None);
+    }
+
+    #[test]
+    fn the_csv_names_each_gauge_and_leaves_a_dry_one_empty() {
+        let simulation = slab(100.0, 0.04);
+        let mut table = GaugeTable::new(vec![
+            Gauge::Point {
+                name: "floor".into(),
+                at: DVec3::new(0.0, BOX_MIN.y + 0.005, 0.0),
+            },
+            Gauge::Point {
+                name: "air".into(),
+                at: DVec3::new(0.0, 0.09, 0.0),
+            },
+            Gauge::Height {
+                name: "middle".into(),
+                at: DVec2::ZERO,
+            },
+        ]);
+        table.read(&simulation);
+        table.read(&simulation);
+        let csv = table.csv();
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(lines.len(), 3);
+        assert!(lines[0].starts_with("time_s,floor_pressure_pa,floor_vx_m_s,"));
+        assert!(lines[0].ends_with(",air_density_kg_m3,middle_surface_m"));
+        let fields: Vec<&str> = lines[1].split(',').collect();
+        assert_eq!(fields.len(), lines[0].split(',').count());
+        assert_eq!(fields[0], "0");
+        assert!(fields[1].parse::<f64>().is_ok());
+        assert!(fields[6..11].iter().all(|field| field.is_empty()), "{csv}");
+        let height: f64 = fields[11].parse().unwrap();
+        assert!((height - (BOX_MIN.y + 0.04)).abs() < 0.01, "{csv}");
+        // Charted: the floor's pressure (the dry gauge a series without points) and the
+        // surface.
+        let charts = table.charts("test");
+        assert_eq!(charts.len(), 2);
+        assert_eq!(charts[0].series.len(), 2);
+        assert_eq!(charts[0].series[0].0, "floor");
+        assert_eq!(charts[0].series[0].1.len(), 2);
+        assert!(charts[0].series[1].1.is_empty());
+        assert_eq!(charts[1].series[0].0, "middle");
+    }
+}
