@@ -379,3 +379,49 @@ fn still_water_is_checked_against_hydrostatics() {
         stderr(&output)
     );
 }
+
+#[test]
+fn the_dam_break_validation_from_its_case_gives_the_fronts_of_its_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let validate = |extra: &[&std::ffi::OsStr], folder: &Path| {
+        let mut args: Vec<&std::ffi::OsStr> = vec!["validate".as_ref(), "dam-break".as_ref()];
+        args.extend_from_slice(extra);
+        args.extend(["--until", "0.6", "--output-dir"].map(std::ffi::OsStr::new));
+        args.push(folder.as_os_str());
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    };
+    let (flags, from_case) = (dir.path().join("flags"), dir.path().join("case"));
+    validate(
+        &["--models", "wcsph", "--ppms", "300", "--width", "0.026"].map(std::ffi::OsStr::new),
+        &flags,
+    );
+    let case = case("dam-break-validation");
+    validate(&["--case".as_ref(), case.as_os_str()], &from_case);
+    for file in ["dam-break.csv", "dam-break-errors.csv"] {
+        let a = std::fs::read(flags.join(file)).unwrap();
+        assert!(
+            a.len() > 200 && a == std::fs::read(from_case.join(file)).unwrap(),
+            "{file}"
+        );
+    }
+    // A case whose fluid is not such a column is refused.
+    let text = std::fs::read_to_string(&case).unwrap();
+    let path = dir.path().join("wide.toml");
+    std::fs::write(&path, text.replace("-0.03833333333333333", "-0.03")).unwrap();
+    let output = run_lab(&[
+        "validate".as_ref(),
+        "dam-break".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        "--output-dir".as_ref(),
+        dir.path().join("no").as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("a wide and 2a high"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!dir.path().join("no").exists());
+}

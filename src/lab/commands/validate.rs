@@ -15,7 +15,7 @@ use crate::lab::validation::{self, Collapse, Comparison, DamBreak, EXPERIMENTS};
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
-use crate::sim::params::{FLUID_DENSITY, GRAVITY};
+use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::TimeStep;
 use clap::{Args, ValueEnum};
@@ -47,8 +47,10 @@ pub struct ValidateArgs {
     /// still-water.csv, still-water-checks.csv and still-water.{png,svg}).
     #[arg(long)]
     output_dir: PathBuf,
-    /// The case to validate (still-water: a tank of one box of fluid on the floor, run to
-    /// its until_s; the flags below are the dam break's).
+    /// The case to validate: still-water, a tank of one box of fluid on the floor, run to
+    /// its until_s; dam-break, a column of one box of fluid a wide and 2a high against the
+    /// low-x wall, whose model, kernel, settings, time step, resolution and seed replace
+    /// the flags' (--until and --every stay).
     #[arg(long, value_name = "FILE")]
     case: Option<PathBuf>,
     /// Models to run.
@@ -109,7 +111,7 @@ struct Validated {
 
 /// Runs every model at every resolution against the experiment and writes the CSVs, the
 /// chart and a summary line per run.
-pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     match (args.experiment, &args.case) {
         (Experiment::StillWater, Some(case)) => {
             return still_water(case, &args.output_dir, stdout);
@@ -119,10 +121,9 @@ pub fn exec(args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
                         (cases/still-water.toml)"
                 .into());
         }
-        (Experiment::DamBreak, Some(_)) => {
-            return Err(
-                "validate dam-break builds its column from its flags: it takes no --case".into(),
-            );
+        (Experiment::DamBreak, Some(case)) => {
+            let case = case.clone();
+            take_dam_break_case(&mut args, &case)?;
         }
         (Experiment::DamBreak, None) => {}
     }
@@ -388,6 +389,57 @@ fn front_chart(runs: &[Validated], footer: &str) -> PointChart {
         legend: SeriesLabelPosition::UpperLeft,
         footer: footer.to_string(),
     }
+}
+
+/// Takes the dam break of the case at `path` in place of the flags': its one box of fluid,
+/// the column (a wide and 2a high against the low-x wall, through the box's depth), gives
+/// the width, its lattice the resolution and seed; its model, kernel, settings and time
+/// step replace the flags'. `--until`, `--every` and `--output-dir` stay the command
+/// line's.
+fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<dyn Error>> {
+    let mut simulation = SimulationArgs::of_case(path);
+    simulation.read_case(&mut None)?;
+    let case = simulation.read.as_ref().expect("a case read");
+    let shown = path.display();
+    let [fill] = &case.fluid.boxes[..] else {
+        return Err(format!("{shown}: a dam-break case has one box of fluid").into());
+    };
+    let ppm = *case.fluid.particles_per_m.get_ref();
+    let (low, high) = (fill.get_ref().min_m, fill.get_ref().max_m);
+    let dam = DamBreak {
+        width: high[0] - low[0],
+        ppm,
+        seed: case.fluid.seed,
+    };
+    let a = dam.column_width();
+    let column = [
+        (low[0], BOX_MIN.x),
+        (low[1], BOX_MIN.y),
+        (low[2], BOX_MIN.z),
+        (high[0], BOX_MIN.x + a),
+        (high[1], BOX_MIN.y + 2.0 * a),
+        (high[2], BOX_MAX.z),
+    ];
+    if !case.fluid.spheres.is_empty() || column.iter().any(|(x, y)| (x - y).abs() > 1e-9) {
+        return Err(format!(
+            "{shown}: a dam-break case's box of fluid is the column a wide and 2a high against \
+             the low-x wall, through the box's depth (a = {a} m at {ppm} per metre: max_m = \
+             [{}, {}, {}])",
+            BOX_MIN.x + a,
+            BOX_MIN.y + 2.0 * a,
+            BOX_MAX.z
+        )
+        .into());
+    }
+    args.models = vec![simulation.model()];
+    args.ppms = vec![ppm];
+    args.width = dam.width;
+    args.seed = dam.seed;
+    args.kernel = simulation.kernel();
+    args.dt = simulation.dt;
+    args.adaptive = simulation.adaptive;
+    args.water = simulation.water.clone();
+    Ok(())
 }
 
 /// Runs the still-water case at `path` to its end, reading its tank's gauges, and writes
