@@ -190,6 +190,44 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "outside the domain",
         ),
         ("until_s = 0.5", "until_s = 0", "time > 0"),
+        // The water model's settings: its own, in range.
+        (
+            "name = \"wcsph\"",
+            "name = \"course\"\nwalls = \"no-slip\"",
+            "the course model takes none",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = \"wcsph\"\nartificial_viscosity = -1.0",
+            "artificial_viscosity must be",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = \"wcsph\"\nsmoothing_spacings = nan",
+            "smoothing_spacings must be",
+        ),
+        // Found when the scene is made, still at their key.
+        (
+            "particles_per_m = 400.0",
+            "particles_per_m = 10.0",
+            "gives a grid of",
+        ),
+        (
+            "max_m = [-0.012999999999999998, 0.046, 0.065]",
+            "max_m = [-0.0649, -0.0799, -0.0649]",
+            "hold no lattice point",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = \"wcsph\"\nskin_cutoffs = 1000.0",
+            "too wide for the box",
+        ),
+        // A name with control characters is echoed escaped, on one line.
+        (
+            "name = \"wcsph\"",
+            "name = \"w\\u001b[2J\\r\\nx\"",
+            "\\u{1b}[2J\\r\\nx",
+        ),
     ];
     for (from, to, words) in bad {
         assert!(good.contains(from), "{from}");
@@ -217,6 +255,22 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
     }
     let entries = std::fs::read_dir(dir.path()).unwrap().count();
     assert_eq!(entries, 1, "only the case file in the folder");
+    // The final state may not be the case file itself.
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, &good).unwrap();
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        path.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("is the case file"),
+        "{}",
+        stderr(&output)
+    );
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), good);
 }
 
 /// A tank at rest, 0.1 m deep at 100 per metre, its gauges read every 10 ms into `folder`,
@@ -424,4 +478,81 @@ fn the_dam_break_validation_from_its_case_gives_the_fronts_of_its_flags() {
         stderr(&output)
     );
     assert!(!dir.path().join("no").exists());
+}
+
+#[test]
+fn a_checkpoint_carries_its_case_and_a_resume_needs_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ball.toml");
+    std::fs::write(
+        &path,
+        "[fluid]\nparticles_per_m = 120\n[[fluid.sphere]]\ncentre_m = [0.0, 0.0, 0.0]\n\
+         radius_m = 0.03\n[model]\nname = \"wcsph\"\n[run]\nsteps = 6\n",
+    )
+    .unwrap();
+    let (straight, resumed) = (
+        dir.path().join("straight.fld"),
+        dir.path().join("resumed.fld"),
+    );
+    let checkpoint = dir.path().join("ball.ck");
+    let run = |args: &[&std::ffi::OsStr]| {
+        let output = run_lab(&[&["run".as_ref()], args].concat());
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    };
+    run(&["--case".as_ref(), path.as_os_str(), straight.as_os_str()]);
+    // Stopped after 4 of its 6 steps, then the case file gone: the checkpoint goes on.
+    run(&[
+        "--case".as_ref(),
+        path.as_os_str(),
+        "--steps".as_ref(),
+        "4".as_ref(),
+        "--checkpoint-every".as_ref(),
+        "2".as_ref(),
+        "--checkpoint".as_ref(),
+        checkpoint.as_os_str(),
+    ]);
+    std::fs::remove_file(&path).unwrap();
+    run(&[
+        "--resume".as_ref(),
+        checkpoint.as_os_str(),
+        resumed.as_os_str(),
+    ]);
+    let (a, b) = (
+        std::fs::read(&straight).unwrap(),
+        std::fs::read(&resumed).unwrap(),
+    );
+    assert!(a.len() > 1000 && a == b, "the resumed run differs");
+    // A checkpoint of a run from an input needs its input; no input at all is a usage
+    // error.
+    let input = dir.path().join("in.fld");
+    let output = run_lab(&[
+        "scene".as_ref(),
+        "drop".as_ref(),
+        input.as_os_str(),
+        "--ppm".as_ref(),
+        "100".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    run(&[
+        input.as_os_str(),
+        "--steps".as_ref(),
+        "2".as_ref(),
+        "--checkpoint-every".as_ref(),
+        "2".as_ref(),
+        "--checkpoint".as_ref(),
+        checkpoint.as_os_str(),
+    ]);
+    let output = run_lab(&["run".as_ref(), "--resume".as_ref(), checkpoint.as_os_str()]);
+    assert_eq!(exit_code(&output), 2);
+    assert!(
+        stderr(&output).contains("a run from an input file: give that input"),
+        "{}",
+        stderr(&output)
+    );
+    let output = run_lab(&["run", "--steps", "2"]);
+    assert_eq!(exit_code(&output), 2);
+    assert_eq!(
+        stderr(&output),
+        "fluid-lab: error: give an input .fld file or --case FILE\n"
+    );
 }

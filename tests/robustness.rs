@@ -1087,6 +1087,7 @@ fn valid_checkpoints() -> &'static [Vec<u8>; 3] {
         let stepped = Checkpoint {
             step: 2,
             input: 0x1234_5678,
+            case: Some("[fluid]\nparticles_per_m = 204\n".into()),
             state: simulation.resumable(),
         };
         let mut fresh = stepped.clone();
@@ -1097,6 +1098,7 @@ fn valid_checkpoints() -> &'static [Vec<u8>; 3] {
         let skinned = Checkpoint {
             step: 3,
             input: 0x1234_5678,
+            case: None,
             state: simulation.resumable(),
         };
         assert!(skinned.state.skin.as_ref().unwrap().builds == 1);
@@ -1186,7 +1188,7 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 }
 
 /// The offset of the last step's length in a checkpoint's encoding (after the magic,
-/// step, input CRC, ppm, time, the six names and the time step's value).
+/// step, input CRC, case, ppm, time, the six names and the time step's value).
 fn last_step_offset(decoded: &Checkpoint) -> usize {
     let state = &decoded.state;
     let rule = match state.time_step {
@@ -1202,7 +1204,10 @@ fn last_step_offset(decoded: &Checkpoint) -> usize {
         state.integrator.name(),
         state.structure.name(),
     ];
-    36 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
+    // The magic, step, input CRC, ppm and time; the case block (a flag, then its length
+    // and text).
+    let case = decoded.case.as_ref().map_or(1, |text| 1 + 8 + text.len());
+    36 + case + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
 }
 
 /// The properties of [`checkpoint::decode`] on `bytes`: no panic; an error is a non-empty
@@ -1244,7 +1249,7 @@ proptest! {
         magic in any::<bool>(),
         tail in prop::collection::vec(any::<u8>(), 0..300),
     ) {
-        let mut bytes = if magic { b"FLUIDCK6".to_vec() } else { Vec::new() };
+        let mut bytes = if magic { b"FLUIDCK7".to_vec() } else { Vec::new() };
         bytes.extend(tail);
         check_checkpoint(&bytes)?;
     }

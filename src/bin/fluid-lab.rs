@@ -3,6 +3,7 @@
 use clap::Parser;
 use fluid::io::case::CaseError;
 use fluid::io::fld::FileError;
+use fluid::lab::UsageError;
 use std::io::Write;
 use std::process::ExitCode;
 
@@ -19,7 +20,7 @@ fn main() -> ExitCode {
             let line = [&b"fluid-lab: error: "[..], &message, b"\n"].concat();
             let _ = std::io::stderr().write_all(&line);
             // A case file refused is a usage error, as clap's are.
-            match error.is::<CaseError>() {
+            match error.is::<CaseError>() || error.is::<UsageError>() {
                 true => ExitCode::from(2),
                 false => ExitCode::FAILURE,
             }

@@ -175,19 +175,19 @@ pub struct ModelSettings {
     pub walls: Option<Spanned<String>>,
     /// Monaghan's artificial viscosity alpha, as `--artificial-viscosity`.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub artificial_viscosity: Option<f64>,
+    pub artificial_viscosity: Option<Spanned<f64>>,
     /// The laminar term's kinematic viscosity (m^2/s), as `--laminar-viscosity`.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub laminar_viscosity_m2_s: Option<f64>,
+    pub laminar_viscosity_m2_s: Option<Spanned<f64>>,
     /// The smoothing length in lattice spacings, as `--smoothing`.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub smoothing_spacings: Option<f64>,
+    pub smoothing_spacings: Option<Spanned<f64>>,
     /// The sound speed over sqrt(2 g H), as `--sound-speed`.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub sound_speed_factor: Option<f64>,
+    pub sound_speed_factor: Option<Spanned<f64>>,
     /// The delta-SPH density diffusion coefficient, as `--density-diffusion`.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub density_diffusion: Option<f64>,
+    pub density_diffusion: Option<Spanned<f64>>,
 }
 
 /// How far to run: a number of steps or a physical time (not both).
@@ -208,10 +208,10 @@ pub struct RunSettings {
 pub struct OutputSettings {
     /// The final state's `.fld` file (relative to the current folder), if it is written.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub final_state: Option<String>,
+    pub final_state: Option<Spanned<String>>,
     /// The folder of the gauges' CSV and charts (relative to the current folder).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub folder: Option<String>,
+    pub folder: Option<Spanned<String>>,
 }
 
 impl OutputSettings {
@@ -257,10 +257,46 @@ pub struct CaseError {
 }
 
 impl fmt::Display for CaseError {
+    /// One line: control characters escaped, a message of more than [`LONGEST`]
+    /// characters (a long name echoed) cut short.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut message: String = self
+            .message
+            .chars()
+            .flat_map(|c| match c.is_control() {
+                true => c.escape_default().collect::<Vec<char>>(),
+                false => vec![c],
+            })
+            .collect();
+        if let Some((cut, _)) = message.char_indices().nth(LONGEST) {
+            message.truncate(cut);
+            message.push_str("...");
+        }
         match self.at {
-            Some((line, column)) => write!(f, "{}:{line}:{column}: {}", self.file, self.message),
-            None => write!(f, "{}: {}", self.file, self.message),
+            Some((line, column)) => write!(f, "{}:{line}:{column}: {message}", self.file),
+            None => write!(f, "{}: {message}", self.file),
+        }
+    }
+}
+
+/// The most characters of a message a [`CaseError`] shows.
+const LONGEST: usize = 300;
+
+/// A number as a message shows it: plain, or in exponent form beyond 1e6 or below 1e-4.
+fn shown(x: f64) -> String {
+    match x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
+        true => format!("{x:e}"),
+        false => format!("{x}"),
+    }
+}
+
+impl CaseError {
+    /// The error `message` at byte span `span` of `text`, the contents of `file`.
+    pub fn at_span(text: &str, file: &str, span: Range<usize>, message: String) -> CaseError {
+        CaseError {
+            file: file.to_string(),
+            at: Some(line_and_column(text, span.start)),
+            message,
         }
     }
 }
@@ -273,10 +309,13 @@ pub const MAX_PARTICLES: f64 = 50_000_000.0;
 
 /// Reads a case from `text`, the contents of `file`, and checks it whole.
 pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
-    let error_at = |span: Option<Range<usize>>, message: String| CaseError {
-        file: file.to_string(),
-        at: span.map(|span| line_and_column(text, span.start)),
-        message,
+    let error_at = |span: Option<Range<usize>>, message: String| match span {
+        Some(span) => CaseError::at_span(text, file, span, message),
+        None => CaseError {
+            file: file.to_string(),
+            at: None,
+            message,
+        },
     };
     let case: Case = toml::from_str(text).map_err(|error| {
         // toml's message may run over lines (a snippet of the file): its first line.
@@ -360,14 +399,17 @@ impl Case {
             return Err((
                 ppm.span(),
                 format!(
-                    "particles_per_m = {} is not a number > 0 (the lattice spacing is its \
-                     inverse)",
-                    ppm.get_ref()
+                    "particles_per_m = {} is not a number > 0 that an f32 holds (the lattice \
+                     spacing is its inverse)",
+                    shown(*ppm.get_ref())
                 ),
             ));
         }
         if self.fluid.boxes.is_empty() && self.fluid.spheres.is_empty() {
-            return Err((ppm.span(), "the fluid has no box and no sphere".into()));
+            return Err((
+                ppm.span(),
+                "the fluid has no [[fluid.box]] and no [[fluid.sphere]]".into(),
+            ));
         }
         let inside = |point: [f64; 3]| {
             (0..3).all(|axis| {
@@ -377,7 +419,10 @@ impl Case {
         let mut volume = 0.0;
         for fill in &self.fluid.boxes {
             let BoxFill { min_m, max_m } = fill.get_ref();
-            if !(finite(min_m) && finite(max_m)) || (0..3).any(|axis| min_m[axis] >= max_m[axis]) {
+            if !(finite(min_m) && finite(max_m)) {
+                return Err((fill.span(), "a box's corners must be finite".into()));
+            }
+            if (0..3).any(|axis| min_m[axis] >= max_m[axis]) {
                 return Err((
                     fill.span(),
                     "a box's max_m must exceed its min_m on every axis".into(),
@@ -417,7 +462,7 @@ impl Case {
                 format!(
                     "the fills would hold about {most:.3e} particles at {} per metre; the \
                      limit is {MAX_PARTICLES:.0e}",
-                    ppm.get_ref()
+                    shown(*ppm.get_ref())
                 ),
             ));
         }
@@ -434,6 +479,11 @@ impl Case {
         if let Some(steps) = &run.steps {
             if *steps.get_ref() > i64::MAX as u64 {
                 return Err((steps.span(), "steps must be at most 2^63-1".into()));
+            }
+        }
+        if let Some(path) = &self.output.final_state {
+            if path.get_ref().is_empty() {
+                return Err((path.span(), "final_state must name a file".into()));
             }
         }
         self.check_gauges(inside)
@@ -490,6 +540,66 @@ impl Case {
 }
 
 impl ModelSettings {
+    /// The weakly compressible model's settings: each the model's, each in its range.
+    fn check_water(&self) -> Result<(), Fault> {
+        use crate::sim::model::wcsph::Settings;
+        use crate::sim::model::Model;
+        let numbers = [
+            ("artificial_viscosity", &self.artificial_viscosity, false),
+            (
+                "laminar_viscosity_m2_s",
+                &self.laminar_viscosity_m2_s,
+                false,
+            ),
+            ("smoothing_spacings", &self.smoothing_spacings, true),
+            ("sound_speed_factor", &self.sound_speed_factor, true),
+            ("density_diffusion", &self.density_diffusion, false),
+        ];
+        let given = numbers
+            .iter()
+            .filter_map(|(key, value, _)| value.as_ref().map(|value| (*key, value.span())))
+            .chain(self.walls.as_ref().map(|walls| ("walls", walls.span())));
+        let model = self
+            .name
+            .as_ref()
+            .map_or(Ok(Model::Course), |name| choice::<Model>(name, "name"))?;
+        if model != Model::Wcsph {
+            if let Some((key, span)) = given.into_iter().next() {
+                return Err((
+                    span,
+                    format!(
+                        "{key} is the weakly compressible model's (name = \"wcsph\"); \
+                         the {} model takes none",
+                        model.name()
+                    ),
+                ));
+            }
+        }
+        for (key, value, positive) in numbers {
+            let Some(value) = value else { continue };
+            let x = *value.get_ref();
+            if !x.is_finite() || x < 0.0 || (positive && x == 0.0) {
+                let want = if positive {
+                    "a finite number > 0"
+                } else {
+                    "a finite number, 0 or more"
+                };
+                return Err((value.span(), format!("{key} must be {want}")));
+            }
+        }
+        // The smoothing length sets the grid: at most the box's smallest side over 3.
+        if let Some(smoothing) = &self.smoothing_spacings {
+            let default = Settings::default().smoothing;
+            if *smoothing.get_ref() > 20.0 * default {
+                return Err((
+                    smoothing.span(),
+                    format!("smoothing_spacings must be at most {}", 20.0 * default),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The names and the numbers' ranges (the model's own checks come when it is made).
     fn check(&self) -> Result<(), Fault> {
         use crate::sim::clusters::PairStructure;
@@ -531,10 +641,13 @@ impl ModelSettings {
         }
         if let Some(skin) = &self.skin_cutoffs {
             if !(skin.get_ref().is_finite() && *skin.get_ref() >= 0.0) {
-                return Err((skin.span(), "skin_cutoffs must be 0 or more".into()));
+                return Err((
+                    skin.span(),
+                    "skin_cutoffs must be a finite number, 0 or more".into(),
+                ));
             }
         }
-        Ok(())
+        self.check_water()
     }
 }
 

@@ -1,8 +1,10 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCK6`; the step count (u64); the CRC-32 of the
-//! input file the run started from (u32, so a resume from another input is refused);
+//! Layout (little-endian): the magic `FLUIDCK7`; the step count (u64); the CRC-32 of the
+//! input file the run started from (u32, so a resume from another input is refused); the
+//! case file it started from, if it did (a u8, 0 for none, else 1, then its length, u64,
+//! and its UTF-8 text: a resume needs nothing else);
 //! particles per metre and the time (f64); the model, kernel, time-step rule, last step's
 //! limit, integrator and pair structure (which decides the order of the pair sums) as
 //! length-prefixed names (u8 length); the time step's value (f64: dt or the Courant
@@ -16,9 +18,9 @@
 //! the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a (x,
 //! y, z) and rho, n f64 each; a built skin's positions at its last build (x, y, z, n f64
 //! each); last, the CRC-32 of every byte before it (u32), so a corrupted checkpoint is
-//! refused. Versions 1-5 (before the integrators; version 3 before the models kept
-//! their own state; version 5 before the skin and the pair structure) are refused, with
-//! a message that says so.
+//! refused. Versions 1-6 (before the integrators; version 3 before the models kept
+//! their own state; version 5 before the skin and the pair structure; version 6 before
+//! the case) are refused, with a message that says so.
 
 use crate::sim::clusters::PairStructure;
 use crate::sim::kernel::Kernel;
@@ -29,16 +31,17 @@ use crate::sim::simulation::Resumable;
 use crate::sim::skin::KeptSkin;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
 
-/// The first bytes of every checkpoint (format version 6).
-const MAGIC: &[u8; 8] = b"FLUIDCK6";
+/// The first bytes of every checkpoint (format version 7).
+const MAGIC: &[u8; 8] = b"FLUIDCK7";
 
 /// The first bytes of a checkpoint of an earlier format, which is refused.
-const OLDER: [&[u8; 8]; 5] = [
+const OLDER: [&[u8; 8]; 6] = [
     b"FLUIDCK1",
     b"FLUIDCK2",
     b"FLUIDCK3",
     b"FLUIDCK4",
     b"FLUIDCK5",
+    b"FLUIDCK6",
 ];
 
 /// A checkpoint's content: the steps run and the state after them.
@@ -48,14 +51,16 @@ pub struct Checkpoint {
     pub step: u64,
     /// The CRC-32 of the input file's bytes ([`crc32fast::hash`]).
     pub input: u32,
+    /// The text of the case file the run started from, if it did.
+    pub case: Option<String>,
     /// The state to go on from.
     pub state: Resumable,
 }
 
-/// At least the size of a checkpoint of `particles` particles (for the room reserved
-/// before a run): a model may keep a value per particle, a skin 3.
-pub fn size_bound(particles: usize) -> u64 {
-    (256 + particles * (4 + 17 * 8)) as u64
+/// At least the size of a checkpoint of `particles` particles and a case of `case` bytes
+/// (for the room reserved before a run): a model may keep a value per particle, a skin 3.
+pub fn size_bound(particles: usize, case: usize) -> u64 {
+    (256 + case + particles * (4 + 17 * 8)) as u64
 }
 
 /// Encodes a checkpoint.
@@ -63,10 +68,19 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     let state = &checkpoint.state;
     let particles = &state.particles;
     let n = particles.len();
-    let mut bytes = Vec::with_capacity(size_bound(n) as usize);
+    let case = checkpoint.case.as_deref();
+    let mut bytes = Vec::with_capacity(size_bound(n, case.map_or(0, str::len)) as usize);
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&checkpoint.step.to_le_bytes());
     bytes.extend_from_slice(&checkpoint.input.to_le_bytes());
+    match case {
+        Some(text) => {
+            bytes.push(1);
+            bytes.extend_from_slice(&(text.len() as u64).to_le_bytes());
+            bytes.extend_from_slice(text.as_bytes());
+        }
+        None => bytes.push(0),
+    }
     bytes.extend_from_slice(&state.ppm.to_le_bytes());
     bytes.extend_from_slice(&state.time.to_le_bytes());
     let (rule, value) = match state.time_step {
@@ -142,7 +156,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         ));
     }
     if magic != Some(&MAGIC[..]) {
-        return Err("it is not a fluid checkpoint (version 6)".into());
+        return Err("it is not a fluid checkpoint (version 7)".into());
     }
     let (body, checksum) = bytes.split_at(bytes.len().saturating_sub(4).max(MAGIC.len()));
     if checksum.len() != 4 || crc32fast::hash(body).to_le_bytes() != checksum {
@@ -154,6 +168,16 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     };
     let step = reader.u64()?;
     let input = reader.u32()?;
+    let case = match reader.take(1)? {
+        [0] => None,
+        [1] => {
+            let length = usize::try_from(reader.u64()?).map_err(|_| "its case is too long")?;
+            let text = std::str::from_utf8(reader.take(length)?)
+                .map_err(|_| "its case is not UTF-8 text")?;
+            Some(text.to_string())
+        }
+        _ => return Err("bad case flag".into()),
+    };
     let ppm = reader.f64()?;
     let time = reader.f64()?;
     let [model, kernel, rule, limit, integrator, structure] = [(); 6].map(|()| reader.name());
@@ -290,6 +314,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     Ok(Checkpoint {
         step,
         input,
+        case,
         state: Resumable {
             ppm,
             method: Method { model, kernel },
@@ -364,6 +389,7 @@ mod tests {
         Checkpoint {
             step: 2,
             input: 0xdead_beef,
+            case: None,
             state: simulation.resumable(),
         }
     }
@@ -377,6 +403,14 @@ mod tests {
         fresh.state.last_step = None;
         fresh.state.time_step = TimeStep::Fixed(1e-3);
         assert_eq!(decode(&encode(&fresh)).unwrap(), fresh);
+        // With the case it started from, its text whole (empty, or not ASCII).
+        for text in ["", "[fluid]\nparticles_per_m = 100 # é\n"] {
+            let mut cased = checkpoint.clone();
+            cased.case = Some(text.to_string());
+            let bytes = encode(&cased);
+            assert_eq!(decode(&bytes).unwrap(), cased);
+            assert!(bytes.len() as u64 <= size_bound(3, text.len()));
+        }
     }
 
     /// A checkpoint of a run keeping its lists with a skin, built or not yet.
@@ -402,7 +436,7 @@ mod tests {
             assert_eq!(skin.built[0].len(), if built { 3 } else { 0 });
             let bytes = encode(&checkpoint);
             assert_eq!(decode(&bytes).unwrap(), checkpoint);
-            assert!(bytes.len() as u64 <= size_bound(3));
+            assert!(bytes.len() as u64 <= size_bound(3, 0));
             for length in 0..bytes.len() {
                 assert!(decode(&bytes[..length]).is_err(), "{length} bytes");
             }
@@ -455,7 +489,7 @@ mod tests {
         wrong_magic[6] = b'X';
         assert_eq!(
             decode(&wrong_magic).unwrap_err(),
-            "it is not a fluid checkpoint (version 6)"
+            "it is not a fluid checkpoint (version 7)"
         );
         let mut older = bytes.clone();
         older[7] = b'3';

@@ -2,8 +2,8 @@
 //! the same library. Its concepts are modules here: generated [`scene`]s, per-state
 //! [`diagnostics`], [`accuracy`] against the reference trajectory, [`stability`] maps,
 //! iteration [`sweep`]s with their [`energy`] and [`machine`], job arrays on [`slurm`], [`chart`]s, [`render`]ed
-//! pictures and [`validation`] against experiments. The command line is [`Lab`], one
-//! module of `commands/` per subcommand.
+//! pictures, [`gauges`], [`still_water`] and [`validation`] against experiments. The
+//! command line is [`Lab`], one module of `commands/` per subcommand.
 
 pub mod accuracy;
 pub mod chart;
@@ -23,6 +23,18 @@ pub mod validation;
 use clap::{Parser, Subcommand};
 use std::error::Error;
 use std::io::Write;
+
+/// A command line that cannot run as given (as clap's own errors, exit status 2).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl Error for UsageError {}
 
 /// The workbench's command line.
 #[derive(Debug, Parser)]

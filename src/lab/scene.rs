@@ -76,6 +76,14 @@ impl Region {
         }
     }
 
+    /// The corners of a box around it.
+    fn bounds(&self) -> (DVec3, DVec3) {
+        match *self {
+            Region::Box { low, high } => (low, high),
+            Region::Sphere { centre, radius } => (centre - radius, centre + radius),
+        }
+    }
+
     /// The fills of a case's fluid.
     pub fn of_case(fluid: &case::Fluid) -> Vec<Region> {
         let boxes = fluid.boxes.iter().map(|fill| Region::Box {
@@ -171,15 +179,24 @@ impl SceneKind {
 /// `seed`.
 pub fn filled(ppm: f64, seed: u64, regions: &[Region]) -> Result<Particles, String> {
     check_ppm(ppm)?;
-    let [nx, ny, nz] = lattice_dims(ppm).map(|n| n as f64);
-    let points = nx * ny * nz;
-    if points > MAX_PARTICLES as f64 {
-        return Err(format!(
-            "the box at {ppm} particles per metre is a lattice of {points} points; the \
-             limit is {MAX_PARTICLES}"
-        ));
-    }
-    let scene = lattice(ppm, seed, |point| {
+    // Only the lattice points of the regions' bounding box are visited (in the same
+    // order as the whole box's, so the jitter is the same); the grid check above bounds
+    // the whole box's lattice to a few hundred million points.
+    let (low, high) = regions.iter().fold(
+        (DVec3::INFINITY, DVec3::NEG_INFINITY),
+        |(low, high), region| {
+            let (a, b) = region.bounds();
+            (low.min(a), high.max(b))
+        },
+    );
+    let dims = lattice_dims(ppm);
+    let ranges: [std::ops::Range<usize>; 3] = std::array::from_fn(|axis| {
+        let index = |x: f64| ((x - BOX_MIN[axis]) * ppm - 0.5).clamp(0.0, dims[axis] as f64);
+        let first = index(low[axis]).floor() as usize;
+        let end = (index(high[axis]).ceil() as usize + 1).min(dims[axis]);
+        first.min(end)..end
+    });
+    let scene = lattice_within(ppm, seed, ranges, |point| {
         regions.iter().any(|region| region.holds(point))
     });
     if scene.is_empty() {
@@ -286,13 +303,24 @@ fn lattice_dims(ppm: f64) -> [usize; 3] {
 /// The lattice points (spacing 1/`ppm`, half a spacing from the walls, x fastest, then z,
 /// then y) for which `inside` holds, each jittered by up to [`JITTER`] spacings per axis.
 fn lattice(ppm: f64, seed: u64, inside: impl Fn(DVec3) -> bool) -> Particles {
-    let spacing = 1.0 / ppm;
     let [nx, ny, nz] = lattice_dims(ppm);
+    lattice_within(ppm, seed, [0..nx, 0..ny, 0..nz], inside)
+}
+
+/// The same, visiting only the lattice points of the index `ranges` (x, y, z): all of them
+/// for which `inside` holds must be there.
+fn lattice_within(
+    ppm: f64,
+    seed: u64,
+    [xs, ys, zs]: [std::ops::Range<usize>; 3],
+    inside: impl Fn(DVec3) -> bool,
+) -> Particles {
+    let spacing = 1.0 / ppm;
     let mut random = fastrand::Rng::with_seed(seed);
     let mut points = Vec::new();
-    for y in 0..ny {
-        for z in 0..nz {
-            for x in 0..nx {
+    for y in ys {
+        for z in zs.clone() {
+            for x in xs.clone() {
                 let k = DVec3::new(x as f64, y as f64, z as f64);
                 let point = BOX_MIN + (k + 0.5) * spacing;
                 if inside(point) {
@@ -435,8 +463,12 @@ mod tests {
             error,
             "the fills hold no lattice point at 100 particles per metre"
         );
-        let error = filled(3000.0, 0, &[speck]).unwrap_err();
-        assert!(error.contains("the limit is 50000000"), "{error}");
+        // A small fill at a fine lattice: only its own points are visited.
+        let cube = Region::Box {
+            low: DVec3::ZERO,
+            high: DVec3::splat(0.01),
+        };
+        assert_eq!(filled(2600.0, 0, &[cube]).unwrap().len(), 26 * 26 * 26);
     }
 
     #[test]

@@ -13,6 +13,7 @@ use crate::lab::chart;
 use crate::lab::diagnostics::{self, Diagnostics};
 use crate::lab::gauges::GaugeTable;
 use crate::lab::machine::Machine;
+use crate::lab::UsageError;
 use crate::sim::simulation::Simulation;
 use crate::sim::skin::Skin;
 use clap::builder::RangedI64ValueParser;
@@ -55,13 +56,19 @@ pub struct RunArgs {
     until: Option<f64>,
 }
 
+/// Reads the checkpoint at `path`.
+fn read_checkpoint(path: &Path) -> Result<Checkpoint, String> {
+    let shown = path.display();
+    let bytes = read_regular(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
+    checkpoint::decode(&bytes).map_err(|error| format!("{shown}: {error}"))
+}
+
 /// Reads the checkpoint at `path` and checks that it continues the run `simulation`
 /// starts from the input whose CRC-32 is `input` (same input, model, kernel, time-step
 /// rule, integrator, model settings, skin and pair structure).
 fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint, String> {
     let shown = path.display();
-    let bytes = read_regular(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
-    let checkpoint = checkpoint::decode(&bytes).map_err(|error| format!("{shown}: {error}"))?;
+    let checkpoint = read_checkpoint(path)?;
     let state = &checkpoint.state;
     let differs = if checkpoint.input != input
         || state.ppm != simulation.params().ppm
@@ -95,9 +102,36 @@ fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint
 
 /// Runs the scene, timed, and writes the timing line, the diagnostics and the final state.
 pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    args.simulation.read_case(&mut args.output)?;
+    // A checkpoint of a case carries it: the resume needs nothing else (its one positional
+    // argument, if any, is the output).
+    let carried = match (&args.resume, &args.simulation.case) {
+        (Some(path), None) => read_checkpoint(path)?
+            .case
+            .map(|text| (text, format!("{} (its case)", path.display()))),
+        _ => None,
+    };
+    match carried {
+        Some((text, name)) => args.simulation.take_case(text, &name, &mut args.output)?,
+        None if args.simulation.input.is_none() && args.resume.is_some() => {
+            return Err(UsageError(format!(
+                "{} is a checkpoint of a run from an input file: give that input",
+                args.resume.as_ref().expect("a checkpoint").display()
+            ))
+            .into());
+        }
+        _ => args.simulation.read_case(&mut args.output)?,
+    }
     if let (None, Some(case)) = (&args.output, &args.simulation.read) {
-        args.output = case.output.final_state.as_ref().map(PathBuf::from);
+        args.output = (case.output.final_state.as_ref()).map(|path| PathBuf::from(path.get_ref()));
+    }
+    if let (Some(case), Some(output)) = (&args.simulation.case, &args.output) {
+        if same_file(case, output) {
+            return Err(UsageError(format!(
+                "the output {} is the case file: give it a file of its own",
+                output.display()
+            ))
+            .into());
+        }
     }
     let extent = args.simulation.extent(args.until);
     let input = &args.simulation.source().to_path_buf();
@@ -126,15 +160,10 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     let mut gauges = case.map_or(GaugeTable::new(Vec::new()), |case| {
         GaugeTable::of_case(&case.gauges)
     });
-    let gauge_folder = case.and_then(|case| case.output.folder.as_ref().map(PathBuf::from));
+    let gauge_folder = case.and_then(|case| {
+        (case.output.folder.as_ref()).map(|folder| PathBuf::from(folder.get_ref()))
+    });
     let interval = case.and_then(|case| case.gauges.interval_s.as_ref().map(|i| *i.get_ref()));
-    let gauges_file = match (&gauge_folder, gauges.is_empty()) {
-        (Some(folder), false) => {
-            super::create_output_dir(folder)?;
-            Some((OutputFile::create(&folder.join("gauges.csv"))?, folder))
-        }
-        _ => None,
-    };
     let mut output = args.output.as_deref().map(OutputFile::create).transpose()?;
     let mut diagnostics_file = args
         .diagnostics
@@ -146,10 +175,24 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         mut simulation,
         ..
     } = load(&args.simulation)?;
+    // Made once the scene is: a case refused leaves no folder behind.
+    let gauges_file = match (&gauge_folder, gauges.is_empty()) {
+        (Some(folder), false) => {
+            super::create_output_dir(folder)?;
+            Some((OutputFile::create(&folder.join("gauges.csv"))?, folder))
+        }
+        _ => None,
+    };
     let mut first = 1;
-    let input_crc = match args.checkpoint.is_some() || args.resume.is_some() {
-        true => crc32fast::hash(&read_regular(input)?),
-        false => 0,
+    // A case's CRC is its text's (the bytes of its file, or those a checkpoint kept).
+    let case_text = args.simulation.case_text.clone();
+    let input_crc = match (
+        args.checkpoint.is_some() || args.resume.is_some(),
+        &case_text,
+    ) {
+        (false, _) => 0,
+        (true, Some(text)) => crc32fast::hash(text.as_bytes()),
+        (true, None) => crc32fast::hash(&read_regular(input)?),
     };
     if let Some(path) = &args.resume {
         let checkpoint = resume(path, &simulation, input_crc)?;
@@ -171,7 +214,8 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     // Every file is tried, and its room reserved, before simulating.
     let particles = simulation.particles().len();
     if let Some(path) = &args.checkpoint {
-        OutputFile::create(path)?.reserve(checkpoint::size_bound(particles))?;
+        let case = case_text.as_ref().map_or(0, String::len);
+        OutputFile::create(path)?.reserve(checkpoint::size_bound(particles, case))?;
     }
     if let Some(output) = &mut output {
         output.reserve(fld::file_size(particles))?;
@@ -247,7 +291,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         }
         if let (Some(every), Some(path)) = (args.checkpoint_every, &args.checkpoint) {
             if step % every == 0 {
-                write_checkpoint(path, step, input_crc, &simulation)?;
+                write_checkpoint(path, step, input_crc, case_text.clone(), &simulation)?;
             }
         }
     }
@@ -315,9 +359,15 @@ fn write_checkpoint(
     path: &Path,
     step: u64,
     input: u32,
+    case: Option<String>,
     simulation: &Simulation,
 ) -> Result<(), Box<dyn Error>> {
     let state = simulation.resumable();
-    let bytes = checkpoint::encode(&Checkpoint { step, input, state });
+    let bytes = checkpoint::encode(&Checkpoint {
+        step,
+        input,
+        case,
+        state,
+    });
     Ok(OutputFile::create(path)?.commit(&bytes)?)
 }

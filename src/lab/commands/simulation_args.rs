@@ -6,6 +6,7 @@ use crate::io::fld;
 use crate::io::input::read_regular;
 use crate::lab::diagnostics::Vitals;
 use crate::lab::scene::{self, Region};
+use crate::lab::UsageError;
 use crate::sim::clusters::PairStructure;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
@@ -24,7 +25,6 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Args)]
 pub struct SimulationArgs {
     /// Input .fld file (none with --case).
-    #[arg(required_unless_present = "case")]
     pub input: Option<PathBuf>,
     /// A case file (TOML, docs/case-files.md): the scene, its model and settings, how far
     /// to run and where to write; a flag given beside it overrides the case's value. With
@@ -34,6 +34,9 @@ pub struct SimulationArgs {
     /// The case read from --case (by [`SimulationArgs::read_case`]).
     #[arg(skip)]
     pub read: Option<Case>,
+    /// Its text.
+    #[arg(skip)]
+    pub case_text: Option<String>,
     /// Time steps to run (at most 2^63-1, as `fluid` takes) [default: 1]
     #[arg(long, allow_negative_numbers = true,
           value_parser = clap::builder::RangedI64ValueParser::<u64>::new().range(0..))]
@@ -147,6 +150,7 @@ impl SimulationArgs {
             input: None,
             case: Some(path.to_path_buf()),
             read: None,
+            case_text: None,
             steps: None,
             model: None,
             kernel: None,
@@ -216,14 +220,11 @@ impl SimulationArgs {
     /// A case that cannot be read, or is refused ([`CaseError`]).
     pub fn read_case(&mut self, output: &mut Option<PathBuf>) -> Result<(), Box<dyn Error>> {
         let Some(path) = &self.case else {
-            return Ok(());
+            return match self.input {
+                Some(_) => Ok(()),
+                None => Err(UsageError("give an input .fld file or --case FILE".into()).into()),
+            };
         };
-        if let Some(given) = self.input.take() {
-            if output.is_some() {
-                return Err("with --case, give only the output (the case makes the scene)".into());
-            }
-            *output = Some(given);
-        }
         let shown = path.display().to_string();
         let bytes = read_regular(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
         let text = String::from_utf8(bytes).map_err(|_| CaseError {
@@ -231,7 +232,30 @@ impl SimulationArgs {
             at: None,
             message: "not UTF-8 text".into(),
         })?;
-        let case = case::parse(&text, &shown)?;
+        self.take_case(text, &shown, output)
+    }
+
+    /// Takes `text`, the case file `name` (read from it, or kept by a checkpoint), as
+    /// [`Self::read_case`] does.
+    pub fn take_case(
+        &mut self,
+        text: String,
+        name: &str,
+        output: &mut Option<PathBuf>,
+    ) -> Result<(), Box<dyn Error>> {
+        if let Some(given) = self.input.take() {
+            if output.is_some() {
+                return Err(UsageError(
+                    "with --case, give only the output (the case makes the scene)".into(),
+                )
+                .into());
+            }
+            *output = Some(given);
+        }
+        if self.case.is_none() {
+            self.case = Some(PathBuf::from(name));
+        }
+        let case = case::parse(&text, name)?;
         let settings = &case.model;
         self.model = self.model.or(named(&settings.name));
         self.kernel = self.kernel.or(named(&settings.kernel));
@@ -246,12 +270,20 @@ impl SimulationArgs {
             .or(settings.skin_cutoffs.as_ref().map(|skin| *skin.get_ref()));
         let water = &mut self.water;
         water.walls = water.walls.or(named(&settings.walls));
-        water.artificial_viscosity = water.artificial_viscosity.or(settings.artificial_viscosity);
-        water.laminar_viscosity = water.laminar_viscosity.or(settings.laminar_viscosity_m2_s);
-        water.smoothing = water.smoothing.or(settings.smoothing_spacings);
-        water.sound_speed = water.sound_speed.or(settings.sound_speed_factor);
-        water.density_diffusion = water.density_diffusion.or(settings.density_diffusion);
+        let number = |value: &Option<toml::Spanned<f64>>| value.as_ref().map(|v| *v.get_ref());
+        water.artificial_viscosity = water
+            .artificial_viscosity
+            .or(number(&settings.artificial_viscosity));
+        water.laminar_viscosity = water
+            .laminar_viscosity
+            .or(number(&settings.laminar_viscosity_m2_s));
+        water.smoothing = water.smoothing.or(number(&settings.smoothing_spacings));
+        water.sound_speed = water.sound_speed.or(number(&settings.sound_speed_factor));
+        water.density_diffusion = water
+            .density_diffusion
+            .or(number(&settings.density_diffusion));
         self.read = Some(case);
+        self.case_text = Some(text);
         Ok(())
     }
 }
@@ -285,8 +317,8 @@ fn named<T: ValueEnum>(name: &Option<toml::Spanned<String>>) -> Option<T> {
 }
 
 /// The output a command needs: the one given, or the one its case names.
-pub fn needed(output: Option<PathBuf>, what: &str) -> Result<PathBuf, String> {
-    output.ok_or_else(|| format!("give the {what}"))
+pub fn needed(output: Option<PathBuf>, what: &str) -> Result<PathBuf, UsageError> {
+    output.ok_or_else(|| UsageError(format!("give the {what}")))
 }
 
 /// Reads and places the input of `args` (or makes the scene of its case) with its model,
@@ -294,35 +326,58 @@ pub fn needed(output: Option<PathBuf>, what: &str) -> Result<PathBuf, String> {
 pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     let source = args.source();
     let name = source.display().to_string();
-    let scene = match &args.read {
-        Some(case) => {
-            let ppm = *case.fluid.particles_per_m.get_ref();
-            let regions = Region::of_case(&case.fluid);
-            let particles = scene::filled(ppm, case.fluid.seed, &regions)
-                .map_err(|error| format!("{name}: {error}"))?;
-            fld::Scene {
-                ppm: ppm as f32,
-                particles,
-            }
-        }
-        None => fld::read(source)?,
+    // What is wrong with a case's scene, at the key that makes it so.
+    let at_key = |span: std::ops::Range<usize>, message: String| -> Box<dyn Error> {
+        let text = args.case_text.as_deref().unwrap_or_default();
+        Box::new(CaseError::at_span(text, &name, span, message))
     };
+    let dynamics = args.water.dynamics(args.model())?;
     let method = Method {
         model: args.model(),
         kernel: args.kernel(),
     };
+    let (mut simulation, ppm) = match &args.read {
+        Some(case) => {
+            let spacing = &case.fluid.particles_per_m;
+            let ppm = *spacing.get_ref();
+            let regions = Region::of_case(&case.fluid);
+            let particles = scene::filled(ppm, case.fluid.seed, &regions)
+                .map_err(|error| at_key(spacing.span(), error))?;
+            let simulation =
+                Simulation::with_dynamics(ppm, particles, method, dynamics).map_err(|error| {
+                    at_key(
+                        spacing.span(),
+                        format!("particles_per_m = {ppm} gives {error} for the model's cut-off"),
+                    )
+                })?;
+            (simulation, ppm as f32)
+        }
+        None => {
+            let scene = fld::read(source)?;
+            let ppm = scene.ppm;
+            (scene.into_simulation_with(method, dynamics, &name)?, ppm)
+        }
+    };
     let stem = source.file_stem().unwrap_or_default();
-    let ppm = scene.ppm;
-    let dynamics = args.water.dynamics(args.model())?;
-    let mut simulation = scene.into_simulation_with(method, dynamics, &name)?;
     simulation.set_time_step(args.time_step());
     simulation.set_integrator(args.integrator());
     simulation.set_pair_structure(args.pairs());
     let h = simulation.params().h;
     if let Some(fraction) = args.skin {
+        let too_wide = |error| format!("--skin {fraction}: too wide for the box ({error})");
+        let from_case = args
+            .read
+            .as_ref()
+            .and_then(|case| case.model.skin_cutoffs.as_ref());
         simulation
             .set_skin((fraction > 0.0).then_some(fraction * h))
-            .map_err(|error| format!("--skin {fraction}: too wide for the box ({error})"))?;
+            .map_err(|error| match from_case {
+                Some(skin) if *skin.get_ref() == fraction => at_key(
+                    skin.span(),
+                    format!("skin_cutoffs = {fraction} is too wide for the box ({error})"),
+                ),
+                _ => too_wide(error).into(),
+            })?;
     }
     Ok(Loaded {
         stem: stem.to_string_lossy().into_owned(),
