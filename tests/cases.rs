@@ -65,6 +65,40 @@ fn each_bundled_case_runs_as_its_scene_does() {
 }
 
 #[test]
+fn a_scene_writes_only_a_case_that_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("coarse.toml");
+    let output = run_lab(&[
+        "scene".as_ref(),
+        "dam-break".as_ref(),
+        path.as_os_str(),
+        "--ppm".as_ref(),
+        "1".as_ref(),
+        "--case-file".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("particles per metre 1 gives a grid"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!path.exists());
+    let output = run_lab(&[
+        "scene".as_ref(),
+        "random-cloud".as_ref(),
+        path.as_os_str(),
+        "--case-file".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("it has no case file"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!path.exists());
+}
+
+#[test]
 fn flags_beside_a_case_override_it_and_its_run_and_outputs_apply() {
     let dir = tempfile::tempdir().unwrap();
     let final_state = dir.path().join("final.fld");
@@ -424,9 +458,9 @@ fn still_water_is_checked_against_hydrostatics() {
     assert!(std::fs::read(folder.join("still-water.png"))
         .unwrap()
         .starts_with(b"\x89PNG"));
-    // Without a case, or a dam break with one: refused.
+    // Without a case: a usage error.
     let output = run_lab(&["validate", "still-water", "--output-dir", "x"]);
-    assert_eq!(exit_code(&output), 1);
+    assert_eq!(exit_code(&output), 2);
     assert!(
         stderr(&output).contains("give --case FILE"),
         "{}",

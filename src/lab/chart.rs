@@ -556,6 +556,32 @@ pub struct PointChart {
 }
 
 impl PointChart {
+    /// Lines of `series` against simulated time, linear axes, no marks beyond the points.
+    pub fn over_time(
+        name: &'static str,
+        title: String,
+        y_label: &str,
+        series: Vec<(String, Vec<(f64, f64)>)>,
+        legend: SeriesLabelPosition,
+        footer: &str,
+    ) -> PointChart {
+        PointChart {
+            name,
+            title,
+            x_label: "simulated time (s)".into(),
+            x_log: false,
+            y_label: y_label.into(),
+            y_log: false,
+            series,
+            measured: 0,
+            lines: true,
+            fronts: Vec::new(),
+            notes: Vec::new(),
+            legend,
+            footer: footer.to_string(),
+        }
+    }
+
     /// Whether the axes can show `point`.
     fn shows(&self, (x, y): (f64, f64)) -> bool {
         x.is_finite() && y.is_finite() && (!self.y_log || y > 0.0) && (!self.x_log || x > 0.0)

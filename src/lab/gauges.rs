@@ -285,20 +285,9 @@ impl GaugeTable {
                 })
                 .collect()
         };
-        let chart = |name: &'static str, title: &str, y_label: &str, suffix: &str| PointChart {
-            name,
-            title: title.to_string(),
-            x_label: "simulated time (s)".into(),
-            x_log: false,
-            y_label: y_label.into(),
-            y_log: false,
-            series: series(suffix),
-            measured: 0,
-            lines: true,
-            fronts: Vec::new(),
-            notes: Vec::new(),
-            legend: SeriesLabelPosition::UpperRight,
-            footer: footer.to_string(),
+        let chart = |name: &'static str, title: &str, y_label: &str, suffix: &str| {
+            let legend = SeriesLabelPosition::UpperRight;
+            PointChart::over_time(name, title.into(), y_label, series(suffix), legend, footer)
         };
         [
             chart(

@@ -39,6 +39,10 @@ const CASE_UNTIL: f64 = 0.5;
 pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
     let output = OutputFile::create(&args.output)?;
     if args.case_file {
+        // Only a case whose scene can be made: the scene's own checks first.
+        if args.kind.regions().is_some() {
+            scene::generate(args.kind, args.ppm.into(), args.seed, None)?;
+        }
         let case = args
             .kind
             .case(args.ppm, args.seed, CASE_UNTIL)

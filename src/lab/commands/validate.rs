@@ -12,6 +12,7 @@ use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
 use crate::lab::still_water::{self, Tank};
 use crate::lab::validation::{self, Collapse, Comparison, DamBreak, EXPERIMENTS};
+use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
@@ -117,9 +118,11 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             return still_water(case, &args.output_dir, stdout);
         }
         (Experiment::StillWater, None) => {
-            return Err("validate still-water runs a case: give --case FILE \
-                        (cases/still-water.toml)"
-                .into());
+            return Err(UsageError(
+                "validate still-water runs a case: give --case FILE (cases/still-water.toml)"
+                    .into(),
+            )
+            .into());
         }
         (Experiment::DamBreak, Some(case)) => {
             let case = case.clone();
@@ -518,21 +521,14 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
             });
             (name.replace('_', " "), points.collect())
         });
-    let chart = PointChart {
-        name: "still-water",
-        title: "Still water: pressure at each depth over rho0 g d".into(),
-        x_label: "simulated time (s)".into(),
-        x_log: false,
-        y_label: "pressure / (rho0 g d)".into(),
-        y_log: false,
-        series: series.collect(),
-        measured: 0,
-        lines: true,
-        fronts: Vec::new(),
-        notes: Vec::new(),
-        legend: SeriesLabelPosition::LowerRight,
-        footer,
-    };
+    let chart = PointChart::over_time(
+        "still-water",
+        "Still water: pressure at each depth over rho0 g d".into(),
+        "pressure / (rho0 g d)",
+        series.collect(),
+        SeriesLabelPosition::LowerRight,
+        &footer,
+    );
     for written in chart::render(&chart, folder, (900, 560))?
         .iter()
         .chain([&readings_path, &checks_path])
