@@ -165,6 +165,8 @@ pub struct GaugeTable {
     gauges: Vec<Gauge>,
     /// Each reading's time (s) and values (`None`: no fluid near), in the columns' order.
     rows: Vec<(f64, Vec<Option<f64>>)>,
+    /// When [`Self::read_due`] reads next (s); none before the first reading.
+    next: Option<f64>,
 }
 
 impl GaugeTable {
@@ -173,6 +175,7 @@ impl GaugeTable {
         GaugeTable {
             gauges,
             rows: Vec::new(),
+            next: None,
         }
     }
 
@@ -208,6 +211,27 @@ impl GaugeTable {
             }
         }
         columns
+    }
+
+    /// The index in [`Self::columns`] (and in each row's values) of the column `name`.
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.columns().iter().position(|column| column == name)
+    }
+
+    /// Reads the gauges if a reading is due at the state of `simulation`: the first, then
+    /// the first state at or past each `interval` seconds after it. Whether it read.
+    pub fn read_due(&mut self, simulation: &Simulation, interval: f64) -> bool {
+        let time = simulation.time();
+        let due = self.next.is_none_or(|next| time >= next * (1.0 - 1e-12));
+        if due {
+            self.read(simulation);
+            let mut next = self.next.unwrap_or(time);
+            while next <= time * (1.0 + 1e-12) {
+                next += interval;
+            }
+            self.next = Some(next);
+        }
+        due
     }
 
     /// Reads every gauge at the state of `simulation` (on a copy with the densities of its
@@ -418,6 +442,31 @@ mod tests {
         }
         let simulation = slab(150.0, 0.04);
         assert_eq!(read_height(&simulation, DVec2::new(1.0, 1.0)), None);
+    }
+
+    #[test]
+    fn readings_fall_due_at_the_start_then_at_each_interval() {
+        let mut simulation = slab(100.0, 0.03);
+        let mut table = GaugeTable::new(vec![Gauge::Height {
+            name: "middle".into(),
+            at: DVec2::ZERO,
+        }]);
+        assert_eq!(table.column("middle_surface_m"), Some(0));
+        assert_eq!(table.column("middle"), None);
+        // 1 ms steps, a reading due every 2.5 ms: at 0, 3 and 5 ms.
+        let mut read = vec![table.read_due(&simulation, 0.0025)];
+        assert!(
+            !table.read_due(&simulation, 0.0025),
+            "not twice at one time"
+        );
+        for _ in 0..5 {
+            simulation.run(1);
+            read.push(table.read_due(&simulation, 0.0025));
+        }
+        assert_eq!(read, [true, false, false, true, false, true]);
+        let times: Vec<f64> = table.rows().iter().map(|(time, _)| *time).collect();
+        assert_eq!(times.len(), 3);
+        assert!((times[1] - 0.003).abs() < 1e-12 && (times[2] - 0.005).abs() < 1e-12);
     }
 
     #[test]

@@ -101,6 +101,14 @@ impl Tank {
     }
 }
 
+/// The columns of the pressures at [`DEPTHS`] in a table of [`Tank::gauges`].
+pub fn pressure_columns(table: &GaugeTable) -> [usize; DEPTHS.len()] {
+    DEPTHS.map(|(name, _)| {
+        let column = format!("{name}_pressure_pa");
+        table.column(&column).expect("a tank's gauge")
+    })
+}
+
 /// One check of still water: what is measured against its limit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Check {
@@ -151,9 +159,8 @@ pub fn checks(
     };
     let g = -GRAVITY.y;
     let mut checks = Vec::new();
-    for (index, &(name, fraction)) in DEPTHS.iter().enumerate() {
-        // A point gauge's columns: pressure first, 5 in all.
-        let measured = mean(5 * index);
+    for (&(name, fraction), column) in DEPTHS.iter().zip(pressure_columns(table)) {
+        let measured = mean(column);
         let expected = FLUID_DENSITY * g * tank.gauge_depth(fraction);
         checks.push(Check {
             name: format!(
@@ -167,7 +174,9 @@ pub fn checks(
             unit: "Pa",
         });
     }
-    let surfaces: Vec<f64> = (5 * DEPTHS.len()..table.columns().len())
+    let columns = table.columns();
+    let surfaces: Vec<f64> = (0..columns.len())
+        .filter(|&column| columns[column].ends_with("_surface_m"))
         .map(mean)
         .collect();
     let (lowest, highest) = surfaces

@@ -63,12 +63,16 @@ fn read_checkpoint(path: &Path) -> Result<Checkpoint, String> {
     checkpoint::decode(&bytes).map_err(|error| format!("{shown}: {error}"))
 }
 
-/// Reads the checkpoint at `path` and checks that it continues the run `simulation`
-/// starts from the input whose CRC-32 is `input` (same input, model, kernel, time-step
-/// rule, integrator, model settings, skin and pair structure).
-fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint, String> {
+/// Checks that `checkpoint`, read from `path`, continues the run `simulation` starts from
+/// the input whose CRC-32 is `input` (same input, model, kernel, time-step rule,
+/// integrator, model settings, skin and pair structure).
+fn resume(
+    path: &Path,
+    checkpoint: Checkpoint,
+    simulation: &Simulation,
+    input: u32,
+) -> Result<Checkpoint, String> {
     let shown = path.display();
-    let checkpoint = read_checkpoint(path)?;
     let state = &checkpoint.state;
     let differs = if checkpoint.input != input
         || state.ppm != simulation.params().ppm
@@ -103,13 +107,16 @@ fn resume(path: &Path, simulation: &Simulation, input: u32) -> Result<Checkpoint
 /// Runs the scene, timed, and writes the timing line, the diagnostics and the final state.
 pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     // A checkpoint of a case carries it: the resume needs nothing else (its one positional
-    // argument, if any, is the output).
-    let carried = match (&args.resume, &args.simulation.case) {
-        (Some(path), None) => read_checkpoint(path)?
-            .case
-            .map(|text| (text, format!("{} (its case)", path.display()))),
+    // argument, if any, is the output). Read here, it is not read again to resume.
+    let mut checkpoint = match (&args.resume, &args.simulation.case) {
+        (Some(path), None) => Some(read_checkpoint(path)?),
         _ => None,
     };
+    let carried = (checkpoint.as_ref()).and_then(|checkpoint| checkpoint.case.clone());
+    let carried = carried.map(|text| {
+        let path = args.resume.as_ref().expect("a checkpoint");
+        (text, format!("{} (its case)", path.display()))
+    });
     match carried {
         Some((text, name)) => args.simulation.take_case(text, &name, &mut args.output)?,
         None if args.simulation.input.is_none() && args.resume.is_some() => {
@@ -195,7 +202,11 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         (true, None) => crc32fast::hash(&read_regular(input)?),
     };
     if let Some(path) = &args.resume {
-        let checkpoint = resume(path, &simulation, input_crc)?;
+        let read = match checkpoint.take() {
+            Some(read) => read,
+            None => read_checkpoint(path)?,
+        };
+        let checkpoint = resume(path, read, &simulation, input_crc)?;
         let beyond = match extent {
             Extent::Steps(steps) => (checkpoint.step > steps)
                 .then(|| format!("step {}, beyond --steps {steps}", checkpoint.step)),
@@ -242,18 +253,11 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     // Gauges read at the start and at the first state at or past each interval after,
     // their time counted in the run's.
     let mut gauge_seconds = 0.0;
-    let mut next_reading = start_time;
     let mut read_gauges = |simulation: &Simulation, gauges: &mut GaugeTable| {
-        let Some(interval) = interval.filter(|_| !gauges.is_empty()) else {
-            return;
-        };
-        if simulation.time() >= next_reading * (1.0 - 1e-12) {
+        if let Some(interval) = interval.filter(|_| !gauges.is_empty()) {
             let started = Instant::now();
-            gauges.read(simulation);
+            gauges.read_due(simulation, interval);
             gauge_seconds += started.elapsed().as_secs_f64();
-            while next_reading <= simulation.time() * (1.0 + 1e-12) {
-                next_reading += interval;
-            }
         }
     };
     read_gauges(&simulation, &mut gauges);

@@ -470,13 +470,9 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
     let particles = simulation.particles().len();
     let mut table = tank.gauges();
     let interval = end / 200.0;
-    let mut next = 0.0;
     let started = Instant::now();
     while !simulation.has_reached(end) {
-        if simulation.time() >= next * (1.0 - 1e-12) {
-            table.read(&simulation);
-            next += interval;
-        }
+        table.read_due(&simulation, interval);
         simulation.step_towards(end);
         if let Some(failure) = failure(&simulation, Extent::Until(end), 0) {
             return Err(failure.into());
@@ -511,13 +507,14 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
         machine.cpu_model,
         machine.commit
     );
+    let pressure_columns = still_water::pressure_columns(&table);
     let series = still_water::DEPTHS
         .iter()
         .enumerate()
         .map(|(index, &(name, fraction))| {
             let expected = tank.gauge_depth(fraction) * FLUID_DENSITY * -GRAVITY.y;
             let points = table.rows().iter().filter_map(|(time, values)| {
-                values[5 * index].map(|pressure| (*time, pressure / expected))
+                values[pressure_columns[index]].map(|pressure| (*time, pressure / expected))
             });
             (name.replace('_', " "), points.collect())
         });
