@@ -21,6 +21,7 @@ use fluid::io::fld;
 use fluid::lab::scene;
 use fluid::sim::clusters::PairStructure;
 use fluid::sim::neighbours::TileSearch;
+use fluid::sim::params::GRAVITY;
 use fluid::sim::stages::{self, Stage};
 use fluid::{Kernel, Method, Model};
 use fluid::{Particles, Simulation};
@@ -187,7 +188,7 @@ fn stage_one_parts(c: &mut Criterion) {
         });
         group.bench_function("gather", |b| {
             let mut placed = Particles::default();
-            b.iter(|| placed.gather_kinematics(particles, sorted.order()))
+            b.iter(|| placed.gather_kinematics(particles, sorted.order(), GRAVITY))
         });
         group.bench_function("tile-search", |b| {
             let mut search = TileSearch::default();

@@ -90,7 +90,11 @@ mod tests {
 
     fn report(ppm: f64, particles: usize) -> String {
         let params = Params::new(ppm);
-        parameter_report(&params, &Grid::new(params.h).unwrap(), particles)
+        parameter_report(
+            &params,
+            &Grid::new(params.h, &params.domain).unwrap(),
+            particles,
+        )
     }
 
     #[test]

@@ -590,3 +590,158 @@ fn a_checkpoint_carries_its_case_and_a_resume_needs_nothing_else() {
         "fluid-lab: error: give an input .fld file or --case FILE\n"
     );
 }
+
+/// The positions of a `.fld` file's particles.
+fn positions(path: &Path) -> Vec<[f32; 3]> {
+    let bytes = std::fs::read(path).unwrap();
+    let count = i32::from_le_bytes(bytes[4..8].try_into().unwrap()) as usize;
+    let value = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+    assert_eq!(bytes.len(), 8 + count * 36, "{}", path.display());
+    (0..count)
+        .map(|k| [0, 1, 2].map(|axis| value(8 + k * 36 + axis * 4)))
+        .collect()
+}
+
+#[test]
+fn the_metre_long_tank_runs_from_its_case_in_its_own_box() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, folder) = (dir.path().join("tank.fld"), dir.path().join("tank"));
+    // The bundled case, its gauges' folder moved into the temporary directory.
+    let text = std::fs::read_to_string(case("tank")).unwrap();
+    let moved = format!("folder = \"{}\"", folder.display());
+    let path = dir.path().join("tank.toml");
+    std::fs::write(&path, text.replace("folder = \"target/tank\"", &moved)).unwrap();
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        out.as_os_str(),
+        "--until".as_ref(),
+        "0.02".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert!(
+        stdout(&output).starts_with("model=wcsph "),
+        "{}",
+        stdout(&output)
+    );
+    // 30 x 30 x 20 lattice points, the column reaching 0.3 m from the low-x wall: far
+    // beyond the course's box (0.065 m), all inside the tank's.
+    let at = positions(&out);
+    assert_eq!(at.len(), 18_000);
+    let inside =
+        |p: &[f32; 3]| (0..3).all(|axis| p[axis] >= 0.0 && p[axis] <= [1.0, 0.5, 0.2][axis]);
+    assert!(at.iter().all(inside));
+    let reach = at.iter().map(|p| p[0]).fold(0.0, f32::max);
+    assert!(reach > 0.29 && reach < 0.32, "{reach}");
+    // Its gauges: the surface of the column near its 0.3 m height, the far end dry.
+    let csv = std::fs::read_to_string(folder.join("gauges.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let last: Vec<&str> = csv.lines().last().unwrap().split(',').collect();
+    let column = header
+        .iter()
+        .position(|&c| c == "column_surface_m")
+        .unwrap();
+    let far = header
+        .iter()
+        .position(|&c| c == "far_end_surface_m")
+        .unwrap();
+    let surface: f64 = last[column].parse().unwrap();
+    assert!((surface - 0.3).abs() < 0.01, "{csv}");
+    assert_eq!(last[far], "", "{csv}");
+}
+
+/// A case of `model` in a box 2 m high whose floor is 1 m below the course's, a ball of
+/// water falling from y = 0, with `gravity`, run for `until` seconds.
+fn tall_box(model: &str, gravity: &str, until: f64) -> String {
+    format!(
+        "[domain]\nbox_min_m = [-0.1, -1.0, -0.1]\nbox_max_m = [0.1, 1.0, 0.1]\n\
+         gravity_m_s2 = {gravity}\n[fluid]\nparticles_per_m = 150\n[[fluid.sphere]]\n\
+         centre_m = [0.0, 0.0, 0.0]\nradius_m = 0.03\n[model]\nname = \"{model}\"\n\
+         [run]\nuntil_s = {until}\n"
+    )
+}
+
+#[test]
+fn the_walls_and_gravity_are_the_case_s() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, out) = (dir.path().join("tall.toml"), dir.path().join("out.fld"));
+    let run = |text: String| {
+        std::fs::write(&path, text).unwrap();
+        let output = run_lab(&[
+            "run".as_ref(),
+            "--case".as_ref(),
+            path.as_os_str(),
+            out.as_os_str(),
+        ]);
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+        positions(&out)
+    };
+    let centre = |at: &[[f32; 3]]| {
+        let sum = at.iter().fold([0.0f64; 3], |sum, p| {
+            [0, 1, 2].map(|axis| sum[axis] + f64::from(p[axis]))
+        });
+        sum.map(|s| s / at.len() as f64)
+    };
+    for model in ["fluidanimate", "wcsph"] {
+        // In 0.3 s the ball falls g t^2 / 2 = 0.44 m: through the course's floor (y =
+        // -0.08), which is no wall here, and not to this box's floor.
+        let at = run(tall_box(model, "[0.0, -9.8, 0.0]", 0.3));
+        let [x, y, z] = centre(&at);
+        assert!(
+            (y + 0.441).abs() < 0.01 && x.abs() < 1e-3 && z.abs() < 1e-3,
+            "{model}: {y}"
+        );
+        assert!(at.iter().all(|p| p[1] > -1.0));
+        // Given long enough to fall 2.4 m, it meets this box's floor and stays in the box
+        // (the stable model's penalty walls bounce it back up, the water spreads).
+        let at = run(tall_box(model, "[0.0, -9.8, 0.0]", 0.7));
+        assert!(at.iter().all(|p| p[1] >= -1.0 && p[1] <= 1.0), "{model}");
+        let [_, y, _] = centre(&at);
+        assert!(y > -1.0 && y < -0.4, "{model}: {y}");
+    }
+    // The stable model takes gravity in any direction: a pull along +x of 4.9 m/s^2
+    // moves the ball 0.049 m in 0.14 s, and none down.
+    let at = run(tall_box("fluidanimate", "[4.9, 0.0, 0.0]", 0.14));
+    let [x, y, _] = centre(&at);
+    assert!((x - 0.048).abs() < 0.002 && y.abs() < 1e-3, "{x} {y}");
+}
+
+#[test]
+fn a_model_that_cannot_take_the_case_s_box_or_gravity_is_refused_at_its_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, out) = (dir.path().join("tall.toml"), dir.path().join("out.fld"));
+    let refused = |text: String, flags: &[&str], line: usize, message: &str| {
+        std::fs::write(&path, &text).unwrap();
+        let mut args = vec![
+            "run".as_ref(),
+            "--case".as_ref(),
+            path.as_os_str(),
+            out.as_os_str(),
+        ];
+        args.extend(flags.iter().map(std::ffi::OsStr::new));
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+        let at = format!("{}:{line}:", path.display());
+        assert!(stderr(&output).contains(&at), "{}", stderr(&output));
+        assert!(stderr(&output).contains(message), "{}", stderr(&output));
+        assert_eq!(stderr(&output).lines().count(), 1);
+        assert!(!out.exists());
+    };
+    // The course model keeps SPEC.md's box, named in the case or by the flag.
+    let course = "the course model keeps SPEC.md's box and gravity";
+    refused(tall_box("course", "[0.0, -9.8, 0.0]", 0.1), &[], 2, course);
+    refused(
+        tall_box("wcsph", "[0.0, -9.8, 0.0]", 0.1),
+        &["--model", "course"],
+        2,
+        course,
+    );
+    let course_box = "[domain]\ngravity_m_s2 = [0.0, -9.81, 0.0]\n[fluid]\nparticles_per_m = \
+                      150\n[[fluid.sphere]]\ncentre_m = [0.0, 0.0, 0.0]\nradius_m = 0.03\n";
+    refused(course_box.into(), &[], 2, course);
+    // The water model's floor is the low y wall.
+    let water = "its gravity_m_s2 is [0, -g, 0] with g > 0";
+    refused(tall_box("wcsph", "[4.9, -9.8, 0.0]", 0.1), &[], 4, water);
+    refused(tall_box("wcsph", "[0.0, 0.0, 0.0]", 0.1), &[], 4, water);
+}

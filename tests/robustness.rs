@@ -1188,7 +1188,8 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 }
 
 /// The offset of the last step's length in a checkpoint's encoding (after the magic,
-/// step, input CRC, case, ppm, time, the six names and the time step's value).
+/// step, input CRC, case, ppm, time, box and gravity, the six names and the time step's
+/// value).
 fn last_step_offset(decoded: &Checkpoint) -> usize {
     let state = &decoded.state;
     let rule = match state.time_step {
@@ -1205,9 +1206,9 @@ fn last_step_offset(decoded: &Checkpoint) -> usize {
         state.structure.name(),
     ];
     // The magic, step, input CRC, ppm and time; the case block (a flag, then its length
-    // and text).
+    // and text); the box's corners and gravity (9 f64).
     let case = decoded.case.as_ref().map_or(1, |text| 1 + 8 + text.len());
-    36 + case + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
+    36 + case + 72 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
 }
 
 /// The properties of [`checkpoint::decode`] on `bytes`: no panic; an error is a non-empty

@@ -1,12 +1,14 @@
 //! Case files: a scene and how to run it, described in TOML (`docs/case-files.md` is the
-//! reference of every key, its unit and its default). A case names its domain box, the
+//! reference of every key, its unit and its default). A case names its domain box and
+//! gravity, the
 //! fluid's fills (boxes and spheres on a lattice of so many particles per metre), the
 //! model with every setting the command lines give, and how far to run and where to
 //! write. Reading one checks it whole: unknown keys, wrong types and values out of range
 //! are refused, each with the file, the line and the column of the value at fault.
 
-use crate::sim::params::{BOX_MAX, BOX_MIN};
+use crate::sim::params::{self, BOX_MAX, BOX_MIN, GRAVITY};
 use clap::ValueEnum;
+use glam::DVec3;
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
@@ -18,7 +20,7 @@ use toml::Spanned;
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Case {
-    /// The box the particles live in.
+    /// The box the particles live in, and gravity.
     #[serde(default)]
     pub domain: Domain,
     /// Where the fluid is at the start.
@@ -82,23 +84,63 @@ pub struct HeightGauge {
     pub at_m: [f64; 2],
 }
 
-/// The domain: the box whose walls hold the particles.
+/// The domain: the box whose walls hold the particles, and the gravity on them.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Domain {
-    /// The box's low corner (m).
-    #[serde(deserialize_with = "exactly_spanned")]
+    /// The box's low corner (m), SPEC.md's by default.
+    #[serde(default = "course_min", deserialize_with = "exactly_spanned")]
     pub box_min_m: Spanned<[f64; 3]>,
-    /// The box's high corner (m).
-    #[serde(deserialize_with = "exactly_spanned")]
+    /// The box's high corner (m), SPEC.md's by default.
+    #[serde(default = "course_max", deserialize_with = "exactly_spanned")]
     pub box_max_m: Spanned<[f64; 3]>,
+    /// Gravity (m/s^2), SPEC.md's by default.
+    #[serde(
+        default = "course_gravity",
+        deserialize_with = "exactly_spanned",
+        skip_serializing_if = "is_course_gravity"
+    )]
+    pub gravity_m_s2: Spanned<[f64; 3]>,
+}
+
+/// SPEC.md's low corner, where a case gives none.
+fn course_min() -> Spanned<[f64; 3]> {
+    Spanned::new(0..0, BOX_MIN.to_array())
+}
+
+/// SPEC.md's high corner, where a case gives none.
+fn course_max() -> Spanned<[f64; 3]> {
+    Spanned::new(0..0, BOX_MAX.to_array())
+}
+
+/// SPEC.md's gravity, where a case gives none.
+fn course_gravity() -> Spanned<[f64; 3]> {
+    Spanned::new(0..0, GRAVITY.to_array())
+}
+
+/// Whether `gravity` is SPEC.md's (a case written need not say so).
+fn is_course_gravity(gravity: &Spanned<[f64; 3]>) -> bool {
+    *gravity.get_ref() == GRAVITY.to_array()
 }
 
 impl Default for Domain {
     fn default() -> Domain {
         Domain {
-            box_min_m: Spanned::new(0..0, BOX_MIN.to_array()),
-            box_max_m: Spanned::new(0..0, BOX_MAX.to_array()),
+            box_min_m: course_min(),
+            box_max_m: course_max(),
+            gravity_m_s2: course_gravity(),
+        }
+    }
+}
+
+impl Domain {
+    /// The box and gravity the simulation runs in.
+    pub fn simulated(&self) -> params::Domain {
+        let vector = |value: &Spanned<[f64; 3]>| DVec3::from_array(*value.get_ref());
+        params::Domain {
+            min: vector(&self.box_min_m),
+            max: vector(&self.box_max_m),
+            gravity: vector(&self.gravity_m_s2),
         }
     }
 }
@@ -380,16 +422,9 @@ impl Case {
                 "box_max_m must exceed box_min_m on every axis".into(),
             ));
         }
-        if *low.get_ref() != BOX_MIN.to_array() || *high.get_ref() != BOX_MAX.to_array() {
-            return Err((
-                low.span(),
-                format!(
-                    "this version runs every model in the course's box, box_min_m = {:?} and \
-                     box_max_m = {:?}",
-                    BOX_MIN.to_array(),
-                    BOX_MAX.to_array()
-                ),
-            ));
+        let gravity = &self.domain.gravity_m_s2;
+        if !finite(gravity.get_ref()) {
+            return Err((gravity.span(), "gravity must be finite".into()));
         }
         let ppm = &self.fluid.particles_per_m;
         let spacing_ok = ppm.get_ref().is_finite()
@@ -690,6 +725,33 @@ until_s = 0.01
         assert_eq!(toml::to_string(&again).unwrap(), written);
     }
 
+    #[test]
+    fn a_box_of_any_size_and_gravity_are_read() {
+        let tank = DAM
+            .replace(
+                "box_max_m = [0.065, 0.1, 0.065]",
+                "box_max_m = [2.0, 1.0, 0.5]\ngravity_m_s2 = [0.5, -9.81, 0.0]",
+            )
+            .replace("max_m = [-0.013, 0.046, 0.065]", "max_m = [1.5, 0.5, 0.4]");
+        let case = parse(&tank, "tank.toml").unwrap();
+        let domain = case.domain.simulated();
+        assert_eq!(domain.min, DVec3::new(-0.065, -0.08, -0.065));
+        assert_eq!(domain.max, DVec3::new(2.0, 1.0, 0.5));
+        assert_eq!(domain.gravity, DVec3::new(0.5, -9.81, 0.0));
+        // Gravity is written where it is not SPEC.md's, and read back the same.
+        let written = toml::to_string(&case).unwrap();
+        assert!(
+            written.contains("gravity_m_s2 = [0.5, -9.81, 0.0]"),
+            "{written}"
+        );
+        let course = toml::to_string(&parse(DAM, "dam.toml").unwrap()).unwrap();
+        assert!(!course.contains("gravity"), "{course}");
+        assert_eq!(
+            parse(DAM, "dam.toml").unwrap().domain.simulated(),
+            params::Domain::COURSE
+        );
+    }
+
     /// The error of `DAM` with `from` replaced by `to`.
     fn error_of(from: &str, to: &str) -> CaseError {
         assert!(DAM.contains(from), "{from}");
@@ -762,9 +824,15 @@ until_s = 0.01
             ),
             (
                 "box_max_m = [0.065, 0.1, 0.065]",
-                "box_max_m = [1.0, 0.1, 0.065]",
-                (3, 13),
-                "course's box",
+                "box_max_m = [0.065, 0.1, 0.065]\ngravity_m_s2 = [0.0, -inf, 0.0]",
+                (5, 16),
+                "gravity must be finite",
+            ),
+            (
+                "box_max_m = [0.065, 0.1, 0.065]",
+                "box_max_m = [0.065, 0.1, 0.065]\ngravity_m_s2 = [0.0, -9.8]",
+                (5, 16),
+                "an array of 3 numbers",
             ),
             ("[run]", "[run\n", (17, 5), ""),
             (

@@ -1,11 +1,12 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCK7`; the step count (u64); the CRC-32 of the
+//! Layout (little-endian): the magic `FLUIDCK8`; the step count (u64); the CRC-32 of the
 //! input file the run started from (u32, so a resume from another input is refused); the
 //! case file it started from, if it did (a u8, 0 for none, else 1, then its length, u64,
 //! and its UTF-8 text: a resume needs nothing else);
-//! particles per metre and the time (f64); the model, kernel, time-step rule, last step's
+//! particles per metre and the time (f64); the box's low and high corners and gravity
+//! (x, y, z each, f64); the model, kernel, time-step rule, last step's
 //! limit, integrator and pair structure (which decides the order of the pair sums) as
 //! length-prefixed names (u8 length); the time step's value (f64: dt or the Courant
 //! constant), the last step's length (f64, NaN before the first step); what the model
@@ -18,30 +19,34 @@
 //! the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a (x,
 //! y, z) and rho, n f64 each; a built skin's positions at its last build (x, y, z, n f64
 //! each); last, the CRC-32 of every byte before it (u32), so a corrupted checkpoint is
-//! refused. Versions 1-6 (before the integrators; version 3 before the models kept
+//! refused. Versions 1-7 (before the integrators; version 3 before the models kept
 //! their own state; version 5 before the skin and the pair structure; version 6 before
-//! the case) are refused, with a message that says so.
+//! the case; version 7 before the box and gravity) are refused, with a message that says
+//! so.
 
 use crate::sim::clusters::PairStructure;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
+use crate::sim::params::Domain;
 use crate::sim::particles::{AxisArrays, Particles};
 use crate::sim::simulation::Resumable;
 use crate::sim::skin::KeptSkin;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
+use glam::DVec3;
 
-/// The first bytes of every checkpoint (format version 7).
-const MAGIC: &[u8; 8] = b"FLUIDCK7";
+/// The first bytes of every checkpoint (format version 8).
+const MAGIC: &[u8; 8] = b"FLUIDCK8";
 
 /// The first bytes of a checkpoint of an earlier format, which is refused.
-const OLDER: [&[u8; 8]; 6] = [
+const OLDER: [&[u8; 8]; 7] = [
     b"FLUIDCK1",
     b"FLUIDCK2",
     b"FLUIDCK3",
     b"FLUIDCK4",
     b"FLUIDCK5",
     b"FLUIDCK6",
+    b"FLUIDCK7",
 ];
 
 /// A checkpoint's content: the steps run and the state after them.
@@ -83,6 +88,13 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     }
     bytes.extend_from_slice(&state.ppm.to_le_bytes());
     bytes.extend_from_slice(&state.time.to_le_bytes());
+    let domain = &state.domain;
+    for value in [domain.min, domain.max, domain.gravity]
+        .iter()
+        .flat_map(|v| v.to_array())
+    {
+        bytes.extend_from_slice(&value.to_le_bytes());
+    }
     let (rule, value) = match state.time_step {
         TimeStep::Fixed(dt) => ("fixed", dt),
         TimeStep::Adaptive { courant } => ("adaptive", courant),
@@ -180,6 +192,16 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     };
     let ppm = reader.f64()?;
     let time = reader.f64()?;
+    let mut vector = || Ok::<_, String>(DVec3::new(reader.f64()?, reader.f64()?, reader.f64()?));
+    let domain = Domain {
+        min: vector()?,
+        max: vector()?,
+        gravity: vector()?,
+    };
+    let corners = [domain.min, domain.max, domain.gravity];
+    if !corners.iter().all(|v| v.is_finite()) || !domain.min.cmplt(domain.max).all() {
+        return Err("its box or gravity is not a box's or gravity's".into());
+    }
     let [model, kernel, rule, limit, integrator, structure] = [(); 6].map(|()| reader.name());
     let structure = structure?;
     let structure = *PairStructure::ALL
@@ -317,6 +339,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         case,
         state: Resumable {
             ppm,
+            domain,
             method: Method { model, kernel },
             time_step,
             integrator,

@@ -3,6 +3,7 @@
 //! points; velocity, half velocity, density, block and id as point data) or as CSV.
 
 use crate::sim::cells::cell_of;
+use crate::sim::params::Domain;
 use crate::sim::particles::vector_at;
 use crate::sim::simulation::Simulation;
 use glam::DVec3;
@@ -25,6 +26,8 @@ pub struct Snapshot {
     pub density: Vec<f64>,
     /// The linear index of each particle's block (its cell clamped into the grid).
     pub block: Vec<u32>,
+    /// The box and gravity of the simulation.
+    pub domain: Domain,
 }
 
 impl Snapshot {
@@ -43,6 +46,7 @@ impl Snapshot {
             velocity: vec![DVec3::ZERO; n],
             density: vec![0.0; n],
             block: vec![0; n],
+            domain: simulation.params().domain,
         };
         for slot in 0..n {
             let id = particles.id[slot] as usize;

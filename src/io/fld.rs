@@ -8,7 +8,7 @@ use crate::io::input::open_regular;
 use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::method::Method;
 use crate::sim::model::Dynamics;
-use crate::sim::params::Params;
+use crate::sim::params::{Domain, Params};
 use crate::sim::particles::Particles;
 use crate::sim::simulation::Simulation;
 use memmap2::Mmap;
@@ -136,7 +136,7 @@ impl Scene {
         file: &(impl AsRef<OsStr> + ?Sized),
     ) -> Result<Simulation, FileError> {
         let ppm = self.ppm;
-        Simulation::with_dynamics(ppm.into(), self.particles, method, dynamics)
+        Simulation::with_dynamics(ppm.into(), Domain::COURSE, self.particles, method, dynamics)
             .map_err(|e| invalid_ppm(ppm, file.as_ref(), e))
     }
 }
@@ -155,7 +155,8 @@ impl Header {
     /// [`Scene::into_simulation`] if they admit no grid.
     pub fn grid(&self, file: &(impl AsRef<OsStr> + ?Sized)) -> Result<(Params, Grid), FileError> {
         let params = Params::new(self.ppm.into());
-        let grid = Grid::new(params.h).map_err(|e| invalid_ppm(self.ppm, file.as_ref(), e))?;
+        let grid = Grid::new(params.h, &params.domain)
+            .map_err(|e| invalid_ppm(self.ppm, file.as_ref(), e))?;
         Ok((params, grid))
     }
 }
@@ -374,6 +375,7 @@ fn first_unstorable(particles: &Particles) -> Option<Unstorable> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::params::GRAVITY;
 
     fn file_bytes(ppm: f32, np: i32, records: &[[f32; 9]]) -> Vec<u8> {
         let mut bytes = Vec::new();
@@ -413,7 +415,7 @@ mod tests {
         let scene = parse(&bytes, "f").unwrap();
         assert_eq!(encode(scene.ppm, &scene.particles).unwrap(), bytes);
         let mut shuffled = Particles::default();
-        shuffled.gather_kinematics(&scene.particles, &[2, 0, 1]);
+        shuffled.gather_kinematics(&scene.particles, &[2, 0, 1], GRAVITY);
         assert_eq!(encode(scene.ppm, &shuffled).unwrap(), bytes);
     }
 

@@ -3,7 +3,7 @@
 //! the checks that call a run failed (non-finite values, energy growing past a bound,
 //! particles leaving the box).
 
-use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY, RADIUS_MULTIPLIER};
+use crate::sim::params::{FLUID_DENSITY, RADIUS_MULTIPLIER};
 use crate::sim::particles::vector_at;
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::Limit;
@@ -46,7 +46,8 @@ impl Vitals {
             non_finite: None,
             beyond_f32: 0,
         };
-        let (low, high) = (BOX_MIN - params.h, BOX_MAX + params.h);
+        let domain = params.domain;
+        let (low, high) = (domain.min - params.h, domain.max + params.h);
         for slot in 0..particles.len() {
             let position = vector_at(&particles.p, slot);
             let velocity = vector_at(&particles.v, slot);
@@ -68,7 +69,10 @@ impl Vitals {
                 vitals.outside += 1;
             }
             vitals.kinetic += 0.5 * params.mass * speed * speed;
-            vitals.potential += params.mass * -GRAVITY.y * (position.y - BOX_MIN.y);
+            // -m g . (p - min), the y term first (as with gravity down y alone).
+            let (g, above) = (domain.gravity, position - domain.min);
+            vitals.potential += params.mass * -g.y * above.y;
+            vitals.potential -= params.mass * (g.x * above.x + g.z * above.z);
         }
         vitals
     }
@@ -221,12 +225,13 @@ pub fn front(simulation: &Simulation) -> Option<f64> {
 pub fn front_quantile(simulation: &Simulation, quantile: f64) -> Option<f64> {
     let particles = simulation.particles();
     let h = RADIUS_MULTIPLIER / simulation.params().ppm;
+    let floor = simulation.params().domain.min;
     let mut xs: Vec<f64> = (0..particles.len())
         .filter(|&slot| {
             let y = particles.p[1][slot];
-            y.is_finite() && y < BOX_MIN.y + 2.0 * h
+            y.is_finite() && y < floor.y + 2.0 * h
         })
-        .map(|slot| particles.p[0][slot] - BOX_MIN.x)
+        .map(|slot| particles.p[0][slot] - floor.x)
         .filter(|x| x.is_finite())
         .collect();
     if xs.len() < FRONT_PARTICLES {
@@ -346,6 +351,7 @@ impl Checks {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::params::{BOX_MAX, BOX_MIN};
     use crate::sim::particles::Particles;
     use crate::sim::timestep::TimeStep;
     use glam::DVec3;

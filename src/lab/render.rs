@@ -5,7 +5,7 @@
 
 use crate::io::export::Snapshot;
 use crate::lab::chart::register_font;
-use crate::sim::params::{BOX_MAX, BOX_MIN};
+use crate::sim::params::Domain;
 use glam::DVec3;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -16,8 +16,12 @@ use std::path::Path;
 /// Pixel size of a rendered frame.
 pub const SIZE: (u32, u32) = (1280, 560);
 
-/// Space around the box in each view, in metres (particles just outside stay visible).
-const MARGIN: f64 = 0.01;
+/// Space around the box in each view, as a fraction of its largest edge (particles just
+/// outside stay visible): 1 cm around the course's box.
+const MARGIN: f64 = 0.01 / 0.18;
+
+/// Pixels the three views may take across, gaps and the colour bar beside them excluded.
+const VIEWS_WIDTH: f64 = 1015.0;
 
 /// What the colours show.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -109,39 +113,56 @@ pub struct Layout {
     /// For each of [`VIEWS`], the pixel of the box's low corner (left and bottom, or left
     /// and top for a view that grows downwards).
     pub origins: [(i32, i32); 3],
+    /// The box drawn.
+    pub low: DVec3,
+    /// Its high corner.
+    pub high: DVec3,
+    /// The space around it (m).
+    pub margin: f64,
 }
 
-impl Default for Layout {
-    fn default() -> Self {
-        let extent = BOX_MAX - BOX_MIN;
+impl Layout {
+    /// The views of `domain`'s box, as large as the frame's height and width allow.
+    pub fn of(domain: &Domain) -> Self {
+        let extent = domain.extent();
+        let margin = MARGIN * extent.max_element();
         let (top, bottom) = (70.0, 40.0);
-        let scale = (SIZE.1 as f64 - top - bottom) / (extent.y + 2.0 * MARGIN);
-        let panel = |axis: usize| (extent[axis] + 2.0 * MARGIN) * scale;
+        let across: f64 = VIEWS
+            .iter()
+            .map(|view| extent[view.right] + 2.0 * margin)
+            .sum();
+        let scale =
+            ((SIZE.1 as f64 - top - bottom) / (extent.y + 2.0 * margin)).min(VIEWS_WIDTH / across);
+        let panel = |axis: usize| (extent[axis] + 2.0 * margin) * scale;
         let gap = 30.0;
-        let baseline = top + (extent.y + MARGIN) * scale;
+        let baseline = top + (extent.y + margin) * scale;
         let mut left = 30.0;
         let mut origins = [(0, 0); 3];
         for (origin, view) in origins.iter_mut().zip(VIEWS) {
-            let x = left + MARGIN * scale;
+            let x = left + margin * scale;
             let y = if view.down {
-                top + MARGIN * scale
+                top + margin * scale
             } else {
                 baseline
             };
             *origin = (x.round() as i32, y.round() as i32);
             left += panel(view.right) + gap;
         }
-        Layout { scale, origins }
+        Layout {
+            scale,
+            origins,
+            low: domain.min,
+            high: domain.max,
+            margin,
+        }
     }
-}
 
-impl Layout {
     /// The pixel where view `index` draws the point `p`.
     pub fn pixel(&self, index: usize, p: DVec3) -> (i32, i32) {
         let view = VIEWS[index];
         let (x0, y0) = self.origins[index];
-        let right = (p[view.right] - BOX_MIN[view.right]) * self.scale;
-        let up = (p[view.up] - BOX_MIN[view.up]) * self.scale;
+        let right = (p[view.right] - self.low[view.right]) * self.scale;
+        let up = (p[view.up] - self.low[view.up]) * self.scale;
         let y = if view.down {
             y0 as f64 + up
         } else {
@@ -153,9 +174,9 @@ impl Layout {
     /// Whether view `index` shows `p` (inside the box plus the margin).
     fn shows(&self, index: usize, p: DVec3) -> bool {
         let view = VIEWS[index];
-        [view.right, view.up]
-            .iter()
-            .all(|&axis| p[axis] >= BOX_MIN[axis] - MARGIN && p[axis] <= BOX_MAX[axis] + MARGIN)
+        [view.right, view.up].iter().all(|&axis| {
+            p[axis] >= self.low[axis] - self.margin && p[axis] <= self.high[axis] + self.margin
+        })
     }
 }
 
@@ -210,7 +231,7 @@ fn draw<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let layout = Layout::default();
+    let layout = Layout::of(&snapshot.domain);
     let values = style.colouring.values(snapshot);
     let (low, high) = style
         .range
@@ -219,7 +240,7 @@ where
     let outside = snapshot
         .position
         .iter()
-        .filter(|p| !(p.cmpge(BOX_MIN).all() && p.cmple(BOX_MAX).all()))
+        .filter(|&&p| !snapshot.domain.contains(p))
         .count();
     let subtitle = format!(
         "step {} (t = {:.3} s), {} particles, {outside} outside the box",
@@ -234,7 +255,7 @@ where
     ))?;
     root.draw(&Text::new(subtitle, (30, 40), ("sans-serif", 15)))?;
     let radius = ((0.45 / style.ppm) * layout.scale).round().max(1.0) as i32;
-    let extent = BOX_MAX - BOX_MIN;
+    let extent = layout.high - layout.low;
     for (index, view) in VIEWS.iter().enumerate() {
         let (x0, y0) = layout.origins[index];
         let width = (extent[view.right] * layout.scale).round() as i32;
@@ -248,7 +269,7 @@ where
             [(x0, top), (x0 + width, bottom)],
             BLACK.mix(0.6).stroke_width(1),
         ))?;
-        let caption_y = bottom + (MARGIN * layout.scale) as i32 + 4;
+        let caption_y = bottom + (layout.margin * layout.scale) as i32 + 4;
         root.draw(&Text::new(view.name, (x0, caption_y), ("sans-serif", 14)))?;
         let mut order: Vec<usize> = (0..snapshot.len())
             .filter(|&i| layout.shows(index, snapshot.position[i]))
@@ -285,8 +306,8 @@ fn draw_colour_bar<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let extent = BOX_MAX - BOX_MIN;
-    let x = layout.origins[2].0 + ((extent.x + MARGIN) * layout.scale) as i32 + 40;
+    let extent = layout.high - layout.low;
+    let x = layout.origins[2].0 + ((extent.x + layout.margin) * layout.scale) as i32 + 40;
     let (top, bottom) = (
         layout.origins[0].1 - (extent.y * layout.scale) as i32,
         layout.origins[0].1,
@@ -316,32 +337,55 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::params::{BOX_MAX, BOX_MIN};
     use crate::sim::simulation::Simulation;
 
     #[test]
     fn the_layout_keeps_every_box_corner_in_the_frame_and_the_views_apart() {
-        let layout = Layout::default();
-        let mut spans = Vec::new();
-        for index in 0..3 {
-            let corners = [
-                BOX_MIN,
-                BOX_MAX,
-                DVec3::new(BOX_MIN.x, BOX_MAX.y, BOX_MAX.z),
-            ];
-            let pixels: Vec<(i32, i32)> = corners.iter().map(|&c| layout.pixel(index, c)).collect();
-            for (x, y) in &pixels {
-                assert!((0..SIZE.0 as i32).contains(x) && (0..SIZE.1 as i32).contains(y));
+        let long_tank = Domain {
+            min: DVec3::ZERO,
+            max: DVec3::new(1.0, 0.5, 0.3),
+            ..Domain::COURSE
+        };
+        let tower = Domain {
+            min: DVec3::splat(-1.0),
+            max: DVec3::new(-0.9, 2.0, -0.8),
+            ..Domain::COURSE
+        };
+        for domain in [Domain::COURSE, long_tank, tower] {
+            let layout = Layout::of(&domain);
+            let (low, high) = (domain.min, domain.max);
+            let mut spans = Vec::new();
+            for index in 0..3 {
+                let corners = [low, high, DVec3::new(low.x, high.y, high.z)];
+                let pixels: Vec<(i32, i32)> =
+                    corners.iter().map(|&c| layout.pixel(index, c)).collect();
+                for (x, y) in &pixels {
+                    let inside = (0..SIZE.0 as i32).contains(x) && (0..SIZE.1 as i32).contains(y);
+                    assert!(inside, "{domain:?} view {index}: {pixels:?}");
+                }
+                let xs = pixels.iter().map(|p| p.0);
+                spans.push((xs.clone().min().unwrap(), xs.max().unwrap()));
             }
-            let xs = pixels.iter().map(|p| p.0);
-            spans.push((xs.clone().min().unwrap(), xs.max().unwrap()));
+            assert!(
+                spans[0].1 < spans[1].0 && spans[1].1 < spans[2].0,
+                "{spans:?}"
+            );
+            // The colour bar stays in the frame, right of the views.
+            let bar =
+                layout.origins[2].0 + ((high.x - low.x + layout.margin) * layout.scale) as i32;
+            assert!(bar + 40 + 120 < SIZE.0 as i32, "{domain:?}: {bar}");
+            // Up is up in the front view and down in the top view.
+            assert!(layout.pixel(0, high).1 < layout.pixel(0, low).1);
+            assert!(layout.pixel(2, high).1 > layout.pixel(2, low).1);
         }
+        // The course's box fills the frame's height, as before boxes had sizes.
+        let course = Layout::of(&Domain::COURSE);
         assert!(
-            spans[0].1 < spans[1].0 && spans[1].1 < spans[2].0,
-            "{spans:?}"
+            (course.scale - 450.0 / 0.2).abs() < 1e-9,
+            "{}",
+            course.scale
         );
-        // Up is up in the front view and down in the top view.
-        assert!(layout.pixel(0, BOX_MAX).1 < layout.pixel(0, BOX_MIN).1);
-        assert!(layout.pixel(2, BOX_MAX).1 > layout.pixel(2, BOX_MIN).1);
     }
 
     #[test]
@@ -384,7 +428,7 @@ mod tests {
             range: None,
         };
         render_png(&snapshot, &style, &path).unwrap();
-        let layout = Layout::default();
+        let layout = Layout::of(&Domain::COURSE);
         let white = [255, 255, 255];
         // A 10 x 10 x 10 block of spacing 5 mm fills 5 cm from the low corner; particle
         // 555 is in its middle.

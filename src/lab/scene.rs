@@ -4,7 +4,7 @@
 
 use crate::io::case;
 use crate::sim::grid::Grid;
-use crate::sim::params::{Params, BOX_MAX, BOX_MIN};
+use crate::sim::params::{Domain, Params, BOX_MAX, BOX_MIN};
 use crate::sim::particles::Particles;
 use glam::DVec3;
 
@@ -175,10 +175,15 @@ impl SceneKind {
     }
 }
 
-/// The lattice points at `ppm` particles per metre in any of `regions`, jittered from
-/// `seed`.
-pub fn filled(ppm: f64, seed: u64, regions: &[Region]) -> Result<Particles, String> {
-    check_ppm(ppm)?;
+/// The lattice points of `domain`'s box at `ppm` particles per metre in any of
+/// `regions`, jittered from `seed`.
+pub fn filled(
+    ppm: f64,
+    seed: u64,
+    regions: &[Region],
+    domain: &Domain,
+) -> Result<Particles, String> {
+    check_ppm(ppm, domain)?;
     // Only the lattice points of the regions' bounding box are visited (in the same
     // order as the whole box's, so the jitter is the same); the grid check above bounds
     // the whole box's lattice to a few hundred million points.
@@ -189,14 +194,14 @@ pub fn filled(ppm: f64, seed: u64, regions: &[Region]) -> Result<Particles, Stri
             (low.min(a), high.max(b))
         },
     );
-    let dims = lattice_dims(ppm);
+    let dims = lattice_dims(ppm, domain);
     let ranges: [std::ops::Range<usize>; 3] = std::array::from_fn(|axis| {
-        let index = |x: f64| ((x - BOX_MIN[axis]) * ppm - 0.5).clamp(0.0, dims[axis] as f64);
+        let index = |x: f64| ((x - domain.min[axis]) * ppm - 0.5).clamp(0.0, dims[axis] as f64);
         let first = index(low[axis]).floor() as usize;
         let end = (index(high[axis]).ceil() as usize + 1).min(dims[axis]);
         first.min(end)..end
     });
-    let scene = lattice_within(ppm, seed, ranges, |point| {
+    let scene = lattice_within(ppm, seed, domain, ranges, |point| {
         regions.iter().any(|region| region.holds(point))
     });
     if scene.is_empty() {
@@ -215,7 +220,7 @@ pub fn generate(
     seed: u64,
     particles: Option<usize>,
 ) -> Result<Particles, String> {
-    check_ppm(ppm)?;
+    check_ppm(ppm, &Domain::COURSE)?;
     let needs_count = matches!(kind, SceneKind::RandomCloud | SceneKind::CornerBlock);
     if particles.is_some() && !needs_count {
         return Err(format!(
@@ -223,7 +228,7 @@ pub fn generate(
             kind.name()
         ));
     }
-    let [nx, ny, nz] = lattice_dims(ppm).map(|n| n as f64);
+    let [nx, ny, nz] = lattice_dims(ppm, &Domain::COURSE).map(|n| n as f64);
     let count = match (kind, particles) {
         (SceneKind::RandomCloud, None) => (0.3 * nx * ny * nz) as usize,
         (SceneKind::CornerBlock, None) => {
@@ -255,14 +260,15 @@ pub fn generate(
     Ok(scene)
 }
 
-/// Particles per metre a scene can have: finite, > 0, and giving a grid over the box.
-fn check_ppm(ppm: f64) -> Result<(), String> {
+/// Particles per metre a scene can have: finite, > 0, and giving a grid over `domain`'s
+/// box.
+fn check_ppm(ppm: f64, domain: &Domain) -> Result<(), String> {
     if !(ppm.is_finite() && ppm > 0.0) {
         return Err(format!(
             "particles per metre {ppm} is not a finite number > 0"
         ));
     }
-    match Grid::new(Params::new(ppm).h) {
+    match Grid::new(Params::new(ppm).h, domain) {
         Ok(_) => Ok(()),
         Err(error) => Err(format!("particles per metre {ppm} gives {error}")),
     }
@@ -280,7 +286,7 @@ pub fn water_column(ppm: f64, seed: u64, width: f64, height: f64) -> Result<Part
             extent.x, extent.y
         ));
     }
-    check_ppm(ppm)?;
+    check_ppm(ppm, &Domain::COURSE)?;
     let column = lattice(ppm, seed, |p| {
         p.x < BOX_MIN.x + width && p.y < BOX_MIN.y + height
     });
@@ -292,26 +298,30 @@ pub fn water_column(ppm: f64, seed: u64, width: f64, height: f64) -> Result<Part
     Ok(column)
 }
 
-/// Lattice points along x, y and z at `ppm` particles per metre: floor(extent * ppm).
-fn lattice_dims(ppm: f64) -> [usize; 3] {
-    ((BOX_MAX - BOX_MIN) * ppm)
+/// Lattice points along x, y and z of `domain`'s box at `ppm` particles per metre:
+/// floor(extent * ppm).
+fn lattice_dims(ppm: f64, domain: &Domain) -> [usize; 3] {
+    (domain.extent() * ppm)
         .floor()
         .to_array()
         .map(|n| n as usize)
 }
 
-/// The lattice points (spacing 1/`ppm`, half a spacing from the walls, x fastest, then z,
-/// then y) for which `inside` holds, each jittered by up to [`JITTER`] spacings per axis.
+/// The lattice points of the course's box (spacing 1/`ppm`, half a spacing from the
+/// walls, x fastest, then z, then y) for which `inside` holds, each jittered by up to
+/// [`JITTER`] spacings per axis.
 fn lattice(ppm: f64, seed: u64, inside: impl Fn(DVec3) -> bool) -> Particles {
-    let [nx, ny, nz] = lattice_dims(ppm);
-    lattice_within(ppm, seed, [0..nx, 0..ny, 0..nz], inside)
+    let domain = Domain::COURSE;
+    let [nx, ny, nz] = lattice_dims(ppm, &domain);
+    lattice_within(ppm, seed, &domain, [0..nx, 0..ny, 0..nz], inside)
 }
 
-/// The same, visiting only the lattice points of the index `ranges` (x, y, z): all of them
-/// for which `inside` holds must be there.
+/// The same in `domain`'s box, visiting only the lattice points of the index `ranges`
+/// (x, y, z): all of them for which `inside` holds must be there.
 fn lattice_within(
     ppm: f64,
     seed: u64,
+    domain: &Domain,
     [xs, ys, zs]: [std::ops::Range<usize>; 3],
     inside: impl Fn(DVec3) -> bool,
 ) -> Particles {
@@ -322,7 +332,7 @@ fn lattice_within(
         for z in zs.clone() {
             for x in xs.clone() {
                 let k = DVec3::new(x as f64, y as f64, z as f64);
-                let point = BOX_MIN + (k + 0.5) * spacing;
+                let point = domain.min + (k + 0.5) * spacing;
                 if inside(point) {
                     let jitter = DVec3::new(random.f64(), random.f64(), random.f64());
                     points.push(point + (jitter * 2.0 - 1.0) * (JITTER * spacing));
@@ -444,7 +454,7 @@ mod tests {
             let fills = Region::of_case(&read.fluid);
             assert_eq!(Some(fills.clone()), kind.regions(), "{kind:?}");
             let ppm = *read.fluid.particles_per_m.get_ref();
-            let filled = filled(ppm, read.fluid.seed, &fills).unwrap();
+            let filled = filled(ppm, read.fluid.seed, &fills, &Domain::COURSE).unwrap();
             assert_eq!(filled, generate(kind, 150.0, 9, None).unwrap(), "{kind:?}");
         }
         for kind in [SceneKind::RandomCloud, SceneKind::CornerBlock] {
@@ -458,7 +468,7 @@ mod tests {
             centre: DVec3::ZERO,
             radius: 1e-6,
         };
-        let error = filled(100.0, 0, &[speck]).unwrap_err();
+        let error = filled(100.0, 0, &[speck], &Domain::COURSE).unwrap_err();
         assert_eq!(
             error,
             "the fills hold no lattice point at 100 particles per metre"
@@ -468,7 +478,10 @@ mod tests {
             low: DVec3::ZERO,
             high: DVec3::splat(0.01),
         };
-        assert_eq!(filled(2600.0, 0, &[cube]).unwrap().len(), 26 * 26 * 26);
+        assert_eq!(
+            filled(2600.0, 0, &[cube], &Domain::COURSE).unwrap().len(),
+            26 * 26 * 26
+        );
     }
 
     #[test]

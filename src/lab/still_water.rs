@@ -9,7 +9,7 @@
 use crate::io::case::Case;
 use crate::lab::diagnostics::Vitals;
 use crate::lab::gauges::{Gauge, GaugeTable};
-use crate::sim::params::{FLUID_DENSITY, GRAVITY};
+use crate::sim::params::FLUID_DENSITY;
 use crate::sim::simulation::Simulation;
 use glam::{DVec2, DVec3};
 
@@ -157,7 +157,7 @@ pub fn checks(
             false => values.iter().sum::<f64>() / values.len() as f64,
         }
     };
-    let g = -GRAVITY.y;
+    let g = -simulation.params().domain.gravity.y;
     let mut checks = Vec::new();
     for (&(name, fraction), column) in DEPTHS.iter().zip(pressure_columns(table)) {
         let measured = mean(column);

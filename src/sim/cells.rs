@@ -16,8 +16,8 @@
 
 use crate::sim::grid::Grid;
 use crate::sim::isa::{Gathers, InstructionSet, OnInstructionSet};
-use crate::sim::params::BOX_MIN;
 use crate::sim::particles::Particles;
+use glam::DVec3;
 use wide::{f64x8, i64x8, u64x8};
 
 /// Largest cell coordinate magnitude kept; beyond it (about 9,000 km from the box at 204
@@ -37,7 +37,7 @@ pub type Cell = [i32; 3];
 /// The cell of a position: floor((p - b_min) / s) per axis, as the grid computes a block
 /// but without clamping (saturated at +-(2^30 - 1); NaN gives 0).
 pub fn cell_of(grid: &Grid, p: [f64; 3]) -> Cell {
-    std::array::from_fn(|d| cell_coordinate(p[d], BOX_MIN[d], grid.block_size[d]))
+    std::array::from_fn(|d| cell_coordinate(p[d], grid.min[d], grid.block_size[d]))
 }
 
 #[inline(always)]
@@ -204,13 +204,23 @@ pub enum Wall {
     High,
 }
 
-/// The walls of each slot's block, one [`WallBits`] per slot in cell order.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+/// The walls of each slot's block, one [`WallBits`] per slot in cell order, and where
+/// the box's walls are.
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Walls {
     bits: Vec<WallBits>,
+    /// The box's low corner (m).
+    pub min: DVec3,
+    /// The box's high corner (m).
+    pub max: DVec3,
 }
 
 impl Walls {
+    /// Takes the walls to be those of `grid`'s box.
+    fn set_box(&mut self, grid: &Grid) {
+        (self.min, self.max) = (grid.min, grid.max);
+    }
+
     /// The walls of every slot: bit 2 * axis for the low wall, 2 * axis + 1 for the high.
     pub fn bits(&self) -> &[WallBits] {
         &self.bits
@@ -486,6 +496,7 @@ impl CellOrder {
     /// (if not, [`Self::order`] is the identity).
     pub fn sort(&mut self, grid: &Grid, particles: &Particles) -> bool {
         self.compute_cells(grid, particles);
+        self.walls.set_box(grid);
         let walls = self.cells.iter().map(|c| wall_bits(grid, c.map(i64::from)));
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
@@ -496,6 +507,7 @@ impl CellOrder {
     /// with a skin), the walls still those of the blocks of `grid`.
     pub fn sort_on(&mut self, search: &Grid, grid: &Grid, particles: &Particles) -> bool {
         self.compute_cells(search, particles);
+        self.walls.set_box(grid);
         self.wall_bits.clear();
         let walls = (0..particles.len()).map(|slot| slot_walls(grid, particles, slot));
         self.wall_bits.extend(walls);
@@ -505,6 +517,7 @@ impl CellOrder {
     /// Recomputes the walls of every slot from its particle's current block of `grid`,
     /// the order kept (for lists kept from an earlier step).
     pub fn refresh_walls(&mut self, grid: &Grid, particles: &Particles) {
+        self.walls.set_box(grid);
         self.walls.bits.clear();
         let walls = (0..particles.len()).map(|slot| slot_walls(grid, particles, slot));
         self.walls.bits.extend(walls);
@@ -514,6 +527,7 @@ impl CellOrder {
     /// particle in its current slot), as in a trace recorded after stage 1.
     pub fn sort_with_blocks(&mut self, grid: &Grid, particles: &Particles, blocks: &[u32]) -> bool {
         self.compute_cells(grid, particles);
+        self.walls.set_box(grid);
         let walls = blocks
             .iter()
             .map(|&b| wall_bits(grid, grid.coords(b as usize).map(|c| c as i64)));
@@ -529,7 +543,7 @@ impl CellOrder {
         self.cells.clear();
         self.cells.resize(n, [0; 3]);
         let exact = exact_bits(grid);
-        let (min, size) = (BOX_MIN.to_array(), grid.block_size.to_array());
+        let (min, size) = (grid.min.to_array(), grid.block_size.to_array());
         // Eight particles at a time on f64x8 lanes.
         let mut groups = self.cells.chunks_exact_mut(GROUP);
         for (group, cells) in groups.by_ref().enumerate() {
@@ -683,17 +697,18 @@ pub(crate) fn jittered_block(
     jitter: f64,
     seed: u64,
 ) -> (Particles, CellOrder, Grid) {
+    use crate::sim::params::{Domain, Params};
     let mut random = fastrand::Rng::with_seed(seed);
     let n = side * side * side;
     let mut particles = Particles::zeroed(n);
     for slot in 0..n {
         let k = [slot % side, slot / side % side, slot / (side * side)];
-        for axis in 0..3 {
-            let offset = k[axis] as f64 + 1.0 + jitter * (random.f64() - 0.5);
-            particles.p[axis][slot] = BOX_MIN[axis] + offset / ppm;
+        for (axis, k) in k.into_iter().enumerate() {
+            let offset = k as f64 + 1.0 + jitter * (random.f64() - 0.5);
+            particles.p[axis][slot] = Domain::COURSE.min[axis] + offset / ppm;
         }
     }
-    let grid = Grid::new(crate::sim::params::Params::new(ppm).h).unwrap();
+    let grid = Grid::new(Params::new(ppm).h, &Domain::COURSE).unwrap();
     let mut cells = CellOrder::default();
     cells.sort(&grid, &particles);
     let mut placed = particles.permuted(cells.order());
@@ -704,10 +719,10 @@ pub(crate) fn jittered_block(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::params::Params;
+    use crate::sim::params::{Domain, Params, BOX_MIN};
 
     fn grid() -> Grid {
-        Grid::new(Params::new(204.0).h).unwrap()
+        Grid::new(Params::new(204.0).h, &Domain::COURSE).unwrap()
     }
 
     /// A deterministic xorshift sequence of numbers in [0, 1) from `seed`.
@@ -839,6 +854,8 @@ mod tests {
         let grid = Grid {
             dims: [360, 498, 360],
             block_size: glam::DVec3::splat(0.13 / 360.0),
+            min: BOX_MIN,
+            max: BOX_MIN + 0.13,
         };
         let limit = CELL_LIMIT as i32;
         let (lowest, highest) = (

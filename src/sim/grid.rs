@@ -1,8 +1,8 @@
-//! The grid of blocks that partitions the box (SPEC.md section 3): its size and linear block
-//! indices. The block of a position (clamped into the grid) is its cell of
+//! The grid of blocks that partitions the box (SPEC.md section 3; a case's box in the
+//! workbench): its size and linear block indices. The block of a position (clamped into the grid) is its cell of
 //! [`crate::sim::cells`] clamped.
 
-use crate::sim::params::{BOX_MAX, BOX_MIN};
+use crate::sim::params::Domain;
 use glam::DVec3;
 use std::fmt;
 
@@ -48,12 +48,17 @@ pub struct Grid {
     pub dims: [usize; 3],
     /// Edge lengths of one block (each >= h).
     pub block_size: DVec3,
+    /// The box's low corner (m): where block 0 starts.
+    pub min: DVec3,
+    /// The box's high corner (m).
+    pub max: DVec3,
 }
 
 impl Grid {
-    /// Builds the grid for smoothing length `h`: n_d = floor(extent_d / h), s_d = extent_d / n_d.
-    pub fn new(h: f64) -> Result<Self, GridSizeError> {
-        let extent = BOX_MAX - BOX_MIN;
+    /// Builds the grid over `domain`'s box for smoothing length `h`:
+    /// n_d = floor(extent_d / h), s_d = extent_d / n_d.
+    pub fn new(h: f64, domain: &Domain) -> Result<Self, GridSizeError> {
+        let extent = domain.max - domain.min;
         let counts = (extent / h).floor();
         let blocks_per_axis = counts.to_array();
         let fits = blocks_per_axis.iter().all(|&n| n >= 1.0)
@@ -64,6 +69,8 @@ impl Grid {
         Ok(Self {
             dims: blocks_per_axis.map(|n| n as usize),
             block_size: extent / counts,
+            min: domain.min,
+            max: domain.max,
         })
     }
 
@@ -90,7 +97,7 @@ mod tests {
     use crate::sim::params::Params;
 
     fn small_grid() -> Grid {
-        Grid::new(Params::new(204.0).h).unwrap()
+        Grid::new(Params::new(204.0).h, &Domain::COURSE).unwrap()
     }
 
     #[test]
@@ -98,7 +105,7 @@ mod tests {
         let small = small_grid();
         assert_eq!(small.dims, [15, 21, 15]);
         assert_eq!(small.block_count(), 4725);
-        let large = Grid::new(Params::new(292.0).h).unwrap();
+        let large = Grid::new(Params::new(292.0).h, &Domain::COURSE).unwrap();
         assert_eq!(large.dims, [22, 31, 22]);
         assert_eq!(large.block_count(), 15004);
         assert!((large.block_size.y - 0.18 / 31.0).abs() < 1e-15);
@@ -108,18 +115,18 @@ mod tests {
     fn blocks_are_at_least_h_wide() {
         for ppm in [14.0, 100.0, 204.0, 292.0, 1000.0] {
             let h = Params::new(ppm).h;
-            let grid = Grid::new(h).unwrap();
+            let grid = Grid::new(h, &Domain::COURSE).unwrap();
             assert!(grid.block_size.min_element() >= h, "ppm {ppm}");
         }
     }
 
     #[test]
     fn too_coarse_or_too_fine_grids_are_rejected() {
-        let err = Grid::new(Params::new(10.0).h).unwrap_err();
+        let err = Grid::new(Params::new(10.0).h, &Domain::COURSE).unwrap_err();
         assert_eq!(err.blocks_per_axis[0], 0.0);
         assert!(err.to_string().contains("0 x 1 x 0 blocks"), "{err}");
-        assert!(Grid::new(Params::new(1e6).h).is_err());
-        assert!(Grid::new(f64::NAN).is_err());
+        assert!(Grid::new(Params::new(1e6).h, &Domain::COURSE).is_err());
+        assert!(Grid::new(f64::NAN, &Domain::COURSE).is_err());
     }
 
     #[test]

@@ -404,7 +404,10 @@ mod tests {
             axis.iter_mut().for_each(|x| *x = low + (*x - low) / 20.0);
         }
         let mut cells = crate::sim::cells::CellOrder::default();
-        cells.sort(&crate::sim::grid::Grid::new(h).unwrap(), &particles);
+        cells.sort(
+            &crate::sim::grid::Grid::new(h, &crate::sim::params::Domain::COURSE).unwrap(),
+            &particles,
+        );
         let mut placed = particles.permuted(cells.order());
         placed.pad();
         let mut search = TileSearch::default();

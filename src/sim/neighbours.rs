@@ -308,7 +308,7 @@ mod tests {
     #[test]
     fn tiles_visit_every_close_pair_once_and_only_adjacent_cells() {
         let params = Params::new(204.0);
-        let grid = Grid::new(params.h).unwrap();
+        let grid = Grid::new(params.h, &params.domain).unwrap();
         // Clusters of 4 make dense cells; lone particles far out make the sparse search.
         for (spread, cluster) in [(0.12, 4), (5.0, 4), (500.0, 4), (5.0, 1), (50.0, 1)] {
             let points = cloud(2000, spread, cluster);

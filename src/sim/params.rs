@@ -26,6 +26,44 @@ pub const GRAVITY: DVec3 = DVec3::new(0.0, -9.8, 0.0);
 pub const BOX_MIN: DVec3 = DVec3::new(-0.065, -0.08, -0.065);
 /// Upper corner of the box (erratum 1).
 pub const BOX_MAX: DVec3 = DVec3::new(0.065, 0.1, 0.065);
+/// The box the particles live in and the gravity that acts on them: SPEC.md's
+/// ([`Domain::COURSE`]) for the course model and every `.fld` run; a case file's for the
+/// workbench's other models.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Domain {
+    /// The box's low corner (m).
+    pub min: DVec3,
+    /// The box's high corner (m).
+    pub max: DVec3,
+    /// Gravity (m/s^2).
+    pub gravity: DVec3,
+}
+
+impl Default for Domain {
+    fn default() -> Domain {
+        Domain::COURSE
+    }
+}
+
+impl Domain {
+    /// SPEC.md's box and gravity.
+    pub const COURSE: Domain = Domain {
+        min: BOX_MIN,
+        max: BOX_MAX,
+        gravity: GRAVITY,
+    };
+
+    /// The box's edge lengths (m).
+    pub fn extent(&self) -> DVec3 {
+        self.max - self.min
+    }
+
+    /// Whether `p` is inside the box, walls included.
+    pub fn contains(&self, p: DVec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+}
+
 /// Smallest squared distance used in the acceleration transfer (avoids division by zero).
 pub const MIN_DISTANCE_SQUARED: f64 = 1e-12;
 
@@ -52,6 +90,8 @@ pub struct Params {
     pub viscosity_factor: f64,
     /// Time step dt ([`TIME_STEP`] in the course model; the workbench can change it).
     pub dt: f64,
+    /// The box and gravity ([`Domain::COURSE`] unless a case gives its own).
+    pub domain: Domain,
 }
 
 impl Params {
@@ -76,7 +116,13 @@ impl Params {
             pressure_factor: 15.0 / (PI * h6) * (3.0 * mass * PRESSURE_STIFFNESS / 2.0),
             viscosity_factor: 45.0 / (PI * h6) * VISCOSITY * mass,
             dt: TIME_STEP,
+            domain: Domain::COURSE,
         }
+    }
+
+    /// These parameters in `domain`.
+    pub fn within(self, domain: Domain) -> Self {
+        Self { domain, ..self }
     }
 }
 

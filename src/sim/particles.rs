@@ -1,7 +1,6 @@
 //! Particle state as a structure of arrays: one contiguous `Vec` per field and axis, so the
 //! physics loops stream through memory and can be vectorised.
 
-use crate::sim::params::GRAVITY;
 use glam::DVec3;
 
 /// Three arrays, one per axis, of one vector field.
@@ -95,9 +94,9 @@ impl Particles {
 
     /// Makes `self` the particles of `source` in the order `order`: slot k of `self`
     /// receives slot `order[k]` of `source`. Density and acceleration start as stage 2
-    /// sets them (0 and gravity), so the reordering also does that stage; every array is
-    /// padded. `self`'s buffers are reused.
-    pub fn gather_kinematics(&mut self, source: &Particles, order: &[u32]) {
+    /// sets them (0 and `gravity`), so the reordering also does that stage; every array
+    /// is padded. `self`'s buffers are reused.
+    pub fn gather_kinematics(&mut self, source: &Particles, order: &[u32], gravity: DVec3) {
         self.id.clear();
         self.id.extend(order.iter().map(|&s| source.id[s as usize]));
         let fields = [
@@ -112,23 +111,23 @@ impl Particles {
                 t.resize(order.len() + PADDING, 0.0);
             }
         }
-        self.reset_densities_and_accelerations();
+        self.reset_densities_and_accelerations(gravity);
     }
 
     /// As [`Self::gather_kinematics`], the densities carried over too (for a model whose
     /// density is a state of its own).
-    pub fn gather_with_densities(&mut self, source: &Particles, order: &[u32]) {
-        self.gather_kinematics(source, order);
+    pub fn gather_with_densities(&mut self, source: &Particles, order: &[u32], gravity: DVec3) {
+        self.gather_kinematics(source, order, gravity);
         for (t, &k) in self.rho.iter_mut().zip(order) {
             *t = source.rho[k as usize];
         }
     }
 
     /// The particles in the order `order` (slot k holds slot `order[k]` of `self`), every
-    /// field kept and every array padded.
+    /// field kept and every array padded (with zeros).
     pub fn permuted(&self, order: &[u32]) -> Particles {
         let mut out = Particles::default();
-        out.gather_kinematics(self, order);
+        out.gather_kinematics(self, order, DVec3::ZERO);
         for (target, source) in out
             .a
             .iter_mut()
@@ -142,18 +141,18 @@ impl Particles {
         out
     }
 
-    /// Stage 2: density 0 and acceleration = gravity for every particle (and padding).
-    pub fn reset_densities_and_accelerations(&mut self) {
+    /// Stage 2: density 0 and acceleration = `gravity` for every particle (and padding).
+    pub fn reset_densities_and_accelerations(&mut self, gravity: DVec3) {
         let n = self.len() + PADDING;
         self.rho.clear();
         self.rho.resize(n, 0.0);
-        self.reset_accelerations();
+        self.reset_accelerations(gravity);
     }
 
-    /// Acceleration = gravity for every particle (and padding), densities kept.
-    pub fn reset_accelerations(&mut self) {
+    /// Acceleration = `gravity` for every particle (and padding), densities kept.
+    pub fn reset_accelerations(&mut self, gravity: DVec3) {
         let n = self.len() + PADDING;
-        for (axis, g) in self.a.iter_mut().zip(GRAVITY.to_array()) {
+        for (axis, g) in self.a.iter_mut().zip(gravity.to_array()) {
             axis.clear();
             axis.resize(n, g);
         }
@@ -190,6 +189,7 @@ impl Particles {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::params::GRAVITY;
 
     #[test]
     fn gather_reorders_ids_and_kinematics() {
@@ -200,7 +200,7 @@ mod tests {
             source.v[2][slot] = 20.0 + slot as f64;
         }
         let mut target = Particles::default();
-        target.gather_kinematics(&source, &[2, 0, 1]);
+        target.gather_kinematics(&source, &[2, 0, 1], GRAVITY);
         assert_eq!(target.id, vec![2, 0, 1]);
         assert_eq!(target.p[0][..3], [2.0, 0.0, 1.0]);
         assert_eq!(target.hv[1][..3], [12.0, 10.0, 11.0]);
@@ -216,11 +216,11 @@ mod tests {
         let mut source = Particles::zeroed(3);
         source.rho = vec![1.0, 2.0, 3.0];
         let mut target = Particles::default();
-        target.gather_with_densities(&source, &[2, 0, 1]);
+        target.gather_with_densities(&source, &[2, 0, 1], GRAVITY);
         assert_eq!(target.rho[..3], [3.0, 1.0, 2.0]);
         assert_eq!(target.rho.len(), 3 + PADDING);
         target.a[0][1] = 5.0;
-        target.reset_accelerations();
+        target.reset_accelerations(GRAVITY);
         assert_eq!(target.rho[..3], [3.0, 1.0, 2.0]);
         assert_eq!(target.acceleration(1), GRAVITY);
     }
@@ -242,7 +242,7 @@ mod tests {
         let mut particles = Particles::zeroed(2);
         particles.rho[1] = 5.0;
         particles.a[1][0] = 3.0;
-        particles.reset_densities_and_accelerations();
+        particles.reset_densities_and_accelerations(GRAVITY);
         assert!(particles.rho.iter().all(|&rho| rho == 0.0));
         assert_eq!(particles.acceleration(1), GRAVITY);
     }

@@ -12,7 +12,7 @@ use crate::sim::lists::NeighbourLists;
 use crate::sim::method::Method;
 use crate::sim::model::{Context, Dynamics};
 use crate::sim::neighbours::{Tile, TileSearch};
-use crate::sim::params::Params;
+use crate::sim::params::{Domain, Params};
 use crate::sim::particles::Particles;
 use crate::sim::skin::{KeptSkin, Skin};
 use crate::sim::stages::{self, Stage};
@@ -24,6 +24,8 @@ use crate::sim::timestep::{Integrator, Leapfrog, Limit, TimeStep};
 pub struct Resumable {
     /// Particles per metre (the parameters derive from it).
     pub ppm: f64,
+    /// The box and gravity.
+    pub domain: Domain,
     /// The model and kernel.
     pub method: Method,
     /// How steps' lengths are chosen.
@@ -105,16 +107,17 @@ impl Simulation {
         Self::with_params(method.model.params(ppm), particles, method)
     }
 
-    /// As [`Self::with_method`], with `dynamics`, the model `method` names with choices
-    /// of its own (e.g. the weakly compressible model's walls and viscosity), whose
-    /// cut-off sets the parameters.
+    /// As [`Self::with_method`], in `domain` (its box and gravity), with `dynamics`, the
+    /// model `method` names with choices of its own (e.g. the weakly compressible model's
+    /// walls and viscosity), whose cut-off sets the parameters.
     pub fn with_dynamics(
         ppm: f64,
+        domain: Domain,
         particles: Particles,
         method: Method,
         dynamics: Box<dyn Dynamics>,
     ) -> Result<Self, GridSizeError> {
-        let params = Params::with_cutoff(ppm, dynamics.cutoff(ppm));
+        let params = Params::with_cutoff(ppm, dynamics.cutoff(ppm)).within(domain);
         Self::placed(params, particles, method, dynamics)
     }
 
@@ -135,7 +138,7 @@ impl Simulation {
         method: Method,
         dynamics: Box<dyn Dynamics>,
     ) -> Result<Self, GridSizeError> {
-        let grid = Grid::new(params.h)?;
+        let grid = Grid::new(params.h, &params.domain)?;
         let mut simulation = Self::unplaced(params, grid, method, dynamics, particles);
         simulation
             .dynamics
@@ -178,7 +181,7 @@ impl Simulation {
         // The model's skin, where its grid exists (else the lists are rebuilt each step).
         let skin = dynamics
             .default_skin()
-            .and_then(|fraction| Skin::new(params.h, fraction * params.h).ok());
+            .and_then(|fraction| Skin::new(params.h, fraction * params.h, &params.domain).ok());
         let time_step = match dynamics.default_time_step() {
             TimeStep::Fixed(_) => TimeStep::Fixed(params.dt),
             adaptive => adaptive,
@@ -359,6 +362,7 @@ impl Simulation {
     pub fn resumable(&self) -> Resumable {
         Resumable {
             ppm: self.params.ppm,
+            domain: self.params.domain,
             method: self.method,
             time_step: self.time_step,
             integrator: self.integrator,
@@ -378,9 +382,11 @@ impl Simulation {
     /// that of these particles.
     pub fn resume(state: Resumable) -> Result<Self, String> {
         let mut dynamics = state.method.model.dynamics();
-        dynamics.restore(&state.method.model.params(state.ppm), &state.model_state)?;
-        let params = Params::with_cutoff(state.ppm, dynamics.cutoff(state.ppm));
-        let grid = Grid::new(params.h).map_err(|error| error.to_string())?;
+        let model_params = state.method.model.params(state.ppm).within(state.domain);
+        dynamics.restore(&model_params, &state.model_state)?;
+        let params =
+            Params::with_cutoff(state.ppm, dynamics.cutoff(state.ppm)).within(state.domain);
+        let grid = Grid::new(params.h, &params.domain).map_err(|error| error.to_string())?;
         let mut simulation = Self::unplaced(params, grid, state.method, dynamics, state.particles);
         simulation.dynamics.restore(&params, &state.model_state)?;
         simulation.set_time_step(state.time_step);
@@ -391,7 +397,8 @@ impl Simulation {
         simulation.structure = state.structure;
         simulation.skin = None;
         if let Some(kept) = state.skin {
-            let skin = Skin::restored(params.h, kept).map_err(|error| error.to_string())?;
+            let skin = Skin::restored(params.h, kept, &params.domain)
+                .map_err(|error| error.to_string())?;
             simulation.place_as_built(skin, state.sparse)?;
         }
         Ok(simulation)
@@ -459,7 +466,9 @@ impl Simulation {
     /// step; a simulation starts with its model's ([`Dynamics::default_skin`]). Takes
     /// effect at the next step, which builds them.
     pub fn set_skin(&mut self, width: Option<f64>) -> Result<(), GridSizeError> {
-        self.skin = width.map(|w| Skin::new(self.params.h, w)).transpose()?;
+        self.skin = width
+            .map(|w| Skin::new(self.params.h, w, &self.params.domain))
+            .transpose()?;
         Ok(())
     }
 
@@ -658,9 +667,14 @@ impl Simulation {
         if moved {
             let order = self.cells.order();
             if self.dynamics.carries_densities() {
-                self.spare.gather_with_densities(&self.particles, order);
+                self.spare.gather_with_densities(
+                    &self.particles,
+                    order,
+                    self.params.domain.gravity,
+                );
             } else {
-                self.spare.gather_kinematics(&self.particles, order);
+                self.spare
+                    .gather_kinematics(&self.particles, order, self.params.domain.gravity);
             }
             std::mem::swap(&mut self.particles, &mut self.spare);
         } else {
@@ -728,9 +742,11 @@ impl Simulation {
     /// Stage 2: accelerations to gravity, and densities to zero unless they are states.
     fn reset_for_pairs(&mut self) {
         if self.dynamics.carries_densities() {
-            self.particles.reset_accelerations();
+            self.particles
+                .reset_accelerations(self.params.domain.gravity);
         } else {
-            self.particles.reset_densities_and_accelerations();
+            self.particles
+                .reset_densities_and_accelerations(self.params.domain.gravity);
         }
     }
 

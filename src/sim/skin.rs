@@ -11,6 +11,7 @@
 //! lists and goes on bit for bit.
 
 use crate::sim::grid::{Grid, GridSizeError};
+use crate::sim::params::Domain;
 use crate::sim::particles::{AxisArrays, Particles};
 
 /// The skin's state: its width, the grid of its cells, and the positions of the build.
@@ -48,24 +49,25 @@ impl Skin {
         self.width
     }
 
-    /// A skin `width` metres wide beyond the smoothing length `h`.
-    pub fn new(h: f64, width: f64) -> Result<Skin, GridSizeError> {
+    /// A skin `width` metres wide beyond the smoothing length `h`, its grid over
+    /// `domain`'s box.
+    pub fn new(h: f64, width: f64, domain: &Domain) -> Result<Skin, GridSizeError> {
         Ok(Skin {
             width,
-            grid: Grid::new(h + width)?,
+            grid: Grid::new(h + width, domain)?,
             built: Default::default(),
             builds: 0,
             sorted_sparse: false,
         })
     }
 
-    /// The skin a checkpoint `kept`, beyond the smoothing length `h`.
-    pub fn restored(h: f64, kept: KeptSkin) -> Result<Skin, GridSizeError> {
+    /// The skin a checkpoint `kept`, beyond the smoothing length `h`, over `domain`.
+    pub fn restored(h: f64, kept: KeptSkin, domain: &Domain) -> Result<Skin, GridSizeError> {
         Ok(Skin {
             builds: kept.builds,
             sorted_sparse: kept.sorted_sparse,
             built: kept.built,
-            ..Skin::new(h, kept.width)?
+            ..Skin::new(h, kept.width, domain)?
         })
     }
 
@@ -157,7 +159,7 @@ mod tests {
     #[test]
     fn lists_go_stale_past_half_the_skin() {
         let h = 0.006;
-        let mut skin = Skin::new(h, 0.002).unwrap();
+        let mut skin = Skin::new(h, 0.002, &Domain::COURSE).unwrap();
         assert!(skin.grid().block_size.min_element() >= h + 0.002);
         let mut particles = Particles::zeroed(3);
         assert!(skin.is_stale(&particles), "never built");
@@ -180,12 +182,12 @@ mod tests {
     #[test]
     fn a_kept_skin_is_restored_as_it_was() {
         let h = 0.006;
-        let mut skin = Skin::new(h, 0.002).unwrap();
+        let mut skin = Skin::new(h, 0.002, &Domain::COURSE).unwrap();
         let mut particles = Particles::zeroed(4);
         particles.p[1][3] = 0.01;
         skin.record(&particles, true);
         skin.record(&particles, true);
-        let restored = Skin::restored(h, skin.kept()).unwrap();
+        let restored = Skin::restored(h, skin.kept(), &Domain::COURSE).unwrap();
         assert_eq!(restored, skin);
         assert_eq!(restored.builds(), 2);
         assert_eq!(restored.kept().built[1][3], 0.01);

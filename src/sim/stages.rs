@@ -4,7 +4,7 @@
 //! are the [`crate::sim::kernel`].
 
 use crate::sim::cells::{wall_bit, Wall, WallBits, Walls};
-use crate::sim::params::{BOX_MAX, BOX_MIN, COLLISION_STIFFNESS, DAMPING, PARTICLE_SIZE};
+use crate::sim::params::{COLLISION_STIFFNESS, DAMPING, PARTICLE_SIZE};
 use crate::sim::particles::Particles;
 use crate::sim::timestep::Leapfrog;
 use wide::{f64x8, i32x8};
@@ -72,14 +72,20 @@ fn wall_masks(bits: [WallBits; LANES], axis: usize) -> (f64x8, f64x8) {
     (on(Wall::Low), on(Wall::High))
 }
 
+/// The box's low and high wall on `axis`.
+#[inline(always)]
+fn bounds(walls: &Walls, axis: usize) -> (f64, f64) {
+    (walls.min[axis], walls.max[axis])
+}
+
 /// Stage 6 on one axis of eight particles: the acceleration after the wall repulsion and
-/// damping of their blocks' walls, judged by where each particle would be after `dt` at
+/// damping of their blocks' walls (the box's at `bounds` on that axis), judged by where each particle would be after `dt` at
 /// its half-step velocity (SPEC.md erratum 5: dt the step; 0 under the velocity Verlet,
 /// [`Leapfrog::lookahead`]). Lanes off the walls keep `a` unchanged.
 #[inline(always)]
-fn collide(axis: usize, walls: (f64x8, f64x8), dt: f64, [p, hv, v, a]: [f64x8; 4]) -> f64x8 {
+fn collide(bounds: (f64, f64), walls: (f64x8, f64x8), dt: f64, [p, hv, v, a]: [f64x8; 4]) -> f64x8 {
     let (low, high) = walls;
-    let (min, max) = (f64x8::splat(BOX_MIN[axis]), f64x8::splat(BOX_MAX[axis]));
+    let (min, max) = (f64x8::splat(bounds.0), f64x8::splat(bounds.1));
     let (size, stiffness, damping) = (
         f64x8::splat(PARTICLE_SIZE),
         f64x8::splat(COLLISION_STIFFNESS),
@@ -114,11 +120,12 @@ fn motion(step: Leapfrog, [p, hv, _, a]: [f64x8; 4]) -> [f64x8; 3] {
 }
 
 /// Stage 8 on one axis of eight particles: [p, hv, v], mirrored back with both
-/// velocities reversed where a particle ended beyond a wall of its block.
+/// velocities reversed where a particle ended beyond a wall of its block (the box's at
+/// `bounds` on that axis).
 #[inline(always)]
-fn bounce(axis: usize, walls: (f64x8, f64x8), [p, hv, v]: [f64x8; 3]) -> [f64x8; 3] {
+fn bounce(bounds: (f64, f64), walls: (f64x8, f64x8), [p, hv, v]: [f64x8; 3]) -> [f64x8; 3] {
     let (low, high) = walls;
-    let (min, max) = (f64x8::splat(BOX_MIN[axis]), f64x8::splat(BOX_MAX[axis]));
+    let (min, max) = (f64x8::splat(bounds.0), f64x8::splat(bounds.1));
     let below = low & (p - min).simd_lt(f64x8::ZERO);
     let above = high & (max - p).simd_lt(f64x8::ZERO);
     let p = below.select(min - (p - min), above.select(max + (max - p), p));
@@ -201,7 +208,12 @@ pub fn collide_with_walls(walls: &Walls, dt: f64, particles: &mut Particles) {
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
         for_each_group(n, walls.bits(), axis, fields, |masks, [p, hv, v, a]| {
-            [p, hv, v, collide(axis, masks, dt, [p, hv, v, a])]
+            [
+                p,
+                hv,
+                v,
+                collide(bounds(walls, axis), masks, dt, [p, hv, v, a]),
+            ]
         });
     }
 }
@@ -225,7 +237,7 @@ pub fn interact_with_boundary(walls: &Walls, particles: &mut Particles) {
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
         for_each_group(n, walls.bits(), axis, fields, |masks, [p, hv, v, a]| {
-            let [p, hv, v] = bounce(axis, masks, [p, hv, v]);
+            let [p, hv, v] = bounce(bounds(walls, axis), masks, [p, hv, v]);
             [p, hv, v, a]
         });
     }
@@ -240,8 +252,9 @@ pub fn advance(walls: &Walls, step: Leapfrog, particles: &mut Particles) {
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
         for_each_group(n, walls.bits(), axis, fields, |masks, [p, hv, v, a]| {
-            let a = collide(axis, masks, step.lookahead(), [p, hv, v, a]);
-            let [p, hv, v] = bounce(axis, masks, motion(step, [p, hv, v, a]));
+            let bounds = bounds(walls, axis);
+            let a = collide(bounds, masks, step.lookahead(), [p, hv, v, a]);
+            let [p, hv, v] = bounce(bounds, masks, motion(step, [p, hv, v, a]));
             [p, hv, v, a]
         });
     }
@@ -273,14 +286,16 @@ const EVERY_WALL: (f64x8, f64x8) = (
 );
 
 /// The leapfrog of `step` for every particle, then every particle beyond a wall of the
-/// box mirrored back with its velocities reversed on that axis (a last guard: the weakly
-/// compressible model's walls are its particles' mirror images, and no penalty).
-pub fn advance_within_box(step: Leapfrog, particles: &mut Particles) {
+/// box (that of `walls`) mirrored back with its velocities reversed on that axis (a last
+/// guard: the weakly compressible model's walls are its particles' mirror images, and no
+/// penalty).
+pub fn advance_within_box(walls: &Walls, step: Leapfrog, particles: &mut Particles) {
     let n = particles.len();
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
+        let bounds = bounds(walls, axis);
         for_each_group(n, &[], axis, fields, |_, [p, hv, v, a]| {
-            let [p, hv, v] = bounce(axis, EVERY_WALL, motion(step, [p, hv, v, a]));
+            let [p, hv, v] = bounce(bounds, EVERY_WALL, motion(step, [p, hv, v, a]));
             [p, hv, v, a]
         });
     }
@@ -300,13 +315,14 @@ pub fn predict_velocities(half: f64, particles: &mut Particles) {
 }
 
 /// The mirror of [`advance_within_box`] alone: every particle beyond a wall of the box
-/// mirrored back, its velocities reversed on that axis.
-pub fn reflect_into_box(particles: &mut Particles) {
+/// (that of `walls`) mirrored back, its velocities reversed on that axis.
+pub fn reflect_into_box(walls: &Walls, particles: &mut Particles) {
     let n = particles.len();
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
+        let bounds = bounds(walls, axis);
         for_each_group(n, &[], axis, fields, |_, [p, hv, v, a]| {
-            let [p, hv, v] = bounce(axis, EVERY_WALL, [p, hv, v]);
+            let [p, hv, v] = bounce(bounds, EVERY_WALL, [p, hv, v]);
             [p, hv, v, a]
         });
     }
@@ -317,7 +333,7 @@ mod tests {
     use super::*;
     use crate::sim::cells::CellOrder;
     use crate::sim::grid::Grid;
-    use crate::sim::params::TIME_STEP;
+    use crate::sim::params::{Domain, BOX_MAX, BOX_MIN, TIME_STEP};
     use glam::DVec3;
 
     #[test]
@@ -343,6 +359,8 @@ mod tests {
         let grid = Grid {
             dims: [3, 3, 3],
             block_size: (BOX_MAX - BOX_MIN) / 3.0,
+            min: BOX_MIN,
+            max: BOX_MAX,
         };
         let mut particles = Particles::zeroed(1);
         for axis in 0..3 {
@@ -433,6 +451,8 @@ mod tests {
         let grid = Grid {
             dims: [3, 3, 3],
             block_size: (BOX_MAX - BOX_MIN) / 3.0,
+            min: BOX_MIN,
+            max: BOX_MAX,
         };
         let mut particles = Particles::zeroed(13);
         for slot in 0..13 {
@@ -470,7 +490,9 @@ mod tests {
             particles.hv[1][slot] = -1.0 + 0.5 * slot as f64;
             particles.a[1][slot] = 0.0;
         }
-        advance_within_box(Leapfrog::fixed(1e-3), &mut particles);
+        let mut cells = CellOrder::default();
+        cells.sort(&Grid::new(0.01, &Domain::COURSE).unwrap(), &particles);
+        advance_within_box(cells.walls(), Leapfrog::fixed(1e-3), &mut particles);
         for slot in 0..5 {
             let speed = -1.0 + 0.5 * slot as f64;
             let moved = BOX_MIN.y + 1e-4 + speed * 1e-3;

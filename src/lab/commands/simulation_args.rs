@@ -12,6 +12,7 @@ use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::wcsph::{Settings, WallFriction};
 use crate::sim::model::{Dynamics, Model, Wcsph};
+use crate::sim::params;
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
 use clap::Args;
@@ -19,6 +20,7 @@ use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::error::Error;
 use std::io::IsTerminal;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// A simulation to run: input, steps, model and kernel.
@@ -310,6 +312,43 @@ pub struct Loaded {
     pub simulation: Simulation,
 }
 
+/// What a model asks of a case's domain, or the key that breaks it and why: the course
+/// model keeps SPEC.md's box and gravity; the water model's floor is the box's low y
+/// wall, so its gravity points down y.
+fn check_domain(domain: &case::Domain, model: Model) -> Result<(), (Range<usize>, String)> {
+    let simulated = domain.simulated();
+    let course = params::Domain::COURSE;
+    let keys = [
+        (&domain.box_min_m, course.min),
+        (&domain.box_max_m, course.max),
+        (&domain.gravity_m_s2, course.gravity),
+    ];
+    let differing = keys
+        .iter()
+        .find(|(key, value)| *key.get_ref() != value.to_array());
+    let gravity = simulated.gravity;
+    match (model, differing) {
+        (Model::Course, Some((key, _))) => Err((
+            key.span(),
+            format!(
+                "the course model keeps SPEC.md's box and gravity (box_min_m = {:?}, \
+                 box_max_m = {:?}, gravity_m_s2 = {:?}): name fluidanimate or wcsph for \
+                 another",
+                course.min.to_array(),
+                course.max.to_array(),
+                course.gravity.to_array()
+            ),
+        )),
+        (Model::Wcsph, _) if !(gravity.x == 0.0 && gravity.z == 0.0 && gravity.y < 0.0) => Err((
+            domain.gravity_m_s2.span(),
+            "the water model's floor is the box's low y wall: its gravity_m_s2 is [0, -g, 0] \
+             with g > 0"
+                .into(),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// The choice a case names, if any (its names were checked when the case was read).
 fn named<T: ValueEnum>(name: &Option<toml::Spanned<String>>) -> Option<T> {
     name.as_ref()
@@ -341,10 +380,12 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             let spacing = &case.fluid.particles_per_m;
             let ppm = *spacing.get_ref();
             let regions = Region::of_case(&case.fluid);
-            let particles = scene::filled(ppm, case.fluid.seed, &regions)
+            let domain = case.domain.simulated();
+            check_domain(&case.domain, method.model).map_err(|(span, why)| at_key(span, why))?;
+            let particles = scene::filled(ppm, case.fluid.seed, &regions, &domain)
                 .map_err(|error| at_key(spacing.span(), error))?;
-            let simulation =
-                Simulation::with_dynamics(ppm, particles, method, dynamics).map_err(|error| {
+            let simulation = Simulation::with_dynamics(ppm, domain, particles, method, dynamics)
+                .map_err(|error| {
                     at_key(
                         spacing.span(),
                         format!("particles_per_m = {ppm} gives {error} for the model's cut-off"),

@@ -16,7 +16,7 @@ use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
-use crate::sim::params::{BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
+use crate::sim::params::{Domain, BOX_MAX, BOX_MIN, FLUID_DENSITY};
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::TimeStep;
 use clap::{Args, ValueEnum};
@@ -162,8 +162,9 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
                 ),
                 _ => (model.dynamics(), "its own constants".to_string()),
             };
-            let mut simulation = Simulation::with_dynamics(ppm, dam.particles()?, method, dynamics)
-                .map_err(|error| format!("--ppms {ppm}: {error}"))?;
+            let mut simulation =
+                Simulation::with_dynamics(ppm, Domain::COURSE, dam.particles()?, method, dynamics)
+                    .map_err(|error| format!("--ppms {ppm}: {error}"))?;
             let time_step = asked.unwrap_or(model.default_time_step());
             simulation.set_time_step(time_step);
             let rule = rule_name(time_step);
@@ -404,6 +405,13 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     simulation.read_case(&mut None)?;
     let case = simulation.read.as_ref().expect("a case read");
     let shown = path.display();
+    if case.domain.simulated() != Domain::COURSE {
+        return Err(format!(
+            "{shown}: a dam-break case runs in the course's box under its gravity, the box of \
+             the experiments' scale this validation was made for (leave [domain] out)"
+        )
+        .into());
+    }
     let [fill] = &case.fluid.boxes[..] else {
         return Err(format!("{shown}: a dam-break case has one box of fluid").into());
     };
@@ -512,7 +520,8 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
         .iter()
         .enumerate()
         .map(|(index, &(name, fraction))| {
-            let expected = tank.gauge_depth(fraction) * FLUID_DENSITY * -GRAVITY.y;
+            let g = -simulation.params().domain.gravity.y;
+            let expected = tank.gauge_depth(fraction) * FLUID_DENSITY * g;
             let points = table.rows().iter().filter_map(|(time, values)| {
                 values[pressure_columns[index]].map(|pressure| (*time, pressure / expected))
             });

@@ -30,7 +30,7 @@ use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
 use crate::sim::isa::Slots;
 use crate::sim::lists::NeighbourLists;
 use crate::sim::neighbours::Tile;
-use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY};
+use crate::sim::params::Domain;
 use crate::sim::particles::{vector_at, AxisArrays};
 use glam::DVec3;
 
@@ -59,6 +59,9 @@ pub struct WcsphConstants {
     /// No-slip walls: the viscous terms meet images moving against their particles
     /// (-v), instead of mirrored ones (free slip).
     pub no_slip: bool,
+    /// The box whose walls mirror the particles, and gravity (along -y: the floor is the
+    /// box's low y wall).
+    pub domain: Domain,
 }
 
 impl WcsphConstants {
@@ -84,23 +87,20 @@ pub struct NearWalls {
 }
 
 impl NearWalls {
-    /// The walls within `support` of `position`.
-    pub fn of(position: [f64; 3], support: f64) -> Self {
+    /// The walls of `domain`'s box within `support` of `position`.
+    pub fn of(position: [f64; 3], support: f64, domain: &Domain) -> Self {
         let mut near = NearWalls {
             axes: 0,
             at: [0.0; 3],
         };
-        for axis in 0..3 {
-            let (low, high) = (
-                position[axis] - BOX_MIN[axis],
-                BOX_MAX[axis] - position[axis],
-            );
+        for (axis, x) in position.into_iter().enumerate() {
+            let (low, high) = (x - domain.min[axis], domain.max[axis] - x);
             if low.min(high) < support {
                 near.axes |= 1 << axis;
                 near.at[axis] = if low <= high {
-                    BOX_MIN[axis]
+                    domain.min[axis]
                 } else {
-                    BOX_MAX[axis]
+                    domain.max[axis]
                 };
             }
         }
@@ -284,7 +284,7 @@ fn image_of(
     p: DVec3,
     image: DVec3,
 ) -> (f64, f64) {
-    let lift = GRAVITY.dot(image - p).max(0.0);
+    let lift = constants.domain.gravity.dot(image - p).max(0.0);
     let inverse_c2 = 1.0 / (constants.sound_speed * constants.sound_speed);
     let rho_image = rho * (1.0 + lift * inverse_c2);
     let pressure_image = (pressure * rho * rho + rho * lift) / (rho_image * rho_image);
@@ -295,7 +295,7 @@ fn image_of(
 fn self_images(constants: &WcsphConstants, state: State, n: usize, rates: &mut Rates) {
     for i in 0..n {
         let p = vector_at(state.p, i);
-        let walls = NearWalls::of(p.to_array(), constants.support);
+        let walls = NearWalls::of(p.to_array(), constants.support, &constants.domain);
         let v = vector_at(state.v, i);
         let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
         for set in walls.images() {
@@ -327,7 +327,7 @@ pub(super) fn scalar(pass: WeaklyCompressible) {
     for tile in tiles {
         for i in tile.firsts() {
             let (p_i, v_i) = (vector_at(state.p, i), vector_at(state.v, i));
-            let walls = NearWalls::of(p_i.to_array(), constants.support);
+            let walls = NearWalls::of(p_i.to_array(), constants.support, &constants.domain);
             for j in tile.partners(i) {
                 let (p_j, v_j) = (vector_at(state.p, j), vector_at(state.v, j));
                 let (rho_i, rho_j) = (state.rho[i], state.rho[j]);
@@ -345,7 +345,7 @@ pub(super) fn scalar(pass: WeaklyCompressible) {
                         // j meets the image of i, which across the floor has its own
                         // hydrostatic pressure and density, and across a no-slip wall
                         // its own velocity.
-                        let floor = set & 0b010 != 0 && walls.at[1] == BOX_MIN.y;
+                        let floor = set & 0b010 != 0 && walls.at[1] == constants.domain.min.y;
                         let own_terms = floor || constants.no_slip && set != 0;
                         let (da_j, rate_j) = if !own_terms {
                             (da, rate_j)
@@ -405,7 +405,7 @@ pub(super) fn reference(pass: WeaklyCompressible) {
         list.push(i as u32);
         list.sort_unstable_by_key(|&j| id[j as usize]);
         let (p_i, v_i) = (vector_at(state.p, i), vector_at(state.v, i));
-        let walls = NearWalls::of(p_i.to_array(), constants.support);
+        let walls = NearWalls::of(p_i.to_array(), constants.support, &constants.domain);
         let mut a = [0, 1, 2].map(|axis| Neumaier::new(rates.a[axis][i]));
         let mut rate = Neumaier::new(rates.rho[i]);
         for &j in list.iter() {
@@ -620,12 +620,13 @@ impl First {
     /// Particle `i` of `state`.
     fn of(constants: &WcsphConstants, state: &State, i: usize) -> Self {
         let position = [0, 1, 2].map(|axis| state.p[axis][i]);
-        let walls = NearWalls::of(position, constants.support);
+        let walls = NearWalls::of(position, constants.support, &constants.domain);
         let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
-        let floor_image = (walls.axes & 0b010 != 0 && walls.at[1] == BOX_MIN.y).then(|| {
-            let p = DVec3::from_array(position);
-            image_of(constants, pressure, rho, p, mirrored(p, 0b010, &walls))
-        });
+        let floor_image =
+            (walls.axes & 0b010 != 0 && walls.at[1] == constants.domain.min.y).then(|| {
+                let p = DVec3::from_array(position);
+                image_of(constants, pressure, rho, p, mirrored(p, 0b010, &walls))
+            });
         let mut images = [0; 7];
         let mut image_count = 0;
         for set in walls.images() {
@@ -662,7 +663,7 @@ impl<'a, L: Lanes> Pairs<'a, L> {
                 2.0 * constants.density_diffusion * constants.h * constants.sound_speed,
             ),
             eta2: L::splat(constants.eta2),
-            twice_gravity: L::splat(2.0 * GRAVITY.y),
+            twice_gravity: L::splat(2.0 * constants.domain.gravity.y),
             inverse_sound_speed2: L::splat(1.0 / (constants.sound_speed * constants.sound_speed)),
             laminar: L::splat(4.0 * constants.laminar_viscosity),
             laminar_term: constants.laminar_viscosity != 0.0,
@@ -1000,6 +1001,7 @@ mod tests {
     use crate::sim::method::Method;
     use crate::sim::model::wcsph::{Settings, WallFriction};
     use crate::sim::model::{Model, Wcsph};
+    use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY};
     use crate::sim::particles::{Particles, PADDING};
     use crate::sim::simulation::Simulation;
     use crate::sim::stages::Stage;

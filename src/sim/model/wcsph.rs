@@ -37,7 +37,7 @@
 use super::{Context, Dynamics};
 use crate::sim::cells::Walls;
 use crate::sim::kernel::{Packed, Rates, State, WcsphConstants, WeaklyCompressible};
-use crate::sim::params::{Params, BOX_MIN, FLUID_DENSITY, GRAVITY};
+use crate::sim::params::{Domain, Params, FLUID_DENSITY};
 use crate::sim::particles::{AxisArrays, Particles, PADDING};
 use crate::sim::stages::{self, Stage};
 use crate::sim::timestep::{largest_acceleration_and_speed, Integrator, Leapfrog, Limit, TimeStep};
@@ -123,17 +123,19 @@ impl Settings {
         2.0 * self.smoothing / ppm
     }
 
-    /// The sound speed for `particles`: [`Self::sound_speed_factor`] times
-    /// sqrt(2 g H), H the height of the highest particle above the floor (at least one
-    /// support radius, so a film on the floor still gets a stiff law).
-    pub fn sound_speed_for(&self, ppm: f64, particles: &Particles) -> f64 {
+    /// The sound speed for `particles` in `domain`: [`Self::sound_speed_factor`] times
+    /// sqrt(2 g H), g the gravity's pull down y, H the height of the highest particle
+    /// above the floor (at least one support radius, so a film on the floor still gets
+    /// a stiff law).
+    pub fn sound_speed_for(&self, ppm: f64, domain: &Domain, particles: &Particles) -> f64 {
+        let floor = domain.min.y;
         let top = particles.p[1][..particles.len()]
             .iter()
             .copied()
             .filter(|y| y.is_finite())
-            .fold(BOX_MIN.y, f64::max);
-        let height = (top - BOX_MIN.y).max(self.support(ppm));
-        self.sound_speed_factor * (2.0 * -GRAVITY.y * height).sqrt()
+            .fold(floor, f64::max);
+        let height = (top - floor).max(self.support(ppm));
+        self.sound_speed_factor * (2.0 * -domain.gravity.y * height).sqrt()
     }
 
     /// Whether every value is one the model can run with: finite, the viscosities and
@@ -265,10 +267,18 @@ impl Wcsph {
                 density_diffusion: settings.density_diffusion,
                 laminar_viscosity: settings.laminar_viscosity,
                 no_slip: settings.walls == WallFriction::NoSlip,
+                domain: Domain::COURSE,
             },
             stiffness: sound_speed * sound_speed * FLUID_DENSITY / f64::from(GAMMA),
             ..Wcsph::default()
         }
+    }
+
+    /// This model with the walls and gravity of `domain` (SPEC.md's box and gravity
+    /// unless given).
+    pub fn within(mut self, domain: Domain) -> Self {
+        self.constants.domain = domain;
+        self
     }
 
     /// The model of `settings`, to be prepared on its particles.
@@ -287,7 +297,7 @@ impl Wcsph {
     /// The density whose pressure is that of water at rest `depth` metres below the
     /// surface, rho_0 g depth: Tait's law inverted.
     pub fn density_at_depth(&self, depth: f64) -> f64 {
-        let pressure = FLUID_DENSITY * -GRAVITY.y * depth;
+        let pressure = FLUID_DENSITY * -self.constants.domain.gravity.y * depth;
         FLUID_DENSITY * (1.0 + pressure / self.stiffness).powf(1.0 / f64::from(GAMMA))
     }
 
@@ -298,10 +308,10 @@ impl Wcsph {
     /// it too). A column at rest then starts near its equilibrium.
     pub fn settle_densities(&self, ppm: f64, particles: &mut Particles) {
         let n = particles.len();
-        let support = self.constants.support;
+        let (support, min) = (self.constants.support, self.constants.domain.min);
         let column = |slot: usize| {
             let bin =
-                |axis: usize| ((particles.p[axis][slot] - BOX_MIN[axis]) / support).floor() as i64;
+                |axis: usize| ((particles.p[axis][slot] - min[axis]) / support).floor() as i64;
             (bin(0), bin(2))
         };
         let mut tops: HashMap<(i64, i64), f64> = HashMap::new();
@@ -389,8 +399,10 @@ impl Dynamics for Wcsph {
 
     /// The sound speed for the height of the highest particle.
     fn prepare(&mut self, params: &Params, particles: &Particles) {
-        let sound_speed = self.settings.sound_speed_for(params.ppm, particles);
-        *self = Wcsph::with_settings(self.settings, params.ppm, sound_speed);
+        let sound_speed = self
+            .settings
+            .sound_speed_for(params.ppm, &params.domain, particles);
+        *self = Wcsph::with_settings(self.settings, params.ppm, sound_speed).within(params.domain);
     }
 
     /// The densities of water at rest below the fluid's top ([`Self::settle_densities`]).
@@ -416,7 +428,7 @@ impl Dynamics for Wcsph {
         }
         let (settings, last_rates) = rest.split_at(rest.len().min(Settings::VALUES));
         let settings = Settings::from_values(settings)?;
-        *self = Wcsph::with_settings(settings, params.ppm, sound_speed);
+        *self = Wcsph::with_settings(settings, params.ppm, sound_speed).within(params.domain);
         self.last_rates = last_rates.to_vec();
         Ok(())
     }
@@ -482,8 +494,8 @@ impl Dynamics for Wcsph {
     /// The leapfrog within the box's walls, and the densities advanced by their rates:
     /// by a whole step (the leapfrog), or kicked as the half-step velocities are (the
     /// velocity Verlet, which keeps the rates for the next step's prediction).
-    fn advance(&mut self, step: Leapfrog, _walls: &Walls, particles: &mut Particles) {
-        stages::advance_within_box(step, particles);
+    fn advance(&mut self, step: Leapfrog, walls: &Walls, particles: &mut Particles) {
+        stages::advance_within_box(walls, step, particles);
         let n = particles.len();
         match step.integrator {
             Integrator::Leapfrog => {
@@ -512,7 +524,9 @@ impl Dynamics for Wcsph {
             | Stage::CollideWithWalls => {}
             Stage::TransferAccelerations => self.interact(context),
             Stage::Move => stages::move_particles(context.params.dt, context.particles),
-            Stage::InteractWithBoundary => stages::reflect_into_box(context.particles),
+            Stage::InteractWithBoundary => {
+                stages::reflect_into_box(context.walls, context.particles)
+            }
         }
     }
 
@@ -552,7 +566,7 @@ pub fn advance_densities(dt: f64, rates: &[f64], rho: &mut [f64]) {
 mod tests {
     use super::*;
     use crate::sim::kernel::NearWalls;
-    use crate::sim::params::BOX_MAX;
+    use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY};
 
     #[test]
     fn the_equation_of_state_is_tait_s_with_gamma_7() {
@@ -597,11 +611,11 @@ mod tests {
         };
         let mut particles = Particles::zeroed(2);
         particles.p[1] = vec![BOX_MIN.y + 0.01, BOX_MIN.y + 0.05];
-        let c = settings.sound_speed_for(300.0, &particles);
+        let c = settings.sound_speed_for(300.0, &Domain::COURSE, &particles);
         assert!((c - 12.0 * (2.0 * 9.8 * 0.05f64).sqrt()).abs() < 1e-12);
         // A film on the floor still gets the speed of one support radius, 2h.
         particles.p[1] = vec![BOX_MIN.y; 2];
-        let c = settings.sound_speed_for(300.0, &particles);
+        let c = settings.sound_speed_for(300.0, &Domain::COURSE, &particles);
         assert!((c - 12.0 * (2.0 * 9.8 * 3.0f64 / 300.0).sqrt()).abs() < 1e-12);
     }
 
@@ -649,12 +663,13 @@ mod tests {
     #[test]
     fn images_are_taken_across_the_nearer_wall_of_each_near_axis() {
         let support = 0.01;
-        let middle = NearWalls::of([0.0, 0.0, 0.0], support);
+        let middle = NearWalls::of([0.0, 0.0, 0.0], support, &Domain::COURSE);
         assert_eq!(middle.axes, 0);
         assert_eq!(middle.images().count(), 0);
         let corner = NearWalls::of(
             [BOX_MIN.x + 0.002, BOX_MIN.y + 0.009, BOX_MAX.z - 0.001],
             support,
+            &Domain::COURSE,
         );
         assert_eq!(corner.axes, 0b111);
         assert_eq!(corner.at, [BOX_MIN.x, BOX_MIN.y, BOX_MAX.z]);
@@ -662,7 +677,7 @@ mod tests {
             corner.images().collect::<Vec<_>>(),
             (1..8).collect::<Vec<_>>()
         );
-        let floor = NearWalls::of([0.0, BOX_MIN.y + 0.005, 0.0], support);
+        let floor = NearWalls::of([0.0, BOX_MIN.y + 0.005, 0.0], support, &Domain::COURSE);
         assert_eq!(floor.images().collect::<Vec<_>>(), [0b010]);
     }
 
@@ -698,7 +713,10 @@ mod tests {
             model: Model::Wcsph,
             kernel: Kernel::NATIVE,
         };
-        let model = Wcsph::new(ppm, Settings::default().sound_speed_for(ppm, &particles));
+        let model = Wcsph::new(
+            ppm,
+            Settings::default().sound_speed_for(ppm, &Domain::COURSE, &particles),
+        );
         let mut sim = Simulation::with_method(ppm, particles, method).unwrap();
         while !sim.has_reached(settle) {
             sim.step_towards(settle);
