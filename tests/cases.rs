@@ -745,3 +745,28 @@ fn a_model_that_cannot_take_the_case_s_box_or_gravity_is_refused_at_its_key() {
     refused(tall_box("wcsph", "[4.9, -9.8, 0.0]", 0.1), &[], 4, water);
     refused(tall_box("wcsph", "[0.0, 0.0, 0.0]", 0.1), &[], 4, water);
 }
+
+#[test]
+fn a_case_s_final_state_gets_its_folder_once_the_scene_is_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, folder) = (dir.path().join("ball.toml"), dir.path().join("new/folder"));
+    let ball = |model: &str| {
+        format!(
+            "[domain]\nbox_min_m = [-0.5, -0.5, -0.5]\nbox_max_m = [0.5, 0.5, 0.5]\n[fluid]\n\
+             particles_per_m = 100\n[[fluid.sphere]]\ncentre_m = [0.0, 0.0, 0.0]\n\
+             radius_m = 0.03\n[model]\nname = \"{model}\"\n[run]\nsteps = 2\n[output]\n\
+             final_state = \"{}\"\n",
+            folder.join("ball.fld").display()
+        )
+    };
+    // Refused when the scene is made: no folder left behind.
+    std::fs::write(&path, ball("course")).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), path.as_os_str()]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(!dir.path().join("new").exists());
+    std::fs::write(&path, ball("fluidanimate")).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), path.as_os_str()]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // The lattice points (i + 1/2, j + 1/2, k + 1/2) cm closer than 3 cm to the centre.
+    assert_eq!(positions(&folder.join("ball.fld")).len(), 136);
+}

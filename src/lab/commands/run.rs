@@ -128,8 +128,11 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         }
         _ => args.simulation.read_case(&mut args.output)?,
     }
+    // The final state a case names (its folder made once the scene is).
+    let mut from_case = false;
     if let (None, Some(case)) = (&args.output, &args.simulation.read) {
         args.output = (case.output.final_state.as_ref()).map(|path| PathBuf::from(path.get_ref()));
+        from_case = args.output.is_some();
     }
     if let (Some(case), Some(output)) = (&args.simulation.case, &args.output) {
         if same_file(case, output) {
@@ -171,7 +174,8 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         (case.output.folder.as_ref()).map(|folder| PathBuf::from(folder.get_ref()))
     });
     let interval = case.and_then(|case| case.gauges.interval_s.as_ref().map(|i| *i.get_ref()));
-    let mut output = args.output.as_deref().map(OutputFile::create).transpose()?;
+    let open_output = || args.output.as_deref().map(OutputFile::create).transpose();
+    let mut output = if from_case { None } else { open_output()? };
     let mut diagnostics_file = args
         .diagnostics
         .as_deref()
@@ -183,6 +187,13 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         ..
     } = load(&args.simulation)?;
     // Made once the scene is: a case refused leaves no folder behind.
+    if from_case {
+        let folder = args.output.as_deref().and_then(Path::parent);
+        if let Some(folder) = folder.filter(|folder| !folder.as_os_str().is_empty()) {
+            super::create_output_dir(folder)?;
+        }
+        output = open_output()?;
+    }
     let gauges_file = match (&gauge_folder, gauges.is_empty()) {
         (Some(folder), false) => {
             super::create_output_dir(folder)?;
