@@ -105,7 +105,8 @@ fn flags_beside_a_case_override_it_and_its_run_and_outputs_apply() {
     let text = format!(
         "[fluid]\nparticles_per_m = 120\n[[fluid.sphere]]\ncentre_m = [0.0, 0.0, 0.0]\n\
          radius_m = 0.03\n[model]\nname = \"wcsph\"\nwalls = \"free-slip\"\n\
-         time_step_s = 0.0005\n[run]\nsteps = 4\n[output]\nfinal_state = \"{}\"\n",
+         time_step_s = 0.0005\n[run]\nsteps = 4\n[output]\nfinal_state = \"{}\"\n\
+         frame_interval_s = 0.001\n",
         final_state.display()
     );
     let path = dir.path().join("ball.toml");
@@ -168,6 +169,22 @@ fn flags_beside_a_case_override_it_and_its_run_and_outputs_apply() {
     ]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     assert!(frames.join("ball_000000.vtk").exists() && frames.join("ball_000001.vtk").exists());
+    // Without --every or --frame-every, the case's frame interval: a frame every 1 ms of
+    // its 2 ms, each at its time (steps 0, 2 and 4 of 0.5 ms).
+    let timed = dir.path().join("timed");
+    let output = run_lab(&[
+        "export".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        timed.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let mut written: Vec<String> = std::fs::read_dir(&timed)
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    written.sort();
+    assert_eq!(written, ["ball_000000.vtk", "ball_000002.vtk", "ball_000004.vtk"]);
     let picture = dir.path().join("ball.png");
     let output = run_lab(&[
         "render".as_ref(),
@@ -176,7 +193,9 @@ fn flags_beside_a_case_override_it_and_its_run_and_outputs_apply() {
         picture.as_os_str(),
     ]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
-    assert!(picture.exists());
+    // The case's frame interval makes it a series, as --frame-every would.
+    let frame = |step: &str| dir.path().join(format!("ball_{step}.png"));
+    assert!(frame("000000").exists() && frame("000004").exists() && !picture.exists());
     // An input beside a case is one positional too many.
     let output = run_lab(&[
         "export".as_ref(),
@@ -224,6 +243,11 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "outside the domain",
         ),
         ("until_s = 0.5", "until_s = 0", "time > 0"),
+        (
+            "until_s = 0.5",
+            "until_s = 0.5\n[output]\nframe_interval_s = -0.1",
+            "frame_interval_s must be a time > 0",
+        ),
         // The water model's settings: its own, in range.
         (
             "name = \"wcsph\"",

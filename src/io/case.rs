@@ -254,6 +254,10 @@ pub struct OutputSettings {
     /// The folder of the gauges' CSV and charts (relative to the current folder).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub folder: Option<Spanned<String>>,
+    /// Simulated seconds between the frames `export` and `render` write, as
+    /// `--frame-every`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame_interval_s: Option<Spanned<f64>>,
 }
 
 impl OutputSettings {
@@ -514,6 +518,14 @@ impl Case {
         if let Some(steps) = &run.steps {
             if *steps.get_ref() > i64::MAX as u64 {
                 return Err((steps.span(), "steps must be at most 2^63-1".into()));
+            }
+        }
+        if let Some(interval) = &self.output.frame_interval_s {
+            if !(interval.get_ref().is_finite() && *interval.get_ref() > 0.0) {
+                return Err((
+                    interval.span(),
+                    "frame_interval_s must be a time > 0".into(),
+                ));
             }
         }
         if let Some(path) = &self.output.final_state {

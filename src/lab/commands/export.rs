@@ -43,6 +43,8 @@ pub enum ExportFormat {
 /// Runs the scene and writes the states asked for, one file each.
 pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     args.simulation.read_case(&mut args.output_dir)?;
+    args.span
+        .take_case(args.simulation.read.as_ref(), args.every);
     let output_dir = needed(args.output_dir.take(), "output folder")?;
     let Loaded {
         stem,

@@ -63,6 +63,8 @@ impl Picture {
 /// written whole or not at all, and the first is opened before anything is simulated.
 pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     args.simulation.read_case(&mut args.output)?;
+    args.span
+        .take_case(args.simulation.read.as_ref(), args.every);
     let output = &needed(args.output.take(), "output (.png or .gif)")?;
     let picture = Picture::of(output)?;
     let extent = args.simulation.extent(args.span.until);

@@ -454,6 +454,15 @@ pub struct Span {
 }
 
 impl Span {
+    /// Takes a case's frame interval (`[output] frame_interval_s`) where neither
+    /// `--frame-every` nor `every` (`--every`) is given.
+    pub fn take_case(&mut self, case: Option<&Case>, every: Option<u64>) {
+        let interval = case.and_then(|case| case.output.frame_interval_s.as_ref());
+        if let (None, None, Some(interval)) = (self.frame_every, every, interval) {
+            self.frame_every = Some(*interval.get_ref());
+        }
+    }
+
     /// The states written besides the last: `--frame-every`, else every `every` steps.
     pub fn frames(&self, every: Option<u64>) -> Frames {
         match (self.frame_every, every) {
