@@ -184,7 +184,10 @@ fn flags_beside_a_case_override_it_and_its_run_and_outputs_apply() {
         .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     written.sort();
-    assert_eq!(written, ["ball_000000.vtk", "ball_000002.vtk", "ball_000004.vtk"]);
+    assert_eq!(
+        written,
+        ["ball_000000.vtk", "ball_000002.vtk", "ball_000004.vtk"]
+    );
     let picture = dir.path().join("ball.png");
     let output = run_lab(&[
         "render".as_ref(),
@@ -765,9 +768,37 @@ fn a_model_that_cannot_take_the_case_s_box_or_gravity_is_refused_at_its_key() {
                       150\n[[fluid.sphere]]\ncentre_m = [0.0, 0.0, 0.0]\nradius_m = 0.03\n";
     refused(course_box.into(), &[], 2, course);
     // The water model's floor is the low y wall.
-    let water = "its gravity_m_s2 is [0, -g, 0] with g > 0";
+    let water = "its gravity_m_s2 is [0, -g, 0] with g >= 0.01 m/s^2";
     refused(tall_box("wcsph", "[4.9, -9.8, 0.0]", 0.1), &[], 4, water);
     refused(tall_box("wcsph", "[0.0, 0.0, 0.0]", 0.1), &[], 4, water);
+    refused(tall_box("wcsph", "[0.0, -0.001, 0.0]", 0.1), &[], 4, water);
+    // A box longer than 511 of the model's cut-offs (the lone filter's packing).
+    let long = tall_box("fluidanimate", "[0.0, -9.8, 0.0]", 0.1).replace(
+        "box_max_m = [0.1, 1.0, 0.1]",
+        "box_max_m = [10.0, 1.0, 0.1]",
+    );
+    refused(long, &[], 6, "at most 511 blocks along an axis");
+    // Still water is hydrostatics along y; its folder is made only for a case it takes.
+    let folder = dir.path().join("still");
+    let tilted = std::fs::read_to_string(case("still-water"))
+        .unwrap()
+        .replace("[domain]", "[domain]\ngravity_m_s2 = [1.0, -9.8, 0.0]");
+    std::fs::write(&path, tilted).unwrap();
+    let output = run_lab(&[
+        "validate".as_ref(),
+        "still-water".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ]);
+    assert_ne!(exit_code(&output), 0);
+    assert!(
+        stderr(&output).contains("gravity_m_s2 = [0, -g, 0]"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!folder.exists());
 }
 
 #[test]

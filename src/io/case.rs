@@ -103,6 +103,9 @@ pub struct Domain {
     pub gravity_m_s2: Spanned<[f64; 3]>,
 }
 
+/// The strongest gravity a case may give (m/s^2): about 100 g.
+const MAX_GRAVITY: f64 = 1e3;
+
 /// SPEC.md's low corner, where a case gives none.
 fn course_min() -> Spanned<[f64; 3]> {
     Spanned::new(0..0, BOX_MIN.to_array())
@@ -416,19 +419,37 @@ impl Case {
     /// The checks beyond types: sizes, ranges, fills inside the box, names.
     fn check(&self) -> Result<(), Fault> {
         let (low, high) = (&self.domain.box_min_m, &self.domain.box_max_m);
+        // A corner left out has no place of its own: its fault is shown at the other.
+        let at = |key: &Spanned<[f64; 3]>, other: &Spanned<[f64; 3]>| match key.span().is_empty() {
+            true => other.span(),
+            false => key.span(),
+        };
         let finite = |corner: &[f64; 3]| corner.iter().all(|x| x.is_finite());
-        if !finite(low.get_ref()) || !finite(high.get_ref()) {
-            return Err((low.span(), "the box's corners must be finite".into()));
+        if !finite(low.get_ref()) {
+            return Err((at(low, high), "box_min_m must be finite".into()));
+        }
+        if !finite(high.get_ref()) {
+            return Err((at(high, low), "box_max_m must be finite".into()));
         }
         if (0..3).any(|axis| low.get_ref()[axis] >= high.get_ref()[axis]) {
             return Err((
-                high.span(),
+                at(high, low),
                 "box_max_m must exceed box_min_m on every axis".into(),
             ));
         }
         let gravity = &self.domain.gravity_m_s2;
         if !finite(gravity.get_ref()) {
             return Err((gravity.span(), "gravity must be finite".into()));
+        }
+        let pull = DVec3::from_array(*gravity.get_ref()).length();
+        if pull > MAX_GRAVITY {
+            return Err((
+                gravity.span(),
+                format!(
+                    "gravity must be at most {MAX_GRAVITY} m/s^2, not {}",
+                    shown(pull)
+                ),
+            ));
         }
         let ppm = &self.fluid.particles_per_m;
         let spacing_ok = ppm.get_ref().is_finite()
@@ -502,6 +523,33 @@ impl Case {
                     "the fills would hold about {most:.3e} particles at {} per metre; the \
                      limit is {MAX_PARTICLES:.0e}",
                     shown(*ppm.get_ref())
+                ),
+            ));
+        }
+        // Positions are written as f32: the box must be near enough the origin for them
+        // to keep the lattice (1/64 of a spacing, f32's relative precision times the
+        // farthest corner's distance).
+        let reach = |corner: &Spanned<[f64; 3]>| {
+            corner
+                .get_ref()
+                .map(f64::abs)
+                .into_iter()
+                .fold(0.0, f64::max)
+        };
+        let (far, distance) = match reach(high) > reach(low) {
+            true => (at(high, low), reach(high)),
+            false => (at(low, high), reach(low)),
+        };
+        let precision = f64::from(f32::EPSILON) * distance;
+        if precision > 1.0 / (64.0 * ppm.get_ref()) {
+            return Err((
+                far,
+                format!(
+                    "the box reaches {} m from the origin, where the files' f32 positions \
+                     are {} m apart, more than 1/64 of the lattice spacing: move the box \
+                     nearer the origin",
+                    shown(distance),
+                    shown(precision)
                 ),
             ));
         }
@@ -845,6 +893,32 @@ until_s = 0.01
                 "box_max_m = [0.065, 0.1, 0.065]\ngravity_m_s2 = [0.0, -9.8]",
                 (5, 16),
                 "an array of 3 numbers",
+            ),
+            (
+                "box_max_m = [0.065, 0.1, 0.065]",
+                "box_max_m = [0.065, 0.1, 0.065]\ngravity_m_s2 = [0.0, -1e4, 0.0]",
+                (5, 16),
+                "gravity must be at most 1000 m/s^2, not 10000",
+            ),
+            // A corner left out is blamed on the other.
+            (
+                "box_min_m = [-0.065, -0.08, -0.065]\nbox_max_m = [0.065, 0.1, 0.065]",
+                "box_min_m = [0.0, 0.0, 0.1]",
+                (3, 13),
+                "box_max_m must exceed box_min_m",
+            ),
+            (
+                "box_max_m = [0.065, 0.1, 0.065]",
+                "box_max_m = [0.065, inf, 0.065]",
+                (4, 13),
+                "box_max_m must be finite",
+            ),
+            // A box too far from the origin for f32 positions.
+            (
+                "box_max_m = [0.065, 0.1, 0.065]",
+                "box_max_m = [2000.0, 0.1, 0.065]",
+                (4, 13),
+                "the box reaches 2000 m from the origin",
             ),
             ("[run]", "[run\n", (17, 5), ""),
             (

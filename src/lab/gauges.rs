@@ -9,6 +9,7 @@
 
 use crate::io::case;
 use crate::lab::chart::PointChart;
+use crate::sim::params::Domain;
 use crate::sim::simulation::Simulation;
 use glam::{DVec2, DVec3};
 use plotters::chart::SeriesLabelPosition;
@@ -117,7 +118,8 @@ pub fn read_point(state: &Simulation, at: DVec3) -> Option<PointReading> {
 /// fresh densities, as for [`read_point`]): the highest y,
 /// from the floor up in quarter spacings, at which the kernel-weighted volume of the
 /// particles reaches half of the full fluid's (linear between samples), or `None` where
-/// no fluid is on the line.
+/// no fluid is on the line. Near a side wall the particles' mirror images across it count
+/// too, so the wall does not cut the kernel short.
 pub fn read_height(state: &Simulation, at: DVec2) -> Option<f64> {
     let support = support(state);
     let particles = state.particles();
@@ -131,29 +133,58 @@ pub fn read_height(state: &Simulation, at: DVec2) -> Option<f64> {
     let (bottom, top) = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
         (lo.min(y), hi.max(y))
     });
+    let mirrors = side_mirrors(&state.params().domain, line, support);
     let fraction = |y: f64| {
         let point = DVec3::new(at.x, y, at.y);
-        slots
-            .iter()
-            .map(|&slot| {
-                let r = particles.position(slot).distance(point);
-                wendland(r, support) * mass / particles.rho[slot]
-            })
-            .sum::<f64>()
+        let mut volume = 0.0;
+        for &slot in &slots {
+            let (p, v) = (particles.position(slot), mass / particles.rho[slot]);
+            for &(x, z) in &mirrors {
+                let flip = |value: f64, wall: Option<f64>| wall.map_or(value, |w| 2.0 * w - value);
+                let image = DVec3::new(flip(p.x, x), p.y, flip(p.z, z));
+                volume += wendland(image.distance(point), support) * v;
+            }
+        }
+        volume
     };
     let step = 0.25 / state.params().ppm;
+    // Samples by index: a step added to a large y may not move it.
+    let samples = ((top + support - bottom) / step).ceil() as u64;
     let mut surface = None;
-    let mut y = bottom;
-    let mut last = fraction(y);
-    while y <= top + support {
+    let mut last = fraction(bottom);
+    for k in 0..samples {
+        let y = bottom + k as f64 * step;
         let next = fraction(y + step);
         if last >= 0.5 && next < 0.5 {
             surface = Some(y + step * (last - 0.5) / (last - next));
         }
         last = next;
-        y += step;
     }
     surface
+}
+
+/// The walls (x, z) a position is mirrored across for its images seen from the vertical
+/// `line`: the particle itself (no wall), and across the side walls of `domain` within
+/// `support` of the line, each alone and both together.
+fn side_mirrors(domain: &Domain, line: DVec3, support: f64) -> Vec<(Option<f64>, Option<f64>)> {
+    let wall = |axis: usize| {
+        let (low, high) = (line[axis] - domain.min[axis], domain.max[axis] - line[axis]);
+        if low < support && low <= high {
+            Some(domain.min[axis])
+        } else if high < support {
+            Some(domain.max[axis])
+        } else {
+            None
+        }
+    };
+    let (x, z) = (wall(0), wall(2));
+    let mut mirrors = vec![(None, None)];
+    mirrors.extend(x.map(|x| (Some(x), None)));
+    mirrors.extend(z.map(|z| (None, Some(z))));
+    if x.is_some() && z.is_some() {
+        mirrors.push((x, z));
+    }
+    mirrors
 }
 
 /// The columns of a point gauge, after its name.
@@ -442,6 +473,40 @@ mod tests {
         }
         let simulation = slab(150.0, 0.04);
         assert_eq!(read_height(&simulation, DVec2::new(1.0, 1.0)), None);
+    }
+
+    #[test]
+    fn a_height_gauge_on_a_wall_or_in_a_corner_reads_the_same_surface() {
+        let (ppm, depth) = (150.0, 0.04);
+        let simulation = slab(ppm, depth);
+        let surface = BOX_MIN.y + depth;
+        let middle = read_height(&simulation, DVec2::new(0.001, -0.003)).unwrap();
+        // The slab fills the box from its low corner (its lattice stops short of the
+        // high walls).
+        for at in [
+            DVec2::new(BOX_MIN.x, 0.0),
+            DVec2::new(BOX_MIN.x + 0.001, 0.0),
+            DVec2::new(0.0, BOX_MIN.z),
+            DVec2::new(BOX_MIN.x, BOX_MIN.z),
+        ] {
+            let height = read_height(&simulation, at).unwrap_or(f64::NAN);
+            assert!(
+                (height - surface).abs() < 1.0 / ppm && (height - middle).abs() < 0.2 / ppm,
+                "{at}: {height} against {middle} in the middle"
+            );
+        }
+        // Without the images a gauge on a wall read the surface spacings low, and one in a
+        // corner nothing (fewer than half of the kernel's volume anywhere).
+        let mirrors = side_mirrors(&Domain::COURSE, DVec3::new(BOX_MIN.x, 0.0, BOX_MAX.z), 0.01);
+        assert_eq!(
+            mirrors,
+            [
+                (None, None),
+                (Some(BOX_MIN.x), None),
+                (None, Some(BOX_MAX.z)),
+                (Some(BOX_MIN.x), Some(BOX_MAX.z))
+            ]
+        );
     }
 
     #[test]

@@ -308,10 +308,11 @@ where
 {
     let extent = layout.high - layout.low;
     let x = layout.origins[2].0 + ((extent.x + layout.margin) * layout.scale) as i32 + 40;
-    let (top, bottom) = (
-        layout.origins[0].1 - (extent.y * layout.scale) as i32,
-        layout.origins[0].1,
-    );
+    // As tall as the front view, and at least 200 pixels (for a flat box's thin views),
+    // below the title.
+    let height = ((extent.y * layout.scale) as i32).max(200);
+    let bottom = layout.origins[0].1.max(70 + height);
+    let top = bottom - height;
     for y in top..=bottom {
         let fraction = (bottom - y) as f64 / (bottom - top) as f64;
         let colour = colour_of(low + fraction * (high - low), low, high);

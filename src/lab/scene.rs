@@ -175,18 +175,25 @@ impl SceneKind {
     }
 }
 
+/// Most lattice points the fills' bounding box may span (each is visited).
+const MAX_VISITED: f64 = 1e9;
+
 /// The lattice points of `domain`'s box at `ppm` particles per metre in any of
-/// `regions`, jittered from `seed`.
+/// `regions`, jittered from `seed` (the model's grid is checked where the simulation is
+/// made, on its own cut-off).
 pub fn filled(
     ppm: f64,
     seed: u64,
     regions: &[Region],
     domain: &Domain,
 ) -> Result<Particles, String> {
-    check_ppm(ppm, domain)?;
+    if !(ppm.is_finite() && ppm > 0.0) {
+        return Err(format!(
+            "particles per metre {ppm} is not a finite number > 0"
+        ));
+    }
     // Only the lattice points of the regions' bounding box are visited (in the same
-    // order as the whole box's, so the jitter is the same); the grid check above bounds
-    // the whole box's lattice to a few hundred million points.
+    // order as the whole box's, so the jitter is the same), at most MAX_VISITED.
     let (low, high) = regions.iter().fold(
         (DVec3::INFINITY, DVec3::NEG_INFINITY),
         |(low, high), region| {
@@ -201,6 +208,13 @@ pub fn filled(
         let end = (index(high[axis]).ceil() as usize + 1).min(dims[axis]);
         first.min(end)..end
     });
+    let visited: f64 = ranges.iter().map(|range| range.len() as f64).product();
+    if visited > MAX_VISITED {
+        return Err(format!(
+            "the fills' bounding box spans {visited:.3e} lattice points at {ppm} particles \
+             per metre; the limit is {MAX_VISITED:.0e}"
+        ));
+    }
     let scene = lattice_within(ppm, seed, domain, ranges, |point| {
         regions.iter().any(|region| region.holds(point))
     });
@@ -260,8 +274,8 @@ pub fn generate(
     Ok(scene)
 }
 
-/// Particles per metre a scene can have: finite, > 0, and giving a grid over `domain`'s
-/// box.
+/// Particles per metre a built-in scene can have: finite, > 0, and giving a grid over
+/// `domain`'s box.
 fn check_ppm(ppm: f64, domain: &Domain) -> Result<(), String> {
     if !(ppm.is_finite() && ppm > 0.0) {
         return Err(format!(
@@ -299,9 +313,10 @@ pub fn water_column(ppm: f64, seed: u64, width: f64, height: f64) -> Result<Part
 }
 
 /// Lattice points along x, y and z of `domain`'s box at `ppm` particles per metre:
-/// floor(extent * ppm).
+/// floor(extent * ppm), to 1e-9 relative (a box of 0.2 m from 10 m is 0.1999999999999993
+/// m wide, and holds 20 layers at 100 per metre, not 19).
 fn lattice_dims(ppm: f64, domain: &Domain) -> [usize; 3] {
-    (domain.extent() * ppm)
+    (domain.extent() * ppm * (1.0 + 1e-9))
         .floor()
         .to_array()
         .map(|n| n as usize)
@@ -482,6 +497,35 @@ mod tests {
             filled(2600.0, 0, &[cube], &Domain::COURSE).unwrap().len(),
             26 * 26 * 26
         );
+        // Fills whose bounding box spans too many lattice points, whatever they hold.
+        let far = Domain {
+            min: DVec3::ZERO,
+            max: DVec3::splat(20.0),
+            ..Domain::COURSE
+        };
+        let specks = [DVec3::splat(0.01), DVec3::splat(19.99)].map(|centre| Region::Sphere {
+            centre,
+            radius: 0.005,
+        });
+        let error = filled(100.0, 0, &specks, &far).unwrap_err();
+        assert!(error.contains("spans 8.000e9 lattice points"), "{error}");
+    }
+
+    #[test]
+    fn a_box_away_from_the_origin_holds_every_layer_of_its_fill() {
+        // 10.2 - 10.0 is 0.1999999999999993: still 20 layers at 100 per metre.
+        let tank = Domain {
+            min: DVec3::new(10.0, 5.0, -3.0),
+            max: DVec3::new(10.2, 5.15, -2.9),
+            ..Domain::COURSE
+        };
+        let full = Region::Box {
+            low: tank.min,
+            high: tank.max,
+        };
+        let particles = filled(100.0, 0, &[full], &tank).unwrap();
+        assert_eq!(particles.len(), 20 * 15 * 10);
+        assert!((0..particles.len()).all(|slot| tank.contains(particles.position(slot))));
     }
 
     #[test]

@@ -11,6 +11,12 @@ use std::fmt;
 /// 48-bit keys of the cell order (`crate::sim::cells`).
 pub const MAX_BLOCKS: usize = 1 << 26;
 
+/// Largest number of blocks along one axis: the lone filter packs a block's coordinates
+/// in 16 bits each (`crate::sim::cells`), which holds every coarse cell of a grid with
+/// at most 511 blocks per axis (SPEC.md's box reaches [`MAX_BLOCKS`] first; a case's long
+/// box can reach this).
+pub const MAX_BLOCKS_PER_AXIS: usize = 511;
+
 /// Why no grid can be built for a smoothing length.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GridSizeError {
@@ -21,6 +27,16 @@ pub struct GridSizeError {
 impl fmt::Display for GridSizeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let [x, y, z] = self.blocks_per_axis.map(block_count);
+        let [nx, ny, nz] = self.blocks_per_axis;
+        let total_fits =
+            self.blocks_per_axis.iter().all(|&n| n >= 1.0) && nx * ny * nz <= MAX_BLOCKS as f64;
+        if total_fits {
+            return write!(
+                f,
+                "a grid of {x} x {y} x {z} blocks, but a grid has at most \
+                 {MAX_BLOCKS_PER_AXIS} blocks along an axis"
+            );
+        }
         write!(
             f,
             "a grid of {x} x {y} x {z} blocks, but a grid needs at least 1 block per axis \
@@ -61,7 +77,9 @@ impl Grid {
         let extent = domain.max - domain.min;
         let counts = (extent / h).floor();
         let blocks_per_axis = counts.to_array();
-        let fits = blocks_per_axis.iter().all(|&n| n >= 1.0)
+        let fits = blocks_per_axis
+            .iter()
+            .all(|&n| (1.0..=MAX_BLOCKS_PER_AXIS as f64).contains(&n))
             && counts.x * counts.y * counts.z <= MAX_BLOCKS as f64;
         if !fits {
             return Err(GridSizeError { blocks_per_axis });
@@ -95,6 +113,7 @@ impl Grid {
 mod tests {
     use super::*;
     use crate::sim::params::Params;
+    use glam::DVec3;
 
     fn small_grid() -> Grid {
         Grid::new(Params::new(204.0).h, &Domain::COURSE).unwrap()
@@ -127,6 +146,30 @@ mod tests {
         assert!(err.to_string().contains("0 x 1 x 0 blocks"), "{err}");
         assert!(Grid::new(Params::new(1e6).h, &Domain::COURSE).is_err());
         assert!(Grid::new(f64::NAN, &Domain::COURSE).is_err());
+    }
+
+    #[test]
+    fn a_long_box_is_refused_past_511_blocks_along_an_axis() {
+        let long = |length: f64| Domain {
+            max: Domain::COURSE.min + DVec3::new(length, 0.1, 0.1),
+            ..Domain::COURSE
+        };
+        let h = 0.01;
+        let grid = Grid::new(h, &long(5.115)).unwrap();
+        assert_eq!(grid.dims, [511, 10, 10]);
+        assert_eq!(grid.min, Domain::COURSE.min);
+        assert!((grid.max.x - (Domain::COURSE.min.x + 5.115)).abs() < 1e-15);
+        let error = Grid::new(h, &long(5.125)).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "a grid of 512 x 10 x 10 blocks, but a grid has at most 511 blocks along an axis"
+        );
+        // The course's box reaches the total first: its message is SPEC.md-era's.
+        let error = Grid::new(0.18 / 512.0, &Domain::COURSE).unwrap_err();
+        assert!(
+            error.to_string().ends_with("at most 67108864 blocks"),
+            "{error}"
+        );
     }
 
     #[test]

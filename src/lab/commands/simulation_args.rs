@@ -312,6 +312,10 @@ pub struct Loaded {
     pub simulation: Simulation,
 }
 
+/// The weakest gravity the water model takes (m/s^2): its sound speed, and with it its
+/// time step, follows sqrt(g).
+const MIN_WATER_GRAVITY: f64 = 0.01;
+
 /// What a model asks of a case's domain, or the key that breaks it and why: the course
 /// model keeps SPEC.md's box and gravity; the water model's floor is the box's low y
 /// wall, so its gravity points down y.
@@ -332,19 +336,25 @@ fn check_domain(domain: &case::Domain, model: Model) -> Result<(), (Range<usize>
             key.span(),
             format!(
                 "the course model keeps SPEC.md's box and gravity (box_min_m = {:?}, \
-                 box_max_m = {:?}, gravity_m_s2 = {:?}): name fluidanimate or wcsph for \
-                 another",
+                 box_max_m = {:?}, gravity_m_s2 = {:?}): run this case with fluidanimate or \
+                 wcsph",
                 course.min.to_array(),
                 course.max.to_array(),
                 course.gravity.to_array()
             ),
         )),
-        (Model::Wcsph, _) if !(gravity.x == 0.0 && gravity.z == 0.0 && gravity.y < 0.0) => Err((
-            domain.gravity_m_s2.span(),
-            "the water model's floor is the box's low y wall: its gravity_m_s2 is [0, -g, 0] \
-             with g > 0"
-                .into(),
-        )),
+        (Model::Wcsph, _)
+            if !(gravity.x == 0.0 && gravity.z == 0.0 && gravity.y <= -MIN_WATER_GRAVITY) =>
+        {
+            Err((
+                domain.gravity_m_s2.span(),
+                format!(
+                    "the water model's floor is the box's low y wall, and its sound speed \
+                     follows g: its gravity_m_s2 is [0, -g, 0] with g >= {MIN_WATER_GRAVITY} \
+                     m/s^2"
+                ),
+            ))
+        }
         _ => Ok(()),
     }
 }

@@ -467,6 +467,8 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
         )
         .into());
     };
+    // The folder once the scene is made: a case refused leaves none behind.
+    let Loaded { mut simulation, .. } = load(&args)?;
     create_output_dir(folder)?;
     let readings_path = folder.join("still-water.csv");
     let checks_path = folder.join("still-water-checks.csv");
@@ -474,7 +476,6 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
         OutputFile::create(&readings_path)?,
         OutputFile::create(&checks_path)?,
     );
-    let Loaded { mut simulation, .. } = load(&args)?;
     let particles = simulation.particles().len();
     let mut table = tank.gauges();
     let interval = end / 200.0;
