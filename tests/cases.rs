@@ -825,3 +825,55 @@ fn a_case_s_final_state_gets_its_folder_once_the_scene_is_made() {
     // The lattice points (i + 1/2, j + 1/2, k + 1/2) cm closer than 3 cm to the centre.
     assert_eq!(positions(&folder.join("ball.fld")).len(), 136);
 }
+
+#[test]
+fn a_resumed_run_reads_its_gauges_on_the_schedule_it_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, checkpoint) = (dir.path().join("ball.toml"), dir.path().join("ball.ck"));
+    let case = |folder: &str| {
+        format!(
+            "[domain]\nbox_min_m = [0.0, 0.0, 0.0]\nbox_max_m = [0.2, 0.2, 0.2]\n[fluid]\n\
+             particles_per_m = 100\n[[fluid.box]]\nmin_m = [0.0, 0.0, 0.0]\n\
+             max_m = [0.05, 0.08, 0.05]\n[model]\nname = \"wcsph\"\n[output]\nfolder = \"{}\"\n\
+             [gauges]\ninterval_s = 0.0007\n[[gauges.height]]\nname = \"column\"\n\
+             at_m = [0.02, 0.02]\n",
+            dir.path().join(folder).display()
+        )
+    };
+    let run = |args: &[&str]| {
+        let mut all = vec!["run".as_ref(), "--case".as_ref(), path.as_os_str()];
+        all.extend(args.iter().map(std::ffi::OsStr::new));
+        let output = run_lab(&all);
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    };
+    std::fs::write(&path, case("whole")).unwrap();
+    run(&["--steps", "30"]);
+    std::fs::write(&path, case("first")).unwrap();
+    let ck = checkpoint.to_str().unwrap();
+    run(&[
+        "--steps",
+        "17",
+        "--checkpoint-every",
+        "17",
+        "--checkpoint",
+        ck,
+    ]);
+    let output = run_lab(&["run", "--resume", ck, "--steps", "30"]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let rows = |folder: &str| -> Vec<String> {
+        let csv = std::fs::read_to_string(dir.path().join(folder).join("gauges.csv")).unwrap();
+        csv.lines().map(String::from).collect()
+    };
+    let (whole, resumed) = (rows("whole"), rows("first"));
+    // The resumed table is the whole run's from the checkpoint on, reading for reading
+    // (the run's CFL steps do not land on the 0.7 ms interval).
+    assert_eq!(resumed[0], whole[0]);
+    let from = whole.len() - (resumed.len() - 1);
+    assert!(
+        resumed.len() > 3 && from > 3,
+        "{} of {}",
+        resumed.len(),
+        whole.len()
+    );
+    assert_eq!(resumed[1..], whole[from..]);
+}

@@ -265,6 +265,21 @@ impl GaugeTable {
         due
     }
 
+    /// Takes up the reading schedule of a run resumed at the state of `simulation`: the
+    /// next reading is the one the run would have taken had it not stopped (its due
+    /// times are sums of `interval` from 0, the first past the last step's start).
+    pub fn resume_schedule(&mut self, simulation: &Simulation, interval: f64) {
+        let Some((dt, _)) = simulation.last_step() else {
+            return;
+        };
+        let before = simulation.time() - dt;
+        let mut next = 0.0;
+        while next <= before * (1.0 + 1e-12) {
+            next += interval;
+        }
+        self.next = Some(next);
+    }
+
     /// Reads every gauge at the state of `simulation` (on a copy with the densities of its
     /// positions).
     pub fn read(&mut self, simulation: &Simulation) {

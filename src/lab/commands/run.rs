@@ -232,6 +232,9 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         }
         first = checkpoint.step + 1;
         simulation = Simulation::resume(checkpoint.state).map_err(|error| error.to_string())?;
+        if let Some(interval) = interval {
+            gauges.resume_schedule(&simulation, interval);
+        }
     }
     // Every file is tried, and its room reserved, before simulating.
     let particles = simulation.particles().len();
