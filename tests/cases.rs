@@ -547,8 +547,10 @@ fn a_checkpoint_carries_its_case_and_a_resume_needs_nothing_else() {
     let path = dir.path().join("ball.toml");
     std::fs::write(
         &path,
-        "[fluid]\nparticles_per_m = 120\n[[fluid.sphere]]\ncentre_m = [0.0, 0.0, 0.0]\n\
-         radius_m = 0.03\n[model]\nname = \"wcsph\"\n[run]\nsteps = 6\n",
+        "[domain]\nbox_min_m = [-0.5, -0.04, -0.5]\nbox_max_m = [0.5, 0.2, 0.5]\n\
+         gravity_m_s2 = [0.0, -5.0, 0.0]\n[fluid]\nparticles_per_m = 120\n\
+         [[fluid.sphere]]\ncentre_m = [0.0, 0.0, 0.0]\nradius_m = 0.03\n[model]\n\
+         name = \"wcsph\"\n[run]\nsteps = 6\n",
     )
     .unwrap();
     let (straight, resumed) = (
