@@ -19,6 +19,7 @@ use criterion::profiler::Profiler;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use fluid::io::fld;
 use fluid::lab::scene;
+use fluid::sim::cells::SENTINELS;
 use fluid::sim::clusters::PairStructure;
 use fluid::sim::neighbours::TileSearch;
 use fluid::sim::params::GRAVITY;
@@ -189,6 +190,23 @@ fn stage_one_parts(c: &mut Criterion) {
         group.bench_function("gather", |b| {
             let mut placed = Particles::default();
             b.iter(|| placed.gather_kinematics(particles, sorted.order(), GRAVITY))
+        });
+        // The narrowed gather a fixed storage would need (issue 35): only the particles
+        // that may have a pair, into a compact copy in cell order, and their
+        // accelerations and densities back into place.
+        group.bench_function("gather-paired", |b| {
+            let paired = &sorted.order()[..sorted.keys().len() - SENTINELS];
+            let mut placed = Particles::default();
+            let (mut a, mut rho) = (particles.a.clone(), particles.rho.clone());
+            b.iter(|| {
+                placed.gather_kinematics(particles, paired, GRAVITY);
+                for (k, &slot) in paired.iter().enumerate() {
+                    for (axis, from) in a.iter_mut().zip(&placed.a) {
+                        axis[slot as usize] = from[k];
+                    }
+                    rho[slot as usize] = placed.rho[k];
+                }
+            })
         });
         group.bench_function("tile-search", |b| {
             let mut search = TileSearch::default();
