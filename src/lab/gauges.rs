@@ -133,17 +133,23 @@ pub fn read_height(state: &Simulation, at: DVec2) -> Option<f64> {
     let (bottom, top) = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
         (lo.min(y), hi.max(y))
     });
+    // Each particle and its images, with its volume, once for every sample.
     let mirrors = side_mirrors(&state.params().domain, line, support);
+    let flip = |value: f64, wall: Option<f64>| wall.map_or(value, |w| 2.0 * w - value);
+    let images: Vec<(DVec3, f64)> = slots
+        .iter()
+        .flat_map(|&slot| {
+            let (p, v) = (particles.position(slot), mass / particles.rho[slot]);
+            mirrors
+                .iter()
+                .map(move |&(x, z)| (DVec3::new(flip(p.x, x), p.y, flip(p.z, z)), v))
+        })
+        .collect();
     let fraction = |y: f64| {
         let point = DVec3::new(at.x, y, at.y);
         let mut volume = 0.0;
-        for &slot in &slots {
-            let (p, v) = (particles.position(slot), mass / particles.rho[slot]);
-            for &(x, z) in &mirrors {
-                let flip = |value: f64, wall: Option<f64>| wall.map_or(value, |w| 2.0 * w - value);
-                let image = DVec3::new(flip(p.x, x), p.y, flip(p.z, z));
-                volume += wendland(image.distance(point), support) * v;
-            }
+        for &(image, v) in &images {
+            volume += wendland(image.distance(point), support) * v;
         }
         volume
     };

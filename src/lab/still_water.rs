@@ -56,8 +56,7 @@ impl Tank {
         if low.y != case.domain.box_min_m.get_ref()[1] {
             return Err("a still-water case's box of fluid stands on the floor".into());
         }
-        let [gx, gy, gz] = *case.domain.gravity_m_s2.get_ref();
-        if !(gx == 0.0 && gz == 0.0 && gy < 0.0) {
+        if case.domain.simulated().downward_pull().is_none() {
             return Err(
                 "a still-water case's gravity pulls down y (gravity_m_s2 = [0, -g, 0], g > 0): \
                  its hydrostatics are along y"

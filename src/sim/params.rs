@@ -58,6 +58,13 @@ impl Domain {
         self.max - self.min
     }
 
+    /// g, if gravity is [0, -g, 0] with g > 0: down y, as a floor at the box's low y wall
+    /// and hydrostatics along y need it.
+    pub fn downward_pull(&self) -> Option<f64> {
+        let DVec3 { x, y, z } = self.gravity;
+        (x == 0.0 && z == 0.0 && y < 0.0).then_some(-y)
+    }
+
     /// Whether `p` is inside the box, walls included.
     pub fn contains(&self, p: DVec3) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
@@ -140,6 +147,26 @@ mod tests {
         assert!(close(p.h, 0.008308823529411764));
         assert!(close(p.mass, 1000.0 / 8_489_664.0));
         assert!(close(p.h6, p.h.powi(6)));
+    }
+
+    #[test]
+    fn a_pull_down_y_is_the_only_downward_one() {
+        assert_eq!(Domain::COURSE.downward_pull(), Some(9.8));
+        let with = |gravity: DVec3| Domain {
+            gravity,
+            ..Domain::COURSE
+        };
+        assert_eq!(
+            with(DVec3::new(0.0, -0.01, 0.0)).downward_pull(),
+            Some(0.01)
+        );
+        for gravity in [
+            DVec3::ZERO,
+            DVec3::new(0.0, 9.8, 0.0),
+            DVec3::new(1.0, -9.8, 0.0),
+        ] {
+            assert_eq!(with(gravity).downward_pull(), None, "{gravity}");
+        }
     }
 
     #[test]

@@ -330,7 +330,7 @@ fn check_domain(domain: &case::Domain, model: Model) -> Result<(), (Range<usize>
     let differing = keys
         .iter()
         .find(|(key, value)| *key.get_ref() != value.to_array());
-    let gravity = simulated.gravity;
+    let pull = simulated.downward_pull();
     match (model, differing) {
         (Model::Course, Some((key, _))) => Err((
             key.span(),
@@ -343,18 +343,14 @@ fn check_domain(domain: &case::Domain, model: Model) -> Result<(), (Range<usize>
                 course.gravity.to_array()
             ),
         )),
-        (Model::Wcsph, _)
-            if !(gravity.x == 0.0 && gravity.z == 0.0 && gravity.y <= -MIN_WATER_GRAVITY) =>
-        {
-            Err((
-                domain.gravity_m_s2.span(),
-                format!(
-                    "the water model's floor is the box's low y wall, and its sound speed \
+        (Model::Wcsph, _) if !pull.is_some_and(|g| g >= MIN_WATER_GRAVITY) => Err((
+            domain.gravity_m_s2.span(),
+            format!(
+                "the water model's floor is the box's low y wall, and its sound speed \
                      follows g: its gravity_m_s2 is [0, -g, 0] with g >= {MIN_WATER_GRAVITY} \
                      m/s^2"
-                ),
-            ))
-        }
+            ),
+        )),
         _ => Ok(()),
     }
 }
