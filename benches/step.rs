@@ -19,7 +19,6 @@ use criterion::profiler::Profiler;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use fluid::io::fld;
 use fluid::lab::scene;
-use fluid::sim::cells::SENTINELS;
 use fluid::sim::clusters::PairStructure;
 use fluid::sim::neighbours::TileSearch;
 use fluid::sim::params::GRAVITY;
@@ -170,8 +169,10 @@ fn state_floor(c: &mut Criterion) {
 }
 
 /// Stage 1's parts on the course model's scattered states, per particle: the cell order
-/// (cells, the lone filter, the radix sort of the particles it keeps, the walls), the
-/// gather of the state into that order, and the tile search over the kept particles.
+/// (cells, the lone filter, the radix sort of the particles it keeps, the walls), moving
+/// the particles into it or leaving them in place (as a step does), the gather of the
+/// state into that order or of the kept particles alone, and the tile search over the
+/// kept particles.
 fn stage_one_parts(c: &mut Criterion) {
     for input in ["small.fld", "large.fld"] {
         let scattered = state(input, Model::Course, Kernel::Simd, SCATTERED_STEPS);
@@ -180,31 +181,42 @@ fn stage_one_parts(c: &mut Criterion) {
         sorted.sort(&grid, particles);
         let mut group = c.benchmark_group(format!("stage1/{input}/scattered"));
         group.throughput(Throughput::Elements(particles.len() as u64));
-        group.bench_function("cell-order", |b| {
-            b.iter_batched_ref(
-                || scattered.cells().clone(),
-                |cells| cells.sort(&grid, particles),
-                BatchSize::LargeInput,
-            )
-        });
+        for (name, in_place) in [("cell-order", false), ("cell-order-in-place", true)] {
+            group.bench_function(name, |b| {
+                b.iter_batched_ref(
+                    || scattered.cells().clone(),
+                    |cells| match in_place {
+                        true => cells.sort_in_place(&grid, particles),
+                        false => cells.sort(&grid, particles),
+                    },
+                    BatchSize::LargeInput,
+                )
+            });
+        }
         group.bench_function("gather", |b| {
             let mut placed = Particles::default();
             b.iter(|| placed.gather_kinematics(particles, sorted.order(), GRAVITY))
         });
-        // The narrowed gather a fixed storage would need (issue 35): only the particles
-        // that may have a pair, into a compact copy in cell order, and their
-        // accelerations and densities back into place.
+        // What a step that leaves lone particles in place moves instead: the particles
+        // that may have a pair into a compact copy in cell order, then every particle's
+        // acceleration and density set as for one without a partner, and the copied
+        // ones' own put back.
         group.bench_function("gather-paired", |b| {
-            let paired = &sorted.order()[..sorted.keys().len() - SENTINELS];
+            let paired = sorted.paired();
+            let n = particles.len();
             let mut placed = Particles::default();
             let (mut a, mut rho) = (particles.a.clone(), particles.rho.clone());
             b.iter(|| {
                 placed.gather_kinematics(particles, paired, GRAVITY);
-                for (k, &slot) in paired.iter().enumerate() {
-                    for (axis, from) in a.iter_mut().zip(&placed.a) {
-                        axis[slot as usize] = from[k];
+                rho[..n].fill(1.0);
+                for (&slot, &from) in paired.iter().zip(&placed.rho) {
+                    rho[slot as usize] = from;
+                }
+                for ((axis, from), g) in a.iter_mut().zip(&placed.a).zip(GRAVITY.to_array()) {
+                    axis[..n].fill(g);
+                    for (&slot, &from) in paired.iter().zip(from) {
+                        axis[slot as usize] = from;
                     }
-                    rho[slot as usize] = placed.rho[k];
                 }
             })
         });

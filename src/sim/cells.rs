@@ -295,15 +295,9 @@ fn own_block(cell: Cell) -> u64 {
 }
 
 impl LoneFilter {
-    /// The index of each of `cells` (coarse cells) that may have a pair into `paired`, of
-    /// each that is lone into `lone`, both ascending.
-    fn find<G: Gathers>(
-        &mut self,
-        isa: G,
-        cells: &[Cell],
-        paired: &mut Vec<u32>,
-        lone: &mut Vec<u32>,
-    ) {
+    /// Marks which of `cells` (coarse cells) are lone: bit `i % 8` of `lone[i / 8]` for
+    /// `cells[i]`.
+    fn find<G: Gathers>(&mut self, isa: G, cells: &[Cell], lone: &mut Vec<u8>) {
         // About 64 blocks per particle: a block counts others by mistake rarely.
         let index_bits = (64 * cells.len().max(1)).next_power_of_two().ilog2();
         self.shift = u64::BITS - index_bits;
@@ -321,38 +315,22 @@ impl LoneFilter {
                 sum | ((k as u64 >> d) & 1) << (BLOCK_BITS * d as u32)
             })
         });
-        // Each index written to both lists, the cursor advancing only in its own: no
-        // branch on whether a particle is lone.
-        paired.clear();
-        paired.resize(cells.len(), 0);
         lone.clear();
-        lone.resize(cells.len(), 0);
-        let (mut paired_end, mut lone_end) = (0, 0);
-        let mut record = |index: usize, is_lone: bool| {
-            paired[paired_end] = index as u32;
-            lone[lone_end] = index as u32;
-            paired_end += usize::from(!is_lone);
-            lone_end += usize::from(is_lone);
-        };
         let mut groups = cells.chunks_exact(LANES);
-        for (group, eight) in groups.by_ref().enumerate() {
-            let lone_lanes = self.lone_lanes(isa, &offsets, eight.try_into().expect("8"));
-            for lane in 0..LANES {
-                record(group * LANES + lane, lone_lanes >> lane & 1 != 0);
-            }
-        }
-        // The last few on lanes too, the spare lanes repeating one of them.
+        let filter = &*self;
+        lone.extend(
+            groups
+                .by_ref()
+                .map(|eight| filter.lone_lanes(isa, &offsets, eight.try_into().expect("8"))),
+        );
+        // The last few on lanes too, the spare lanes repeating one of them (and unmarked).
         let rest = groups.remainder();
         if let Some(&last) = rest.last() {
             let mut eight = [last; LANES];
             eight[..rest.len()].copy_from_slice(rest);
-            let lone_lanes = self.lone_lanes(isa, &offsets, &eight);
-            for lane in 0..rest.len() {
-                record(cells.len() - rest.len() + lane, lone_lanes >> lane & 1 != 0);
-            }
+            let used = ((1u16 << rest.len()) - 1) as u8;
+            lone.push(self.lone_lanes(isa, &offsets, &eight) & used);
         }
-        paired.truncate(paired_end);
-        lone.truncate(lone_end);
     }
 
     /// Which of 8 cells are lone (bit k for `cells[k]`), on lanes of 8 particles: each
@@ -397,14 +375,13 @@ impl LoneFilter {
 struct FindLone<'a> {
     filter: &'a mut LoneFilter,
     cells: &'a [Cell],
-    paired: &'a mut Vec<u32>,
-    lone: &'a mut Vec<u32>,
+    lone: &'a mut Vec<u8>,
 }
 
 impl OnInstructionSet for FindLone<'_> {
     type Output = ();
     fn run<G: Gathers>(self, isa: G) {
-        self.filter.find(isa, self.cells, self.paired, self.lone);
+        self.filter.find(isa, self.cells, self.lone);
     }
 }
 
@@ -430,13 +407,18 @@ pub struct CellOrder {
     /// Key of each slot that may have a pair, in cell order, then [`SENTINELS`] times
     /// `u64::MAX`.
     keys: Vec<u64>,
-    /// The previous slot of each slot.
+    /// Where each slot's particle is stored (its index in the particles sorted).
     order: Vec<u32>,
     walls: Walls,
     /// Whether the last sort found mostly lone particles (more cells than half the
     /// particles), so that this one filters them out first.
     sparse: bool,
+    /// Whether the last sort left the particles where they are stored
+    /// ([`Self::sort_in_place`]): the next sort then reads them in its slot order.
+    in_place: bool,
     lone_filter: LoneFilter,
+    /// The lone filter's answer: bit `i % 8` of byte `i / 8` for stored particle `i`.
+    lone: Vec<u8>,
     /// The instructions the lone filter's lookups run on.
     isa: InstructionSet,
     // Reused buffers.
@@ -484,6 +466,7 @@ impl CellOrder {
             + bytes(&self.order)
             + bytes(&self.walls.bits)
             + bytes(&self.lone_filter.words)
+            + bytes(&self.lone)
             + bytes(&self.cells)
             + bytes(&self.wall_bits)
             + bytes(&self.spare_keys)
@@ -491,16 +474,33 @@ impl CellOrder {
             + bytes(&self.counts)
     }
 
-    /// Sorts `particles` (in their current slots) by cell; their walls are those of the
-    /// blocks the grid gives their positions. Returns whether any particle changes slot
-    /// (if not, [`Self::order`] is the identity).
+    /// Sorts `particles` by cell, for the caller to move them into that order (slot k
+    /// receives stored particle `order()[k]`); their walls are those of the blocks the
+    /// grid gives their positions, per slot. Ties keep the previous slot order: the
+    /// particles' storage order, or the last sort's slot order where it left them in
+    /// place. Returns whether any particle changes slot (if not, [`Self::order`] is the
+    /// identity).
     pub fn sort(&mut self, grid: &Grid, particles: &Particles) -> bool {
+        self.sort_placing(grid, particles, false)
+    }
+
+    /// As [`Self::sort`], but where this sort filters out lone particles (the last found
+    /// the particles sparse), it leaves them where they are stored
+    /// ([`Self::is_in_place`]): the order, keys and slot order are the same, the walls are
+    /// per stored particle, and only the particles that may have a pair
+    /// ([`Self::paired`]) need copying out for the pair passes. Returns whether the
+    /// caller must move the particles into the order.
+    pub fn sort_in_place(&mut self, grid: &Grid, particles: &Particles) -> bool {
+        self.sort_placing(grid, particles, true)
+    }
+
+    fn sort_placing(&mut self, grid: &Grid, particles: &Particles, may_stay: bool) -> bool {
         self.compute_cells(grid, particles);
         self.walls.set_box(grid);
         let walls = self.cells.iter().map(|c| wall_bits(grid, c.map(i64::from)));
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
-        self.finish()
+        self.finish(may_stay)
     }
 
     /// As [`Self::sort`], on the cells of `search` (a grid of larger blocks, for lists
@@ -511,7 +511,7 @@ impl CellOrder {
         self.wall_bits.clear();
         let walls = (0..particles.len()).map(|slot| slot_walls(grid, particles, slot));
         self.wall_bits.extend(walls);
-        self.finish()
+        self.finish(false)
     }
 
     /// Recomputes the walls of every slot from its particle's current block of `grid`,
@@ -533,7 +533,7 @@ impl CellOrder {
             .map(|&b| wall_bits(grid, grid.coords(b as usize).map(|c| c as i64)));
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
-        self.finish()
+        self.finish(false)
     }
 
     /// The coarse cell of every particle.
@@ -565,25 +565,17 @@ impl CellOrder {
         rest.copy_from_slice(&last[..rest.len()]);
     }
 
-    fn finish(&mut self) -> bool {
+    fn finish(&mut self, may_stay: bool) -> bool {
         let n = self.cells.len();
-        self.order.clear();
-        // The slots that may have a pair first, then the lone ones in their order (the
-        // radix sort's spare buffer holds them on the way).
-        let paired = if self.sparse {
+        let filtering = self.sparse;
+        if filtering {
             self.isa.run(FindLone {
                 filter: &mut self.lone_filter,
                 cells: &self.cells,
-                paired: &mut self.order,
-                lone: &mut self.spare_order,
+                lone: &mut self.lone,
             });
-            let paired = self.order.len();
-            self.order.extend_from_slice(&self.spare_order);
-            paired
-        } else {
-            self.order.extend(0..n as u32);
-            n
-        };
+        }
+        let paired = self.split(filtering);
         let (lowest, highest) = self.order[..paired]
             .iter()
             .map(|&slot| self.cells[slot as usize])
@@ -610,15 +602,51 @@ impl CellOrder {
         let cells = n - paired + self.keys.chunk_by(|a, b| a == b).count();
         self.sparse = 2 * cells > n;
         self.keys.extend([u64::MAX; SENTINELS]);
+        self.in_place = may_stay && filtering;
+        self.walls.bits.clear();
+        if self.in_place {
+            self.walls.bits.extend_from_slice(&self.wall_bits);
+            return false;
+        }
         // The walls in the new order, and whether any particle moved, in one pass.
         let mut moved = false;
-        self.walls.bits.clear();
-        let walls = self.order.iter().enumerate().map(|(slot, &old)| {
-            moved |= slot != old as usize;
-            self.wall_bits[old as usize]
+        let walls = self.order.iter().enumerate().map(|(slot, &stored)| {
+            moved |= slot != stored as usize;
+            self.wall_bits[stored as usize]
         });
         self.walls.bits.extend(walls);
         moved
+    }
+
+    /// Puts the stored particles in the previous slot order into `order`, those that
+    /// may have a pair first, then (when `filtering`) the lone ones, each in that order;
+    /// returns how many may have a pair.
+    fn split(&mut self, filtering: bool) -> usize {
+        let n = self.cells.len();
+        if !self.in_place {
+            self.order.clear();
+            self.order.extend(0..n as u32);
+        }
+        if !filtering {
+            return n;
+        }
+        // Each particle written to both lists, the cursor advancing only in its own: no
+        // branch on whether a particle is lone. The paired ones are written over slots
+        // already read; the lone ones pass through the radix sort's spare buffer.
+        self.spare_order.clear();
+        self.spare_order.resize(n, 0);
+        let (mut paired, mut lone) = (0, 0);
+        for slot in 0..n {
+            let stored = self.order[slot];
+            let is_lone = self.lone[stored as usize / 8] >> (stored % 8) & 1 != 0;
+            self.order[paired] = stored;
+            self.spare_order[lone] = stored;
+            paired += usize::from(!is_lone);
+            lone += usize::from(is_lone);
+        }
+        self.order.truncate(paired);
+        self.order.extend_from_slice(&self.spare_order[..lone]);
+        paired
     }
 
     /// Stable LSD radix sort of `keys` (carrying the slots at the front of `order`, one
@@ -675,9 +703,21 @@ impl CellOrder {
         &self.keys
     }
 
-    /// The previous slot of each slot.
+    /// Where each slot's particle is stored: its index in the particles sorted.
     pub fn order(&self) -> &[u32] {
         &self.order
+    }
+
+    /// Where each particle that may have a pair is stored, in slot order: the front of
+    /// [`Self::order`], the slots the keys (and so the tiles) cover.
+    pub fn paired(&self) -> &[u32] {
+        &self.order[..self.keys.len().saturating_sub(SENTINELS)]
+    }
+
+    /// Whether the last sort left the particles where they are stored
+    /// ([`Self::sort_in_place`]): its walls are then per stored particle.
+    pub fn is_in_place(&self) -> bool {
+        self.in_place
     }
 
     /// The walls of each slot.
@@ -1020,6 +1060,67 @@ mod tests {
         if cfg!(target_arch = "x86_64") && InstructionSet::Avx2.is_available() {
             assert!(ran >= 2);
         }
+    }
+
+    #[test]
+    fn a_sort_in_place_orders_as_a_sort_whose_particles_are_moved() {
+        let grid = grid();
+        // Particles over metres, every tenth 2 mm from the one before; they move between
+        // sorts.
+        let mut unit = uniform(0x2545_f491_4f6c_dd1d);
+        let mut points: Vec<[f64; 3]> = Vec::new();
+        for k in 0..3003 {
+            let point = if k % 10 == 1 {
+                points[k - 1].map(|x| x + 0.002)
+            } else {
+                [0.0; 3].map(|_| unit() * 6.0 - 3.0)
+            };
+            points.push(point);
+        }
+        let n = points.len();
+        let mut stored = positions(&points);
+        let (mut moving, mut staying) = (CellOrder::resumed(true), CellOrder::resumed(true));
+        // The particles moved into each sort's order, and where each of them is stored.
+        let mut placed = stored.clone();
+        for round in 0..4 {
+            let moved = moving.sort(&grid, &placed);
+            assert!(!staying.sort_in_place(&grid, &stored));
+            assert!(moved && staying.is_in_place() && !moving.is_in_place());
+            let slots: Vec<u32> = moving
+                .order()
+                .iter()
+                .map(|&s| placed.id[s as usize])
+                .collect();
+            assert_eq!(staying.order(), slots, "round {round}");
+            assert_eq!(staying.keys(), moving.keys());
+            let paired = moving.keys().len() - SENTINELS;
+            assert!(paired > 0 && paired < n / 2, "{paired}");
+            assert_eq!(staying.paired(), &slots[..paired]);
+            for (slot, &at) in slots.iter().enumerate() {
+                let walls = staying.walls().bits()[at as usize];
+                assert_eq!(walls, moving.walls().bits()[slot]);
+            }
+            placed = placed.permuted(moving.order());
+            // Every particle moves by a few cells, by its id.
+            for particles in [&mut stored, &mut placed] {
+                for (d, axis) in particles.p.iter_mut().enumerate() {
+                    for (x, &id) in axis.iter_mut().zip(&particles.id) {
+                        *x += 0.01 * ((id as usize * 7 + d * 3 + round) % 5) as f64 - 0.02;
+                    }
+                }
+            }
+        }
+        // A sort that moves the particles after one that left them in place reads them
+        // in its slot order.
+        assert!(staying.sort(&grid, &stored));
+        moving.sort(&grid, &placed);
+        let slots: Vec<u32> = moving
+            .order()
+            .iter()
+            .map(|&s| placed.id[s as usize])
+            .collect();
+        assert_eq!(staying.order(), slots);
+        assert!(!staying.is_in_place());
     }
 
     #[test]

@@ -10,7 +10,7 @@ use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::isa::InstructionSet;
 use crate::sim::lists::NeighbourLists;
 use crate::sim::method::Method;
-use crate::sim::model::{Context, Dynamics};
+use crate::sim::model::{Context, Dynamics, Partnerless};
 use crate::sim::neighbours::{Tile, TileSearch};
 use crate::sim::params::{Domain, Params};
 use crate::sim::particles::Particles;
@@ -60,7 +60,8 @@ pub struct Simulation {
     method: Method,
     /// The model: its constants, state and buffers.
     dynamics: Box<dyn Dynamics>,
-    /// The particles, stored cell after cell and padded for the kernels' lane loads.
+    /// The particles, padded for the kernels' lane loads: stored cell after cell, or
+    /// where they were stored before a placement that left them in place.
     particles: Particles,
     cells: CellOrder,
     search: TileSearch,
@@ -74,7 +75,8 @@ pub struct Simulation {
     lists_built: bool,
     /// Counts the placements and kernel changes ([`Context::placement`]).
     placement: u64,
-    /// Buffer reused by the reordering.
+    /// Buffer reused by the reordering; where a placement leaves the particles in place,
+    /// the compact copy of those that may have a pair, which the pair passes run on.
     spare: Particles,
     /// How each step's length is chosen.
     time_step: TimeStep,
@@ -234,7 +236,8 @@ impl Simulation {
         self.dynamics.pressure(density)
     }
 
-    /// The particles in cell order (their `id` field gives the file order).
+    /// The particles (their `id` field gives the file order): in the cell order of the
+    /// last placement, unless a step left them in place ([`CellOrder::is_in_place`]).
     pub fn particles(&self) -> &Particles {
         &self.particles
     }
@@ -371,8 +374,18 @@ impl Simulation {
             last_step: self.last_step,
             sparse: self.cells.is_sparse(),
             model_state: self.model_state(),
-            particles: self.particles.unpadded(),
+            particles: self.particles_in_slot_order(),
             skin: self.skin.as_ref().map(Skin::kept),
+        }
+    }
+
+    /// The particles, unpadded, in the slot order of the last placement (the order the
+    /// next sort breaks ties by).
+    fn particles_in_slot_order(&self) -> Particles {
+        if self.cells.is_in_place() {
+            self.particles.permuted(self.cells.order()).unpadded()
+        } else {
+            self.particles.unpadded()
         }
     }
 
@@ -575,9 +588,18 @@ impl Simulation {
             let half = self.last_step.map_or(0.0, |(previous, _)| previous / 2.0);
             stages::predict_velocities(half, &mut self.particles);
         }
-        self.reposition();
+        // Particles without a partner may stay where they are if the model gives each of
+        // them the same results.
+        let partnerless = match self.skin {
+            None => self.dynamics.partnerless(&self.params),
+            Some(_) => None,
+        };
+        self.place(partnerless.is_some());
         let (dynamics, mut context) = self.model_and_context();
         dynamics.interact(&mut context);
+        if let Some(partnerless) = partnerless.filter(|_| self.cells.is_in_place()) {
+            self.take_pair_results(partnerless);
+        }
         let (chosen, limit) = match self.time_step {
             TimeStep::Fixed(dt) => (dt, Limit::Fixed),
             TimeStep::Adaptive { courant } => {
@@ -627,7 +649,11 @@ impl Simulation {
             placement: self.placement,
             integrator: self.integrator,
             previous_step: self.last_step.map(|(previous, _)| previous),
-            particles: &mut self.particles,
+            particles: if self.cells.is_in_place() {
+                &mut self.spare
+            } else {
+                &mut self.particles
+            },
         };
         (&mut *self.dynamics, context)
     }
@@ -648,6 +674,14 @@ impl Simulation {
     /// changed), resets what the pair passes sum into, and finds the step's tiles; with a
     /// skin, only when the lists are stale (else the walls alone are recomputed).
     fn reposition(&mut self) {
+        self.place(false);
+    }
+
+    /// [`Self::reposition`]; where `may_stay` and the sort filters out lone particles,
+    /// they stay where they are stored, and only the others are copied out, in slot
+    /// order with what the pair passes sum into reset, for the pair passes to run on
+    /// ([`CellOrder::sort_in_place`]).
+    fn place(&mut self, may_stay: bool) {
         self.placement += 1;
         let sorted_sparse = self.cells.is_sparse();
         let moved = match &self.skin {
@@ -662,10 +696,16 @@ impl Simulation {
                 return;
             }
             Some(skin) => self.cells.sort_on(skin.grid(), &self.grid, &self.particles),
+            None if may_stay => self.cells.sort_in_place(&self.grid, &self.particles),
             None => self.cells.sort(&self.grid, &self.particles),
         };
-        if moved {
-            let order = self.cells.order();
+        let in_place = self.cells.is_in_place();
+        if moved || in_place {
+            let order = if in_place {
+                self.cells.paired()
+            } else {
+                self.cells.order()
+            };
             if self.dynamics.carries_densities() {
                 self.spare.gather_with_densities(
                     &self.particles,
@@ -676,7 +716,9 @@ impl Simulation {
                 self.spare
                     .gather_kinematics(&self.particles, order, self.params.domain.gravity);
             }
-            std::mem::swap(&mut self.particles, &mut self.spare);
+            if !in_place {
+                std::mem::swap(&mut self.particles, &mut self.spare);
+            }
         } else {
             self.reset_for_pairs();
         }
@@ -684,6 +726,26 @@ impl Simulation {
             skin.record(&self.particles, sorted_sparse);
         }
         self.find_neighbours();
+    }
+
+    /// After the pair passes of a placement that left the particles in place: each stored
+    /// particle gets the density and acceleration of one without a partner, then those
+    /// copied out their own.
+    fn take_pair_results(&mut self, partnerless: Partnerless) {
+        let n = self.particles.len();
+        let (placed, particles) = (&self.spare, &mut self.particles);
+        let stored = self.cells.paired();
+        particles.rho[..n].fill(partnerless.density);
+        for (&stored, &rho) in stored.iter().zip(&placed.rho) {
+            particles.rho[stored as usize] = rho;
+        }
+        let acceleration = partnerless.acceleration.to_array();
+        for ((axis, placed), g) in particles.a.iter_mut().zip(&placed.a).zip(acceleration) {
+            axis[..n].fill(g);
+            for (&stored, &a) in stored.iter().zip(placed) {
+                axis[stored as usize] = a;
+            }
+        }
     }
 
     /// The neighbour structure of the placement: its lists or clusters where the pair
@@ -725,8 +787,13 @@ impl Simulation {
         self.find_tiles();
         let skin = self.skin.as_ref().map_or(0.0, Skin::width);
         let reach = self.params.h + skin;
-        let (tiles, n) = (self.search.tiles(), self.particles.len());
-        self.lists_built = self.lists.build(tiles, &self.particles.p, n, reach).is_ok();
+        let particles = if self.cells.is_in_place() {
+            &self.spare
+        } else {
+            &self.particles
+        };
+        let (tiles, n) = (self.search.tiles(), particles.len());
+        self.lists_built = self.lists.build(tiles, &particles.p, n, reach).is_ok();
     }
 
     /// Clusters of the placement's cell order at the current positions.
@@ -736,7 +803,12 @@ impl Simulation {
         let layout = self.cells.layout();
         let skin = self.skin.as_ref().map_or(0.0, Skin::width);
         let reach = self.params.h + skin;
-        self.clusters.build(paired, layout, &self.particles, reach);
+        let particles = if self.cells.is_in_place() {
+            &self.spare
+        } else {
+            &self.particles
+        };
+        self.clusters.build(paired, layout, particles, reach);
     }
 
     /// Stage 2: accelerations to gravity, and densities to zero unless they are states.
@@ -1036,6 +1108,63 @@ mod tests {
             }
         }
         block
+    }
+
+    /// 400 particles spread over a metre around the box at up to 4 m/s, every fourth
+    /// 3 mm from the one before it: mostly lone, with pairs that change from step to step.
+    fn scattered_cloud() -> Particles {
+        let mut cloud = Particles::zeroed(400);
+        let mut random = fastrand::Rng::with_seed(35);
+        for slot in 0..cloud.len() {
+            for axis in 0..3 {
+                let x = if slot % 4 == 1 {
+                    cloud.p[axis][slot - 1] + 0.003
+                } else {
+                    random.f64() - 0.5
+                };
+                let speed = 8.0 * random.f64() - 4.0;
+                cloud.p[axis][slot] = x;
+                (cloud.v[axis][slot], cloud.hv[axis][slot]) = (speed, speed);
+            }
+        }
+        cloud
+    }
+
+    #[test]
+    fn steps_that_leave_lone_particles_in_place_go_as_steps_that_move_them() {
+        for model in [Model::Course, Model::Fluidanimate] {
+            for kernel in [Kernel::Simd, Kernel::Scalar, Kernel::Reference] {
+                let method = Method { model, kernel };
+                let start = Simulation::with_method(204.0, scattered_cloud(), method).unwrap();
+                assert!(start.cells().is_sparse());
+                // Steps, which leave lone particles in place, against stage 1 run alone,
+                // which moves every particle into cell order, then the other stages.
+                let (mut stepped, mut staged) = (start.clone(), start.clone());
+                let mut states = Vec::new();
+                for _ in 0..12 {
+                    states.push(stepped.resumable());
+                    stepped.step();
+                    // Some particles copied out for the pair passes, the others left.
+                    let paired = stepped.cells().paired().len();
+                    assert!(stepped.cells().is_in_place() && paired > 0 && paired < 400);
+                    for stage in Stage::ALL {
+                        staged.run_stage(stage);
+                    }
+                    assert!(!staged.cells().is_in_place());
+                    let what = format!("{} {}", model.name(), kernel.name());
+                    // In slot order, every field (Debug tells every two f64 apart).
+                    let (a, b) = (stepped.resumable().particles, staged.resumable().particles);
+                    assert_eq!(format!("{a:?}"), format!("{b:?}"), "{what}");
+                }
+                // A checkpoint of a step that left them in place resumes bit for bit.
+                let end = format!("{:?}", stepped.resumable());
+                for (done, state) in states.into_iter().enumerate() {
+                    let mut resumed = Simulation::resume(state).unwrap();
+                    resumed.run(12 - done as u64);
+                    assert!(format!("{:?}", resumed.resumable()) == end, "after {done}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! adaptive step the criteria below. Its densities are recomputed every step, and a
 //! checkpoint keeps nothing of it beyond the particles.
 
-use super::{Context, Dynamics};
+use super::{Context, Dynamics, Partnerless};
 use crate::sim::cells::Walls;
 use crate::sim::kernel::{self, Accelerations, Candidates, ClosePairs, Densities, Packed};
 use crate::sim::params::{
@@ -110,6 +110,16 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
         ] {
             self.run_stage(stage, context);
         }
+    }
+
+    fn partnerless(&self, params: &Params) -> Option<Partnerless> {
+        // Stage 2's density, transformed as every particle's is (stage 4), and gravity.
+        let mut density = [0.0];
+        kernel::transform_densities(params, &mut density);
+        Some(Partnerless {
+            density: density[0],
+            acceleration: params.domain.gravity,
+        })
     }
 
     fn refresh_densities(&mut self, context: &mut Context) {
@@ -241,6 +251,44 @@ mod tests {
         assert_eq!(limit, Limit::Walls);
         assert_eq!(dt, 0.5 * walls_limit());
         assert!((walls_limit() - 2.0 / COLLISION_STIFFNESS.sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_particle_without_a_partner_gets_what_partnerless_says() {
+        use crate::sim::kernel::Kernel;
+        use crate::sim::method::Method;
+        use crate::sim::model::Model;
+        use crate::sim::simulation::Simulation;
+        // Three particles 2 cm apart (h is 8.3 mm), moving: none has a partner.
+        let mut particles = Particles::zeroed(3);
+        for slot in 0..3 {
+            particles.p[0][slot] = 0.02 * slot as f64;
+            particles.v[1][slot] = slot as f64;
+        }
+        for model in [Model::Course, Model::Fluidanimate] {
+            let mut sim = Simulation::with_method(
+                204.0,
+                particles.clone(),
+                Method {
+                    model,
+                    kernel: Kernel::Simd,
+                },
+            )
+            .unwrap();
+            for stage in &Stage::ALL[..5] {
+                sim.run_stage(*stage);
+            }
+            let expected = model.dynamics().partnerless(sim.params()).unwrap();
+            assert_eq!(expected.acceleration, sim.params().domain.gravity);
+            // (0 + h^6) 315 / (64 pi h^9) m, a particle's own share of its density.
+            let own = 315.0 / (64.0 * PI * sim.params().h.powi(3)) * sim.params().mass;
+            assert!((expected.density / own - 1.0).abs() < 1e-12);
+            for slot in 0..3 {
+                let found = sim.particles();
+                assert_eq!(found.rho[slot].to_bits(), expected.density.to_bits());
+                assert_eq!(found.acceleration(slot), expected.acceleration);
+            }
+        }
     }
 
     #[test]

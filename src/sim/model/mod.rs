@@ -22,6 +22,7 @@ use crate::sim::params::Params;
 use crate::sim::particles::Particles;
 use crate::sim::stages::Stage;
 use crate::sim::timestep::{Integrator, Leapfrog, Limit, TimeStep};
+use glam::DVec3;
 
 /// The physical model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
@@ -106,6 +107,15 @@ pub struct Context<'a> {
     pub particles: &'a mut Particles,
 }
 
+/// The density and acceleration a step's pair passes leave a particle without a partner.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Partnerless {
+    /// Its density (kg/m^3).
+    pub density: f64,
+    /// Its acceleration (m/s^2).
+    pub acceleration: DVec3,
+}
+
 /// A physical model as the driver runs it. A step is: the driver places the particles
 /// (stage 1) and resets what the pair passes sum into (stage 2: accelerations to gravity,
 /// and densities to zero unless [`Self::carries_densities`]), then [`Self::interact`],
@@ -165,6 +175,14 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// The pair passes of a step (after stage 2): accelerations, and what else the model
     /// computes from pairs.
     fn interact(&mut self, context: &mut Context);
+
+    /// What [`Self::interact`] leaves a particle no candidate pair reaches, where that is
+    /// the same for every such particle; `None` (the default) where it depends on the
+    /// particle. Where given, the driver may leave such particles where they are and run
+    /// the pair passes on a compact copy of the others.
+    fn partnerless(&self, _params: &Params) -> Option<Partnerless> {
+        None
+    }
 
     /// The densities of the current positions, where they are not a state (stages 3 and
     /// 4), or those a state of densities predicts for the current time (the velocity
