@@ -605,7 +605,9 @@ impl CellOrder {
         self.in_place = may_stay && filtering;
         self.walls.bits.clear();
         if self.in_place {
-            self.walls.bits.extend_from_slice(&self.wall_bits);
+            // The walls of the stored particles are those computed; the next sort
+            // computes its own into the other buffer.
+            std::mem::swap(&mut self.walls.bits, &mut self.wall_bits);
             return false;
         }
         // The walls in the new order, and whether any particle moved, in one pass.
@@ -635,12 +637,13 @@ impl CellOrder {
         // already read; the lone ones pass through the radix sort's spare buffer.
         self.spare_order.clear();
         self.spare_order.resize(n, 0);
+        let (order, lone_order, marks) = (&mut self.order[..n], &mut self.spare_order, &self.lone);
         let (mut paired, mut lone) = (0, 0);
         for slot in 0..n {
-            let stored = self.order[slot];
-            let is_lone = self.lone[stored as usize / 8] >> (stored % 8) & 1 != 0;
-            self.order[paired] = stored;
-            self.spare_order[lone] = stored;
+            let stored = order[slot];
+            let is_lone = marks[stored as usize / 8] >> (stored % 8) & 1 != 0;
+            order[paired] = stored;
+            lone_order[lone] = stored;
             paired += usize::from(!is_lone);
             lone += usize::from(is_lone);
         }
