@@ -34,7 +34,7 @@ pub struct Vitals {
 }
 
 impl Vitals {
-    /// Scans the particles of `simulation` as they are.
+    /// Scans the particles of `simulation` as they are, in its slot order.
     pub fn of(simulation: &Simulation) -> Vitals {
         let params = simulation.params();
         let particles = simulation.particles();
@@ -48,7 +48,7 @@ impl Vitals {
         };
         let domain = params.domain;
         let (low, high) = (domain.min - params.h, domain.max + params.h);
-        for slot in 0..particles.len() {
+        for slot in simulation.slot_order() {
             let position = vector_at(&particles.p, slot);
             let velocity = vector_at(&particles.v, slot);
             if !(position.is_finite() && velocity.is_finite()) {

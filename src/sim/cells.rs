@@ -204,8 +204,9 @@ pub enum Wall {
     High,
 }
 
-/// The walls of each slot's block, one [`WallBits`] per slot in cell order, and where
-/// the box's walls are.
+/// The walls of each particle's block, one [`WallBits`] per slot in cell order (per
+/// stored particle after a sort that left the particles in place), and where the box's
+/// walls are.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Walls {
     bits: Vec<WallBits>,
@@ -226,7 +227,8 @@ impl Walls {
         &self.bits
     }
 
-    /// The slots, ascending, of particles in blocks on `wall` of `axis`.
+    /// The slots (stored particles, after a sort that left them in place), ascending, of
+    /// particles in blocks on `wall` of `axis`.
     pub fn on(&self, axis: usize, wall: Wall) -> Vec<u32> {
         let bit = wall_bit(axis, wall);
         (0..self.bits.len() as u32)
@@ -723,7 +725,24 @@ impl CellOrder {
         self.in_place
     }
 
-    /// The walls of each slot.
+    /// Takes the particles that the last sort left in place to have been moved into its
+    /// order since (slot k receiving stored particle `order()[k]`): the walls become
+    /// those of each slot, and the next sort reads the particles in storage order.
+    pub fn moved_into_order(&mut self) {
+        if self.in_place {
+            self.in_place = false;
+            let walls = self
+                .order
+                .iter()
+                .map(|&stored| self.walls.bits[stored as usize]);
+            self.wall_bits.clear();
+            self.wall_bits.extend(walls);
+            std::mem::swap(&mut self.walls.bits, &mut self.wall_bits);
+        }
+    }
+
+    /// The walls of each slot (of each stored particle, after a sort that left the
+    /// particles in place).
     pub fn walls(&self) -> &Walls {
         &self.walls
     }
@@ -1123,6 +1142,8 @@ mod tests {
             .map(|&s| placed.id[s as usize])
             .collect();
         assert_eq!(staying.order(), slots);
+        assert_eq!(staying.keys(), moving.keys());
+        assert_eq!(staying.walls(), moving.walls());
         assert!(!staying.is_in_place());
     }
 

@@ -1,5 +1,6 @@
-//! The simulation driver: owns the particles in cell order, the cell order and neighbour
-//! tiles of the current step, the clock and the buffers reused from step to step (no step
+//! The simulation driver: owns the particles (in cell order, or left where they are with
+//! a compact copy of those that may have a pair), the cell order and neighbour tiles of
+//! the current step, the clock and the buffers reused from step to step (no step
 //! allocates once the buffers have grown), and runs stages and time steps. What a step
 //! computes between placing the particles and advancing the clock is the model's
 //! ([`crate::sim::model::Dynamics`]); the driver names none.
@@ -242,6 +243,23 @@ impl Simulation {
         &self.particles
     }
 
+    /// Where each particle of the last placement's slot order is in [`Self::particles`]:
+    /// the order in which sums over the particles run as they did over particles moved
+    /// into cell order.
+    pub fn slot_order(&self) -> impl Iterator<Item = usize> + '_ {
+        let in_place = self.cells.is_in_place();
+        let order = self.cells.order();
+        (0..self.particles.len()).map(
+            move |slot| {
+                if in_place {
+                    order[slot] as usize
+                } else {
+                    slot
+                }
+            },
+        )
+    }
+
     /// The cell order of the current step (and the walls of each particle's block).
     pub fn cells(&self) -> &CellOrder {
         &self.cells
@@ -262,12 +280,16 @@ impl Simulation {
 
     /// The tiles of candidate pairs of the current step (not searched for where the
     /// step's pair passes run on clusters: empty or of an earlier placement then, but in
-    /// [`Self::with_fresh_densities`]'s copies).
+    /// [`Self::with_fresh_densities`]'s copies). Like the lists and clusters, they index
+    /// the particles as placed: [`Self::particles`], or the compact copy of those that
+    /// may have a pair where a step left them in place ([`CellOrder::is_in_place`]);
+    /// [`Self::with_fresh_densities`] gives a copy placed in cell order.
     pub fn tiles(&self) -> &[Tile] {
         self.search.tiles()
     }
 
-    /// The neighbour lists of the current placement, where its pair passes run on them.
+    /// The neighbour lists of the current placement, where its pair passes run on them
+    /// (indexing the particles as the tiles do).
     pub fn lists(&self) -> Option<&NeighbourLists> {
         self.lists_built.then_some(&self.lists)
     }
@@ -321,7 +343,7 @@ impl Simulation {
             && !self.dynamics.carries_densities()
             && dynamics.cutoff(ppm) == self.dynamics.cutoff(ppm);
         if method.model != self.method.model && !takes_over {
-            let particles = self.particles.unpadded();
+            let particles = self.particles_in_slot_order();
             let mut copy = Simulation::with_method(ppm, particles, method)?;
             copy.time = self.time;
             return Ok(copy);
@@ -659,8 +681,13 @@ impl Simulation {
     }
 
     /// Runs one stage alone (for trace comparisons and stage benchmarks): stages 1 and 2
-    /// are the driver's, the others the model's ([`Dynamics::run_stage`]).
+    /// are the driver's, the others the model's ([`Dynamics::run_stage`]). Stage 1 alone
+    /// moves every particle into cell order; any other stage first moves particles that a
+    /// step left in place into its slot order, where its tiles and walls index them.
     pub fn run_stage(&mut self, stage: Stage) {
+        if stage != Stage::Reposition {
+            self.move_into_slot_order();
+        }
         match stage {
             Stage::Reposition => return self.reposition(),
             Stage::InitAccelerations => return self.reset_for_pairs(),
@@ -726,6 +753,17 @@ impl Simulation {
             skin.record(&self.particles, sorted_sparse);
         }
         self.find_neighbours();
+    }
+
+    /// Where a step left the particles in place, moves them (every field) into its slot
+    /// order, as a placement that moves them would have: its tiles, lists and clusters
+    /// then index them, and its walls are per slot.
+    fn move_into_slot_order(&mut self) {
+        if self.cells.is_in_place() {
+            self.spare = self.particles.permuted(self.cells.order());
+            std::mem::swap(&mut self.particles, &mut self.spare);
+            self.cells.moved_into_order();
+        }
     }
 
     /// After the pair passes of a placement that left the particles in place: each stored
@@ -830,10 +868,11 @@ impl Simulation {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::cells::Walls;
     use crate::sim::cells::SENTINELS;
     use crate::sim::kernel::Kernel;
     use crate::sim::model::Model;
-    use crate::sim::params::BOX_MIN;
+    use crate::sim::params::{BOX_MAX, BOX_MIN};
 
     /// Particles at the given x positions (y, z at the box's lower corner plus a margin).
     fn along_x(xs: &[f64]) -> Particles {
@@ -1130,41 +1169,166 @@ mod tests {
         cloud
     }
 
+    /// 400 particles within 5 cm of the box's centre converging on it at up to 4 m/s,
+    /// there in about 12 steps of 1 ms: sparse, then dense.
+    fn converging_cloud() -> Particles {
+        let mut cloud = Particles::zeroed(400);
+        let mut random = fastrand::Rng::with_seed(36);
+        for axis in 0..3 {
+            let centre = (BOX_MIN[axis] + BOX_MAX[axis]) / 2.0;
+            for slot in 0..cloud.len() {
+                let offset = 0.1 * random.f64() - 0.05;
+                cloud.p[axis][slot] = centre + offset;
+                let speed = -offset / 0.012;
+                (cloud.v[axis][slot], cloud.hv[axis][slot]) = (speed, speed);
+            }
+        }
+        cloud
+    }
+
+    /// A model as another gives it, but with no partnerless results: its steps move every
+    /// particle into cell order.
+    #[derive(Debug, Clone)]
+    struct Moving(Box<dyn Dynamics>);
+
+    impl Dynamics for Moving {
+        fn cutoff(&self, ppm: f64) -> f64 {
+            self.0.cutoff(ppm)
+        }
+        fn default_time_step(&self) -> TimeStep {
+            self.0.default_time_step()
+        }
+        fn pressure(&self, density: f64) -> f64 {
+            self.0.pressure(density)
+        }
+        fn carries_densities(&self) -> bool {
+            self.0.carries_densities()
+        }
+        fn prepare(&mut self, params: &Params, particles: &Particles) {
+            self.0.prepare(params, particles)
+        }
+        fn interact(&mut self, context: &mut Context) {
+            self.0.interact(context)
+        }
+        fn refresh_densities(&mut self, context: &mut Context) {
+            self.0.refresh_densities(context)
+        }
+        fn adaptive_step(
+            &self,
+            params: &Params,
+            particles: &Particles,
+            courant: f64,
+        ) -> (f64, Limit) {
+            self.0.adaptive_step(params, particles, courant)
+        }
+        fn advance(&mut self, step: Leapfrog, walls: &Walls, particles: &mut Particles) {
+            self.0.advance(step, walls, particles)
+        }
+        fn run_stage(&mut self, stage: Stage, context: &mut Context) {
+            self.0.run_stage(stage, context)
+        }
+    }
+
     #[test]
     fn steps_that_leave_lone_particles_in_place_go_as_steps_that_move_them() {
+        // Every model that gives partnerless results, kernel, structure, integrator and
+        // step rule, on a cloud that stays sparse and one that turns dense.
+        let (mut in_place, mut turned_dense) = (0, 0);
         for model in [Model::Course, Model::Fluidanimate] {
-            for kernel in [Kernel::Simd, Kernel::Scalar, Kernel::Reference] {
-                let method = Method { model, kernel };
-                let start = Simulation::with_method(204.0, scattered_cloud(), method).unwrap();
-                assert!(start.cells().is_sparse());
-                // Steps, which leave lone particles in place, against stage 1 run alone,
-                // which moves every particle into cell order, then the other stages.
-                let (mut stepped, mut staged) = (start.clone(), start.clone());
-                let mut states = Vec::new();
-                for _ in 0..12 {
-                    states.push(stepped.resumable());
-                    stepped.step();
-                    // Some particles copied out for the pair passes, the others left.
-                    let paired = stepped.cells().paired().len();
-                    assert!(stepped.cells().is_in_place() && paired > 0 && paired < 400);
-                    for stage in Stage::ALL {
-                        staged.run_stage(stage);
+            for (kernel, structure) in Kernel::ALL
+                .into_iter()
+                .flat_map(|kernel| PairStructure::ALL.map(|structure| (kernel, structure)))
+            {
+                for integrator in [Integrator::Leapfrog, Integrator::Verlet] {
+                    for time_step in [TimeStep::Fixed(1e-3), TimeStep::Adaptive { courant: 0.4 }] {
+                        for cloud in [scattered_cloud(), converging_cloud()] {
+                            let what = format!(
+                                "{} {} {structure:?} {integrator:?} {time_step:?}",
+                                model.name(),
+                                kernel.name()
+                            );
+                            let method = Method { model, kernel };
+                            let start = |dynamics| {
+                                let domain = Domain::COURSE;
+                                let mut sim = Simulation::with_dynamics(
+                                    204.0,
+                                    domain,
+                                    cloud.clone(),
+                                    method,
+                                    dynamics,
+                                )
+                                .unwrap();
+                                sim.set_pair_structure(structure);
+                                sim.set_integrator(integrator);
+                                sim.set_time_step(time_step);
+                                sim
+                            };
+                            let mut stepped = start(model.dynamics());
+                            let mut moved = start(Box::new(Moving(model.dynamics())));
+                            let mut states = Vec::new();
+                            for step in 0..12 {
+                                states.push(stepped.resumable());
+                                stepped.step();
+                                moved.step();
+                                assert!(!moved.cells().is_in_place());
+                                in_place += usize::from(stepped.cells().is_in_place());
+                                turned_dense += usize::from(
+                                    stepped.cells().is_in_place() && !stepped.cells().is_sparse(),
+                                );
+                                // Debug's shortest round-trip digits tell every two f64
+                                // apart, -0.0 from 0.0; the particles in slot order.
+                                let (a, b) = (stepped.resumable(), moved.resumable());
+                                assert!(
+                                    format!("{a:?}") == format!("{b:?}"),
+                                    "{what}, step {step}"
+                                );
+                                let ids = stepped.slot_order().map(|k| stepped.particles().id[k]);
+                                assert!(ids.eq(moved.particles().id.iter().copied()), "{what}");
+                            }
+                            let end = format!("{:?}", stepped.resumable());
+                            // A copy for a model that does not take over the placement.
+                            let water = Method {
+                                model: Model::Wcsph,
+                                kernel: Kernel::Simd,
+                            };
+                            let [a, b] = [&stepped, &moved].map(|sim| {
+                                format!("{:?}", sim.clone_with_method(water).unwrap().resumable())
+                            });
+                            assert!(a == b, "{what}: the water model's copy");
+                            // A copy placed afresh, and stages run alone after a step.
+                            let fresh = format!("{:?}", stepped.with_fresh_densities().particles());
+                            assert_eq!(
+                                fresh,
+                                format!("{:?}", moved.with_fresh_densities().particles())
+                            );
+                            for stage in &Stage::ALL[1..] {
+                                stepped.run_stage(*stage);
+                                moved.run_stage(*stage);
+                            }
+                            assert_eq!(
+                                format!("{:?}", stepped.particles()),
+                                format!("{:?}", moved.particles()),
+                                "{what}"
+                            );
+                            // Each checkpoint resumes bit for bit.
+                            for (done, state) in states.into_iter().enumerate() {
+                                let mut resumed = Simulation::resume(state).unwrap();
+                                resumed.run(12 - done as u64);
+                                assert!(
+                                    format!("{:?}", resumed.resumable()) == end,
+                                    "{what}, after {done}"
+                                );
+                            }
+                        }
                     }
-                    assert!(!staged.cells().is_in_place());
-                    let what = format!("{} {}", model.name(), kernel.name());
-                    // In slot order, every field (Debug tells every two f64 apart).
-                    let (a, b) = (stepped.resumable().particles, staged.resumable().particles);
-                    assert_eq!(format!("{a:?}"), format!("{b:?}"), "{what}");
-                }
-                // A checkpoint of a step that left them in place resumes bit for bit.
-                let end = format!("{:?}", stepped.resumable());
-                for (done, state) in states.into_iter().enumerate() {
-                    let mut resumed = Simulation::resume(state).unwrap();
-                    resumed.run(12 - done as u64);
-                    assert!(format!("{:?}", resumed.resumable()) == end, "after {done}");
                 }
             }
         }
+        // Steps left the particles in place, some of them where the scene turned dense.
+        assert!(
+            in_place > 1000 && turned_dense > 0,
+            "{in_place}, {turned_dense}"
+        );
     }
 
     #[test]

@@ -94,7 +94,8 @@ pub struct Context<'a> {
     /// The neighbour lists of the same placement, where the driver built them (a dense
     /// scene, a kernel on lanes, lists asked for).
     pub lists: Option<&'a NeighbourLists>,
-    /// The walls of each slot's block (stage 1).
+    /// The walls of each slot's block (stage 1); of each stored particle during a step
+    /// that left the particles in place ([`Dynamics::partnerless`]).
     pub walls: &'a Walls,
     /// A new number each time the particles are placed (stage 1) or the kernel changes:
     /// what a model found in an earlier placement is stale.
@@ -103,7 +104,8 @@ pub struct Context<'a> {
     pub integrator: Integrator,
     /// The last step's length (none before the first step).
     pub previous_step: Option<f64>,
-    /// The particles, in cell order and padded.
+    /// The particles, in cell order and padded (during a step that left the particles in
+    /// place, the compact copy of those that may have a pair).
     pub particles: &'a mut Particles,
 }
 
@@ -179,7 +181,9 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// What [`Self::interact`] leaves a particle no candidate pair reaches, where that is
     /// the same for every such particle; `None` (the default) where it depends on the
     /// particle. Where given, the driver may leave such particles where they are and run
-    /// the pair passes on a compact copy of the others.
+    /// [`Self::interact`] on a compact copy of the others ([`Context::particles`]: fewer
+    /// than all, and [`Context::walls`] then per stored particle, not per slot of the
+    /// copy), so a model that gives it must not read the walls in its pair passes.
     fn partnerless(&self, _params: &Params) -> Option<Partnerless> {
         None
     }
