@@ -105,16 +105,29 @@ impl NearKeys {
         self.shift = u64::BITS - index_bits;
         self.words.clear();
         self.words.resize(1 << index_bits, 0);
+        // Keys k / 64 wrap at 2^58 as k does at 2^64.
+        const GROUPS: u64 = 1 << 58;
         for &key in cell_keys {
-            for k in [key.wrapping_sub(1), key, key + 1] {
-                let word = self.word(k);
-                self.words[word] |= 1 << (k % 64);
+            // The bits of key - 1, key and key + 1: one word, or two where they straddle.
+            let low = key.wrapping_sub(1);
+            let bits = 0b111u128 << (low % 64);
+            let word = self.word_of_group(low / 64);
+            self.words[word] |= bits as u64;
+            let carried = (bits >> 64) as u64;
+            if carried != 0 {
+                let next = self.word_of_group((low / 64 + 1) % GROUPS);
+                self.words[next] |= carried;
             }
         }
     }
 
     fn word(&self, key: u64) -> usize {
-        ((key / 64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> self.shift) as usize
+        self.word_of_group(key / 64)
+    }
+
+    /// The word of the keys 64 `group`..64 `group` + 63.
+    fn word_of_group(&self, group: u64) -> usize {
+        (group.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> self.shift) as usize
     }
 
     /// Whether `key` may be within 1 of an occupied cell's key (surely not if false).
@@ -352,11 +365,22 @@ mod tests {
 
     #[test]
     fn the_near_key_filter_holds_every_key_within_one_of_a_cell() {
+        // Keys at either end of a word's 64 and of the u64 range, each alone.
+        for key in [0, 63, 64, 127, 1 << 40, u64::MAX - 2] {
+            let mut near = NearKeys::default();
+            near.fill(&[key]);
+            for k in [key.wrapping_sub(1), key, key.wrapping_add(1)] {
+                assert!(near.may_hold(k), "{k} near {key}");
+            }
+            assert!(!near.may_hold(key.wrapping_add(2)) || !near.may_hold(key.wrapping_sub(2)));
+        }
         let cells: Vec<u64> = (0..500u64).map(|k| k * k * 7919 % 100_003 + 1).collect();
         let mut near = NearKeys::default();
         near.fill(&cells);
         for &key in &cells {
-            assert!(near.may_hold(key - 1) && near.may_hold(key) && near.may_hold(key + 1));
+            for k in [key.wrapping_sub(1), key, key.wrapping_add(1)] {
+                assert!(near.may_hold(k), "{k} near {key}");
+            }
         }
         let far = (0..100_000u64).filter(|&k| near.may_hold(k)).count();
         assert!(far < 10 * 3 * cells.len(), "{far} keys pass the filter");
