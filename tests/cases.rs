@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{exit_code, run_lab, stderr, stdout};
+use common::{entries, exit_code, run_lab, stderr, stdout};
 use std::path::{Path, PathBuf};
 
 /// The case `name` of `cases/`.
@@ -179,13 +179,8 @@ fn flags_beside_a_case_override_it_and_its_run_and_outputs_apply() {
         timed.as_os_str(),
     ]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
-    let mut written: Vec<String> = std::fs::read_dir(&timed)
-        .unwrap()
-        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    written.sort();
     assert_eq!(
-        written,
+        entries(&timed),
         ["ball_000000.vtk", "ball_000002.vtk", "ball_000004.vtk"]
     );
     let picture = dir.path().join("ball.png");

@@ -48,12 +48,7 @@ impl Scratch {
 
     /// The names in the folder, sorted.
     fn listing(&self) -> Vec<String> {
-        let mut names: Vec<String> = std::fs::read_dir(self.dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        names.sort();
-        names
+        common::entries(self.dir.path())
     }
 }
 

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{exit_code, input, reference_output, run_lab, stderr, stdout};
+use common::{entries, exit_code, input, reference_output, run_lab, stderr, stdout};
 use fluid::io::fld;
 use std::collections::HashMap;
 use std::path::Path;
@@ -565,13 +565,8 @@ fn a_png_series_in_physical_time_has_a_frame_per_interval() {
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     // 1 ms steps: the second is cut to 0.5 ms to land on 1.5 ms (frame at step 2), the
     // third reaches 2.5 ms and the fourth is cut to land on 3 ms (frame at step 4).
-    let mut written: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    written.sort();
     assert_eq!(
-        written,
+        entries(dir.path()),
         ["frame_000000.png", "frame_000002.png", "frame_000004.png"],
         "{}",
         stdout(&output)

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{exit_code, input, run_fluid, run_lab, stderr, stdout};
+use common::{entries, exit_code, input, run_fluid, run_lab, stderr, stdout};
 use std::ffi::OsStr;
 use std::os::unix::ffi::OsStrExt;
 use std::os::unix::fs::PermissionsExt;
@@ -12,16 +12,6 @@ use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-/// The names in `dir`, hidden ones included, sorted.
-fn entries(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
 
 /// An `.fld` file of particles at rest at `positions`, `ppm` particles per metre.
 fn fld(path: &Path, ppm: f32, records: &[[f32; 9]]) {

@@ -825,11 +825,7 @@ impl Simulation {
         self.find_tiles();
         let skin = self.skin.as_ref().map_or(0.0, Skin::width);
         let reach = self.params.h + skin;
-        let particles = if self.cells.is_in_place() {
-            &self.spare
-        } else {
-            &self.particles
-        };
+        let particles = placed(&self.cells, &self.particles, &self.spare);
         let (tiles, n) = (self.search.tiles(), particles.len());
         self.lists_built = self.lists.build(tiles, &particles.p, n, reach).is_ok();
     }
@@ -841,11 +837,7 @@ impl Simulation {
         let layout = self.cells.layout();
         let skin = self.skin.as_ref().map_or(0.0, Skin::width);
         let reach = self.params.h + skin;
-        let particles = if self.cells.is_in_place() {
-            &self.spare
-        } else {
-            &self.particles
-        };
+        let particles = placed(&self.cells, &self.particles, &self.spare);
         self.clusters.build(paired, layout, particles, reach);
     }
 
@@ -862,6 +854,17 @@ impl Simulation {
 
     fn find_tiles(&mut self) {
         self.search.find(self.cells.keys(), self.cells.layout());
+    }
+}
+
+/// The particles the placement of `cells` indexes by slot (its tiles, lists and
+/// clusters): the compact copy in `spare` of those that may have a pair where it left
+/// the particles in place, else `particles`.
+fn placed<'a>(cells: &CellOrder, particles: &'a Particles, spare: &'a Particles) -> &'a Particles {
+    if cells.is_in_place() {
+        spare
+    } else {
+        particles
     }
 }
 
