@@ -12,6 +12,10 @@
 //! 11 bits. Its memory is proportional to the particles, not to the grid or to the space the
 //! particles spread over, and it does no work on empty cells. Particles of one cell are
 //! contiguous, and so are the three cells of any row along x, which the pair search uses.
+//! Within a cell the particles are in the order of their ids: the slot order, and so every
+//! sum of the pair passes, depends on the particles alone, never on the order they were
+//! stored in or on what the lone filter let through (SPEC.md's order of stage 1, by the old
+//! block, gives the same outputs of steps 1 to 5, which do not depend on the pair order).
 //! The clamped block still decides the wall stages: each particle's walls are recorded here.
 
 use crate::sim::grid::Grid;
@@ -272,13 +276,29 @@ fn wall_bits(grid: &Grid, block: [i64; 3]) -> WallBits {
 /// only ever add counts, so a particle it calls lone is lone. The lookups run on lanes of
 /// 8 particles, each block's 8 lookups one gather ([`Gathers::words8`]) on AVX-512, two on
 /// AVX2.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 struct LoneFilter {
     /// Two bits per hashed block: bit 0 "one particle or more", bit 1 "two or more".
     words: Vec<u64>,
     /// 64 minus the table's index bits.
     shift: u32,
+    /// The table's size in blocks per particle (rounded up to a power of two in all).
+    blocks_per_particle: usize,
 }
+
+impl Default for LoneFilter {
+    fn default() -> Self {
+        LoneFilter {
+            words: Vec::new(),
+            shift: 0,
+            blocks_per_particle: DEFAULT_FILTER_BLOCKS,
+        }
+    }
+}
+
+/// The lone filter's table size in blocks per particle, unless set otherwise: about 64
+/// blocks per particle, so a block counts others by mistake rarely.
+pub const DEFAULT_FILTER_BLOCKS: usize = 64;
 
 /// Bits per block coordinate in a packed block; coordinates are offset to be positive.
 const BLOCK_BITS: u32 = 16;
@@ -300,8 +320,9 @@ impl LoneFilter {
     /// Marks which of `cells` (coarse cells) are lone: bit `i % 8` of `lone[i / 8]` for
     /// `cells[i]`.
     fn find<G: Gathers>(&mut self, isa: G, cells: &[Cell], lone: &mut Vec<u8>) {
-        // About 64 blocks per particle: a block counts others by mistake rarely.
-        let index_bits = (64 * cells.len().max(1)).next_power_of_two().ilog2();
+        let blocks = self.blocks_per_particle * cells.len().max(1);
+        // At least 32 blocks: one word.
+        let index_bits = blocks.next_power_of_two().ilog2().max(5);
         self.shift = u64::BITS - index_bits;
         self.words.clear();
         self.words.resize((1 << index_bits) / 32, 0);
@@ -419,6 +440,8 @@ pub struct CellOrder {
     /// ([`Self::sort_in_place`]): the next sort then reads them in its slot order.
     in_place: bool,
     lone_filter: LoneFilter,
+    /// Whether the lone filter is off: every sort then orders every particle by cell.
+    unfiltered: bool,
     /// The lone filter's answer: bit `i % 8` of byte `i / 8` for stored particle `i`.
     lone: Vec<u8>,
     /// The instructions the lone filter's lookups run on.
@@ -452,6 +475,19 @@ impl CellOrder {
         self.isa = isa;
     }
 
+    /// Filters out lone particles with a table of `blocks_per_particle` blocks per
+    /// particle (rounded up to a power of two in all; [`DEFAULT_FILTER_BLOCKS`] unless
+    /// set), or, with `None`, never. Only the work changes: the slot order of the
+    /// particles that may have a pair, and so every result, does not.
+    ///
+    /// # Panics
+    /// If `blocks_per_particle` is `Some(0)`.
+    pub fn set_lone_filter(&mut self, blocks_per_particle: Option<usize>) {
+        assert_ne!(blocks_per_particle, Some(0), "a lone filter needs a table");
+        self.unfiltered = blocks_per_particle.is_none();
+        self.lone_filter.blocks_per_particle = blocks_per_particle.unwrap_or(DEFAULT_FILTER_BLOCKS);
+    }
+
     /// An empty cell order whose next sort runs as after a sort that found the particles
     /// sparse (`sparse`) or not.
     pub fn resumed(sparse: bool) -> CellOrder {
@@ -478,9 +514,9 @@ impl CellOrder {
 
     /// Sorts `particles` by cell, for the caller to move them into that order (slot k
     /// receives stored particle `order()[k]`); their walls are those of the blocks the
-    /// grid gives their positions, per slot. Ties keep the previous slot order: the
-    /// particles' storage order, or the last sort's slot order where it left them in
-    /// place. Returns whether any particle changes slot (if not, [`Self::order`] is the
+    /// grid gives their positions, per slot. Within a cell, the
+    /// slots are in the order of the particles' ids; the lone particles follow the others
+    /// in their previous slot order. Returns whether any particle changes slot (if not, [`Self::order`] is the
     /// identity).
     pub fn sort(&mut self, grid: &Grid, particles: &Particles) -> bool {
         self.sort_placing(grid, particles, false)
@@ -502,7 +538,7 @@ impl CellOrder {
         let walls = self.cells.iter().map(|c| wall_bits(grid, c.map(i64::from)));
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
-        self.finish(may_stay)
+        self.finish(&particles.id, may_stay)
     }
 
     /// As [`Self::sort`], on the cells of `search` (a grid of larger blocks, for lists
@@ -513,7 +549,7 @@ impl CellOrder {
         self.wall_bits.clear();
         let walls = (0..particles.len()).map(|slot| slot_walls(grid, particles, slot));
         self.wall_bits.extend(walls);
-        self.finish(false)
+        self.finish(&particles.id, false)
     }
 
     /// Recomputes the walls of every slot from its particle's current block of `grid`,
@@ -535,7 +571,7 @@ impl CellOrder {
             .map(|&b| wall_bits(grid, grid.coords(b as usize).map(|c| c as i64)));
         self.wall_bits.clear();
         self.wall_bits.extend(walls);
-        self.finish(false)
+        self.finish(&particles.id, false)
     }
 
     /// The coarse cell of every particle.
@@ -567,9 +603,9 @@ impl CellOrder {
         rest.copy_from_slice(&last[..rest.len()]);
     }
 
-    fn finish(&mut self, may_stay: bool) -> bool {
+    fn finish(&mut self, ids: &[u32], may_stay: bool) -> bool {
         let n = self.cells.len();
-        let filtering = self.sparse;
+        let filtering = self.sparse && !self.unfiltered;
         if filtering {
             self.isa.run(FindLone {
                 filter: &mut self.lone_filter,
@@ -601,6 +637,7 @@ impl CellOrder {
         if !self.keys.is_sorted() {
             self.radix_sort();
         }
+        self.order_cells_by_id(ids);
         let cells = n - paired + self.keys.chunk_by(|a, b| a == b).count();
         self.sparse = 2 * cells > n;
         self.keys.extend([u64::MAX; SENTINELS]);
@@ -652,6 +689,30 @@ impl CellOrder {
         self.order.truncate(paired);
         self.order.extend_from_slice(&self.spare_order[..lone]);
         paired
+    }
+
+    /// Puts the slots of each cell in the order of their particles' ids (`ids`, per
+    /// stored particle), so that the slot order of the particles that may have a pair
+    /// depends on the particles alone, never on the order they came in (which the lone
+    /// filter decides): by insertion, as a cell holds few particles, most of them in id
+    /// order already.
+    fn order_cells_by_id(&mut self, ids: &[u32]) {
+        let paired = self.keys.len();
+        let (keys, order) = (&self.keys[..], &mut self.order[..paired]);
+        for slot in 1..paired {
+            let key = keys[slot];
+            if keys[slot - 1] != key {
+                continue;
+            }
+            let stored = order[slot];
+            let id = ids[stored as usize];
+            let mut at = slot;
+            while at > 0 && keys[at - 1] == key && ids[order[at - 1] as usize] > id {
+                order[at] = order[at - 1];
+                at -= 1;
+            }
+            order[at] = stored;
+        }
     }
 
     /// Stable LSD radix sort of `keys` (carrying the slots at the front of `order`, one
@@ -953,6 +1014,55 @@ mod tests {
         assert_eq!(keys[4..], [u64::MAX; SENTINELS]);
         assert_eq!(cells.walls().on(0, Wall::Low), [0, 1]);
         assert_eq!(cells.walls().on(0, Wall::High), [3]);
+    }
+
+    #[test]
+    fn within_a_cell_slots_follow_the_ids_whatever_the_storage_order() {
+        let grid = grid();
+        // 40 particles in a few cells of a dense corner, and 400 lone ones far apart,
+        // stored in a shuffled order; sorted as dense and as sparse (the lone filter on).
+        let mut random = fastrand::Rng::with_seed(44);
+        let dense = (0..40).map(|_| {
+            let mut point = [0.0; 3];
+            for d in 0..3 {
+                point[d] = BOX_MIN[d] + 2.5 * grid.block_size[d] * random.f64();
+            }
+            point
+        });
+        let lone = (0..400).map(|k| {
+            [
+                0.5 + 0.1 * (k % 20) as f64,
+                0.5 + 0.1 * (k / 20) as f64,
+                0.5,
+            ]
+        });
+        let points: Vec<[f64; 3]> = dense.chain(lone).collect();
+        let mut shuffled: Vec<u32> = (0..points.len() as u32).collect();
+        random.shuffle(&mut shuffled);
+        let mut stored = positions(&points).permuted(&shuffled);
+        stored.pad();
+        for sparse in [false, true] {
+            let mut cells = CellOrder::resumed(sparse);
+            cells.sort(&grid, &stored);
+            let paired = cells.keys().len() - SENTINELS;
+            // The far lattice's coarse cells merge, so it is only partly lone.
+            assert!(
+                paired >= 40 && (paired < points.len()) == sparse,
+                "{paired}"
+            );
+            let ids: Vec<u32> = cells
+                .paired()
+                .iter()
+                .map(|&k| stored.id[k as usize])
+                .collect();
+            let keys = &cells.keys()[..paired];
+            let mut expected: Vec<(u64, u32)> = keys.iter().copied().zip(ids.clone()).collect();
+            expected.sort_unstable();
+            let sorted: Vec<(u64, u32)> = keys.iter().copied().zip(ids).collect();
+            assert_eq!(sorted, expected, "sparse: {sparse}");
+            // Some cells hold several particles, stored out of id order.
+            assert!(keys.windows(2).filter(|w| w[0] == w[1]).count() > 10);
+        }
     }
 
     #[test]

@@ -529,6 +529,13 @@ impl Simulation {
         self.cells.set_instruction_set(isa);
     }
 
+    /// Filters out lone particles in stage 1 with a table of `blocks_per_particle` blocks
+    /// per particle, or never (`None`): see [`CellOrder::set_lone_filter`]. Only the work
+    /// changes, never a result.
+    pub fn set_lone_filter(&mut self, blocks_per_particle: Option<usize>) {
+        self.cells.set_lone_filter(blocks_per_particle);
+    }
+
     /// The structure the SIMD pair loops run on from the next placement.
     pub fn pair_structure(&self) -> PairStructure {
         self.structure
