@@ -23,17 +23,7 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 labs=()
 for rev in "$1" "$2"; do
-    hash="$(git rev-parse --short "$rev")"
-    tree="target/revisions/$hash"
-    if [ ! -x "$tree/target/release/fluid-lab" ]; then
-        if [ ! -d "$tree" ]; then
-            git worktree add --detach --force "$tree" "$hash" >/dev/null 2>&1
-        fi
-        mkdir -p "$tree/.cargo"
-        cp .cargo/config.toml "$tree/.cargo/config.toml"
-        (cd "$tree" && cargo build --release --quiet --bin fluid-lab)
-    fi
-    labs+=("$root/$tree/target/release/fluid-lab")
+    labs+=("$(scripts/build-revision.sh "$rev" fluid-lab)")
 done
 "${labs[0]}" scene dam-break "$work/dam.fld" --ppm "$ppm" >/dev/null
 

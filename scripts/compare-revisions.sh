@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Times whole `fluid` runs of several git revisions side by side, in one hyperfine run
 # (ratios measured together are what a noisy machine can support). Each revision is
-# checked out into target/revisions/<rev> and built there with the current
-# .cargo/config.toml (target-cpu=native).
+# built by scripts/build-revision.sh (target/revisions/<hash>, the current
+# .cargo/config.toml: target-cpu=native).
 #
 # Usage: scripts/compare-revisions.sh "STEPS INPUT" REV [REV ...]
 #   e.g. scripts/compare-revisions.sh "1000 data/in/large.fld" f0edf9e HEAD
@@ -30,15 +30,8 @@ mkdir -p target/revisions
 commands=()
 for rev in "$@"; do
     hash="$(git rev-parse --short "$rev")"
-    tree="target/revisions/$hash"
-    if [ ! -x "$tree/target/release/fluid" ]; then
-        rm -rf "$tree"
-        git worktree add --detach --force "$tree" "$hash" >/dev/null 2>&1
-        mkdir -p "$tree/.cargo"
-        cp .cargo/config.toml "$tree/.cargo/config.toml"
-        (cd "$tree" && cargo build --release --quiet --bin fluid)
-    fi
-    commands+=(-n "$rev ($hash)" "$tree/target/release/fluid $steps $input /dev/null")
+    fluid="$(scripts/build-revision.sh "$rev" fluid)"
+    commands+=(-n "$rev ($hash)" "$fluid $steps $input /dev/null")
 done
 report="target/revisions/$steps-$(basename "$input" .fld)"
 outputs=()

@@ -1,11 +1,12 @@
 //! The workbench wing (`fluid-lab`): everything `fluid`'s fixed contract leaves out, on
 //! the same library. Its concepts are modules here: generated [`scene`]s, per-state
-//! [`diagnostics`], [`accuracy`] against the reference trajectory, [`stability`] maps,
+//! [`diagnostics`], [`chaos`] (how far outputs scatter), [`accuracy`] against the reference trajectory, [`stability`] maps,
 //! iteration [`sweep`]s with their [`energy`] and [`machine`], job arrays on [`slurm`], [`chart`]s, [`render`]ed
 //! pictures, [`gauges`], [`still_water`] and [`validation`] against experiments. The
 //! command line is [`Lab`], one module of `commands/` per subcommand.
 
 pub mod accuracy;
+pub mod chaos;
 pub mod chart;
 mod commands;
 pub mod diagnostics;
@@ -60,6 +61,9 @@ enum Command {
     Render(commands::render::RenderArgs),
     /// Compare two .fld files: largest and RMS error per field, and the worst particle.
     Compare(commands::compare::CompareArgs),
+    /// Copies of an input moved by one ulp, and a state judged against the ensemble of
+    /// states runs on them give (is a change of the outputs no bigger than chaos?).
+    Chaos(commands::chaos::ChaosArgs),
     /// Time per step against error, for each model and kernel, relative to the reference
     /// trajectory: a CSV and two charts.
     Accuracy(commands::accuracy::AccuracyArgs),
@@ -89,6 +93,7 @@ impl Lab {
             Command::Export(args) => commands::export::exec(args, stdout),
             Command::Render(args) => commands::render::exec(args, stdout),
             Command::Compare(args) => commands::compare::exec(args, stdout),
+            Command::Chaos(args) => commands::chaos::exec(args, stdout),
             Command::Accuracy(args) => commands::accuracy::exec(args, stdout),
             Command::Stability(args) => commands::stability::exec(args, stdout),
             Command::Scene(args) => commands::scene::exec(args),

@@ -4,6 +4,7 @@
 //! tells when two of a command's files are one.
 
 pub mod accuracy;
+pub mod chaos;
 pub mod chart;
 pub mod compare;
 pub mod export;

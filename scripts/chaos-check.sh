@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Is a change of `fluid`'s long-run outputs no bigger than chaos? For each input and step
+# count, runs the previous revision's fluid on the input and on COPIES copies of it with
+# one coordinate of one particle moved by one ulp (fluid-lab chaos perturb), runs the new
+# revision's fluid on the input, and judges the new output against that ensemble
+# (fluid-lab chaos check: particle count, mean and RMS speed, kinetic energy, mean
+# density, centre of mass, fraction inside the box, fraction with a partner closer than
+# h, histogram of speeds; each within the ensemble's range widened by its standard
+# deviation). Prints one markdown table per run; exits 1 if any statistic falls outside.
+#
+# Usage: scripts/chaos-check.sh PREVIOUS_REV [NEW_REV] [-- INPUT ...]
+#   NEW_REV defaults to the work tree (its release build); inputs to data/in/small.fld and
+#   data/in/large.fld. STEPS (default "1000 3000") and COPIES (default 8) come from the
+#   environment.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+if [ $# -lt 1 ] || [ "$1" = "--" ]; then
+    echo "usage: $0 PREVIOUS_REV [NEW_REV] [-- INPUT ...]" >&2
+    exit 2
+fi
+previous="$(scripts/build-revision.sh "$1" fluid)"
+shift
+cargo build --release --quiet --bins
+lab="$root/target/release/fluid-lab"
+new="$root/target/release/fluid"
+if [ $# -gt 0 ] && [ "$1" != "--" ]; then
+    new="$(scripts/build-revision.sh "$1" fluid)"
+    shift
+fi
+[ $# -gt 0 ] && [ "$1" = "--" ] && shift
+inputs=("$@")
+[ ${#inputs[@]} -gt 0 ] || inputs=(data/in/small.fld data/in/large.fld)
+steps="${STEPS:-1000 3000}"
+copies="${COPIES:-8}"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+status=0
+for input in "${inputs[@]}"; do
+    name="$(basename "$input" .fld)"
+    mkdir -p "$work/$name"
+    "$lab" chaos perturb "$input" "$work/$name/in" --copies "$copies" >/dev/null
+    for n in $steps; do
+        ensemble=("$work/$name/previous-$n.fld")
+        "$previous" "$n" "$input" "${ensemble[0]}" >/dev/null
+        for ((k = 0; k < copies; k++)); do
+            ensemble+=("$work/$name/previous-$n-ulp$k.fld")
+            "$previous" "$n" "$work/$name/in/$name-ulp$k.fld" "${ensemble[-1]}" >/dev/null
+        done
+        "$new" "$n" "$input" "$work/$name/new-$n.fld" >/dev/null
+        echo
+        echo "### fluid $n $input: the new revision against the previous one's ensemble of $((copies + 1))"
+        echo
+        if ! "$lab" chaos check "$work/$name/new-$n.fld" "${ensemble[@]}"; then
+            status=1
+        fi
+        if cmp -s "$work/$name/new-$n.fld" "${ensemble[0]}"; then
+            echo
+            echo "(the new output is byte-identical to the previous revision's)"
+        fi
+    done
+done
+exit "$status"

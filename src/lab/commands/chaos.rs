@@ -1,0 +1,119 @@
+//! `fluid-lab chaos`: copies of an input with one coordinate moved by one ulp, and a
+//! state judged against the ensemble of states that runs on them give (see [`chaos`]).
+
+use crate::io::output::OutputFile;
+use crate::lab::chaos::{self, Statistics};
+use crate::lab::commands::create_output_dir;
+use crate::lab::UsageError;
+use clap::{Args, Subcommand};
+use std::error::Error;
+use std::io::Write;
+use std::path::PathBuf;
+
+/// The arguments of `fluid-lab chaos`.
+#[derive(Debug, Args)]
+pub struct ChaosArgs {
+    #[command(subcommand)]
+    action: Action,
+}
+
+#[derive(Debug, Subcommand)]
+enum Action {
+    /// Write copies of an input, each with one coordinate of one particle moved up by one
+    /// ulp of its f32 (copy k: FOLDER/<input's name>-ulp<k>.fld).
+    Perturb(PerturbArgs),
+    /// Judge a state against an ensemble of states (runs of the same steps on the input
+    /// and its perturbed copies): each statistic must lie within the ensemble's range
+    /// widened by its standard deviation. Prints a markdown table; exits 1 if one does not.
+    Check(CheckArgs),
+}
+
+/// The arguments of `fluid-lab chaos perturb`.
+#[derive(Debug, Args)]
+struct PerturbArgs {
+    /// The `.fld` input.
+    input: PathBuf,
+    /// The folder the copies go to (created if missing).
+    folder: PathBuf,
+    /// How many copies.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    copies: u32,
+}
+
+/// The arguments of `fluid-lab chaos check`.
+#[derive(Debug, Args)]
+struct CheckArgs {
+    /// The state judged (a `.fld` output).
+    candidate: PathBuf,
+    /// The ensemble's states (at least two `.fld` outputs).
+    #[arg(required = true, num_args = 2..)]
+    ensemble: Vec<PathBuf>,
+}
+
+/// Runs `fluid-lab chaos`.
+pub fn exec(args: ChaosArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    match args.action {
+        Action::Perturb(args) => perturb(args, stdout),
+        Action::Check(args) => check(args, stdout),
+    }
+}
+
+fn perturb(args: PerturbArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let name = args.input.display().to_string();
+    let bytes =
+        std::fs::read(&args.input).map_err(|error| format!("cannot read {name}: {error}"))?;
+    let stem = args
+        .input
+        .file_stem()
+        .ok_or_else(|| UsageError(format!("{name} names no file")))?
+        .to_string_lossy()
+        .into_owned();
+    let copies = args.copies as usize;
+    // Every copy made before any is written: a bad input leaves no folder.
+    let perturbed = (0..copies)
+        .map(|copy| chaos::perturbed(&bytes, copy, copies, &name))
+        .collect::<Result<Vec<_>, _>>()?;
+    create_output_dir(&args.folder)?;
+    writeln!(stdout, "copy,particle,axis,file")?;
+    for (copy, (bytes, id, axis)) in perturbed.into_iter().enumerate() {
+        let path = args.folder.join(format!("{stem}-ulp{copy}.fld"));
+        OutputFile::create(&path)?.commit(&bytes)?;
+        let axis = ["x", "y", "z"][axis];
+        writeln!(stdout, "{copy},{id},{axis},{}", path.display())?;
+    }
+    Ok(())
+}
+
+fn check(args: CheckArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let statistics = |path: &PathBuf| -> Result<Statistics, Box<dyn Error>> {
+        let name = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|error| format!("cannot read {name}: {error}"))?;
+        Ok(Statistics::of_file(&bytes, &name)?)
+    };
+    let candidate = statistics(&args.candidate)?;
+    let ensemble = args
+        .ensemble
+        .iter()
+        .map(statistics)
+        .collect::<Result<Vec<_>, _>>()?;
+    let verdicts = chaos::judge(&ensemble, &candidate);
+    write!(stdout, "{}", chaos::table(&verdicts))?;
+    stdout.flush()?;
+    let outside: Vec<&str> = verdicts
+        .iter()
+        .filter(|verdict| !verdict.holds())
+        .map(|verdict| verdict.name.as_str())
+        .collect();
+    if outside.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} of {} statistics outside the ensemble of {}: {}",
+            outside.len(),
+            verdicts.len(),
+            ensemble.len(),
+            outside.join(", ")
+        )
+        .into())
+    }
+}
