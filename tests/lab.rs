@@ -334,6 +334,78 @@ fn compare_reports_errors_per_field_and_refuses_different_sizes() {
 }
 
 #[test]
+fn chaos_moves_copies_by_one_ulp_and_judges_a_state_against_their_ensemble() {
+    let dir = tempfile::tempdir().unwrap();
+    let (small, copies) = (input("small"), dir.path().join("copies"));
+    let output = run_lab(&[
+        "chaos".as_ref(),
+        "perturb".as_ref(),
+        small.as_os_str(),
+        copies.as_os_str(),
+        "--copies".as_ref(),
+        "3".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert_eq!(stdout(&output).lines().count(), 4, "{}", stdout(&output));
+    let original = std::fs::read(&small).unwrap();
+    // The ensemble: 3 steps of fluid on the input and on each copy.
+    let mut ensemble = vec![dir.path().join("run.fld")];
+    let run = common::run_fluid(&["3".as_ref(), small.as_os_str(), ensemble[0].as_os_str()]);
+    assert_eq!(exit_code(&run), 0);
+    for k in 0..3 {
+        let copy = copies.join(format!("small-ulp{k}.fld"));
+        let bytes = std::fs::read(&copy).unwrap();
+        let differing = (0..bytes.len())
+            .filter(|&b| bytes[b] != original[b])
+            .map(|b| b / 4)
+            .collect::<std::collections::BTreeSet<_>>();
+        assert_eq!(bytes.len(), original.len());
+        assert_eq!(differing.len(), 1, "copy {k}");
+        ensemble.push(dir.path().join(format!("run-{k}.fld")));
+        let run = common::run_fluid(&["3".as_ref(), copy.as_os_str(), ensemble[k + 1].as_os_str()]);
+        assert_eq!(exit_code(&run), 0);
+    }
+    let check = |candidate: &std::path::Path| {
+        let mut args = vec!["chaos".as_ref(), "check".as_ref(), candidate.as_os_str()];
+        args.extend(ensemble.iter().map(|path| path.as_os_str()));
+        run_lab(&args)
+    };
+    // The reference output after 3 steps is a member's state: within.
+    let output = check(&reference_output("small", 3));
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let table = stdout(&output);
+    assert_eq!(table.matches("| yes |").count(), 19, "{table}");
+    assert!(table.contains("Leave one out: "), "{table}");
+    // After 1 step the particles are elsewhere: outside, named, exit 1.
+    let output = check(&reference_output("small", 1));
+    assert_eq!(exit_code(&output), 1);
+    assert!(stdout(&output).contains("**NO**"), "{}", stdout(&output));
+    assert!(
+        stderr(&output).contains("statistics outside the ensemble of 4: "),
+        "{}",
+        stderr(&output)
+    );
+    // An ensemble of one is refused by the command line; a missing input leaves no folder.
+    let output = run_lab(&["chaos", "check", "a.fld", "b.fld"]);
+    assert_eq!(exit_code(&output), 2);
+    let missing = dir.path().join("missing.fld");
+    let nowhere = dir.path().join("nowhere");
+    let output = run_lab(&[
+        "chaos".as_ref(),
+        "perturb".as_ref(),
+        missing.as_os_str(),
+        nowhere.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("missing.fld"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!nowhere.exists());
+}
+
+#[test]
 fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budget() {
     let dir = tempfile::tempdir().unwrap();
     let small = input("small");

@@ -199,6 +199,26 @@ pub fn judge(ensemble: &[Statistics], candidate: &Statistics) -> Vec<Verdict> {
         .collect()
 }
 
+/// The calibration of [`judge`] on the ensemble itself: each member judged against the
+/// others. Returns how many of the members' statistics fall outside, and how many were
+/// judged: the rate at which a run as chaotic as the members fails a statistic.
+pub fn leave_one_out(ensemble: &[Statistics]) -> (usize, usize) {
+    assert!(ensemble.len() >= 3, "an ensemble of {}", ensemble.len());
+    let (mut outside, mut judged) = (0, 0);
+    for (k, member) in ensemble.iter().enumerate() {
+        let others: Vec<Statistics> = ensemble
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != k)
+            .map(|(_, other)| other.clone())
+            .collect();
+        let verdicts = judge(&others, member);
+        outside += verdicts.iter().filter(|verdict| !verdict.holds()).count();
+        judged += verdicts.len();
+    }
+    (outside, judged)
+}
+
 /// The verdicts as a markdown table: statistic, the ensemble's range and deviation, the
 /// candidate's value and whether it holds.
 pub fn table(verdicts: &[Verdict]) -> String {
@@ -341,5 +361,15 @@ mod tests {
         assert!(!judge(&same, &statistics(&[5.0f64.next_up()]))[0].holds());
         let text = table(&judge(&same, &statistics(&[6.0])));
         assert!(text.contains("| s0 |") && text.contains("**NO**"), "{text}");
+    }
+
+    #[test]
+    fn leave_one_out_counts_the_members_outside_the_others() {
+        // Members 0, 1, 2, 10 of two statistics, the second equal for all: 10 against
+        // 0, 1, 2 (sd 1) is outside [-1, 3]; 0 against 1, 2, 10 (sd 4.9) is within.
+        let ensemble: Vec<Statistics> = [0.0, 1.0, 2.0, 10.0]
+            .map(|v| statistics(&[v, 7.0]))
+            .to_vec();
+        assert_eq!(leave_one_out(&ensemble), (1, 8));
     }
 }

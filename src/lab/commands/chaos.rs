@@ -24,7 +24,8 @@ enum Action {
     Perturb(PerturbArgs),
     /// Judge a state against an ensemble of states (runs of the same steps on the input
     /// and its perturbed copies): each statistic must lie within the ensemble's range
-    /// widened by its standard deviation. Prints a markdown table; exits 1 if one does not.
+    /// widened by its standard deviation. Prints a markdown table, and how often the
+    /// members themselves fall outside the others' range; exits 1 if one does not.
     Check(CheckArgs),
 }
 
@@ -98,6 +99,15 @@ fn check(args: CheckArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
         .collect::<Result<Vec<_>, _>>()?;
     let verdicts = chaos::judge(&ensemble, &candidate);
     write!(stdout, "{}", chaos::table(&verdicts))?;
+    if ensemble.len() >= 3 {
+        let (outside, judged) = chaos::leave_one_out(&ensemble);
+        writeln!(
+            stdout,
+            "\nLeave one out: {outside} of {judged} statistics of the members lie outside the \
+             others' range ({:.1}%), the rate at which a run as chaotic as they are fails one.",
+            100.0 * outside as f64 / judged as f64
+        )?;
+    }
     stdout.flush()?;
     let outside: Vec<&str> = verdicts
         .iter()
