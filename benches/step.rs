@@ -20,6 +20,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughpu
 use fluid::io::fld;
 use fluid::lab::scene;
 use fluid::sim::clusters::PairStructure;
+use fluid::sim::isa::InstructionSet;
 use fluid::sim::neighbours::TileSearch;
 use fluid::sim::params::GRAVITY;
 use fluid::sim::stages::{self, Stage};
@@ -189,6 +190,25 @@ fn stage_one_parts(c: &mut Criterion) {
                         true => cells.sort_in_place(&grid, particles),
                         false => cells.sort(&grid, particles),
                     },
+                    BatchSize::LargeInput,
+                )
+            });
+        }
+        // The lone filter's lookups on each instruction set this CPU runs (gathers, or
+        // loads lane by lane on the portable one).
+        for isa in InstructionSet::ALL
+            .into_iter()
+            .filter(|isa| isa.is_available())
+        {
+            let name = format!("cell-order-in-place/{}", isa.name());
+            group.bench_function(name, |b| {
+                b.iter_batched_ref(
+                    || {
+                        let mut cells = scattered.cells().clone();
+                        cells.set_instruction_set(isa);
+                        cells
+                    },
+                    |cells| cells.sort_in_place(&grid, particles),
                     BatchSize::LargeInput,
                 )
             });

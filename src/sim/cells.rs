@@ -86,15 +86,31 @@ fn coarse_coordinates(p: [f64; 8], min: f64, size: f64, exact_bits: u32) -> [i32
         .max(f64x8::splat(-CELL_LIMIT))
         .min(f64x8::splat(CELL_LIMIT));
     let magnitude = cell.abs();
-    let bits: i64x8 = wide::bytemuck::cast(magnitude);
-    let far =
-        (bits >> (52 - exact_bits)) - i64x8::splat((1022 + i64::from(exact_bits)) << exact_bits);
+    // A logical shift: the magnitude's sign bit is clear, and AVX2 has no arithmetic
+    // shift of 64-bit lanes.
+    let bits: u64x8 = wide::bytemuck::cast(magnitude);
+    let leading: i64x8 = wide::bytemuck::cast(bits >> (52 - exact_bits));
+    let far = leading - i64x8::splat((1022 + i64::from(exact_bits)) << exact_bits);
     let negative: i64x8 = wide::bytemuck::cast(cell.simd_lt(f64x8::ZERO));
     let far = negative.select(-far, far);
     let is_far: i64x8 =
         wide::bytemuck::cast(magnitude.simd_ge(f64x8::splat(f64::from(1u32 << exact_bits))));
-    let coordinates = is_far.select(far, cell.trunc_int()).to_array();
+    let coordinates = is_far.select(far, integer_value(cell)).to_array();
     coordinates.map(|c| c as i32)
+}
+
+/// 1.5 * 2^52: added to an integer of magnitude below 2^51, it leaves the integer in
+/// the low bits of the sum's mantissa, exactly.
+const INTEGER_MAGIC: f64 = 6_755_399_441_055_744.0;
+
+/// The integers that `integral` holds (each of magnitude below 2^51) as i64 lanes, by the
+/// bits of their sum with [`INTEGER_MAGIC`]: two vector additions, where a conversion
+/// without AVX-512DQ goes lane by lane.
+#[inline(always)]
+fn integer_value(integral: f64x8) -> i64x8 {
+    let magic = f64x8::splat(INTEGER_MAGIC);
+    let sum: i64x8 = wide::bytemuck::cast(integral + magic);
+    sum - wide::bytemuck::cast::<f64x8, i64x8>(magic)
 }
 
 /// The coarse cells of 8 positions (per axis), on lanes.
@@ -957,6 +973,32 @@ mod tests {
         whole.resize(whole.len().next_multiple_of(8), -0.0);
         for exact in 2..=11 {
             check(&whole, 0.0, 1.0, exact);
+        }
+    }
+
+    #[test]
+    fn integer_values_are_those_of_a_conversion() {
+        let limit = CELL_LIMIT;
+        let mut values = vec![
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            limit,
+            -limit,
+            limit - 1.0,
+            2.0f64.powi(50),
+        ];
+        let mut random = fastrand::Rng::with_seed(7);
+        values.extend(
+            (0..9992)
+                .map(|_| (random.f64() * 2.0 - 1.0) * limit)
+                .map(f64::floor),
+        );
+        for eight in values.chunks_exact(8) {
+            let lanes = integer_value(f64x8::from(<[f64; 8]>::try_from(eight).unwrap()));
+            let expected: Vec<i64> = eight.iter().map(|&x| x as i64).collect();
+            assert_eq!(lanes.to_array().to_vec(), expected);
         }
     }
 
