@@ -460,8 +460,9 @@ pub struct CellOrder {
     unfiltered: bool,
     /// The lone filter's answer: bit `i % 8` of byte `i / 8` for stored particle `i`.
     lone: Vec<u8>,
-    /// The instructions the lone filter's lookups run on.
-    isa: InstructionSet,
+    /// The instructions the lone filter's lookups run on, where set (else
+    /// [`InstructionSet::for_lookups`]).
+    isa: Option<InstructionSet>,
     // Reused buffers.
     cells: Vec<Cell>,
     wall_bits: Vec<WallBits>,
@@ -477,9 +478,10 @@ impl CellOrder {
         self.sparse
     }
 
-    /// The instruction set the lone filter's lookups run on.
+    /// The instruction set the lone filter's lookups run on: the one set, or
+    /// [`InstructionSet::for_lookups`].
     pub fn instruction_set(&self) -> InstructionSet {
-        self.isa
+        self.isa.unwrap_or_else(InstructionSet::for_lookups)
     }
 
     /// Runs the lone filter's lookups with `isa` from now on.
@@ -488,7 +490,7 @@ impl CellOrder {
     /// If this CPU does not run it.
     pub fn set_instruction_set(&mut self, isa: InstructionSet) {
         assert!(isa.is_available(), "this CPU does not run {}", isa.name());
-        self.isa = isa;
+        self.isa = Some(isa);
     }
 
     /// Filters out lone particles with a table of `blocks_per_particle` blocks per
@@ -623,7 +625,7 @@ impl CellOrder {
         let n = self.cells.len();
         let filtering = self.sparse && !self.unfiltered;
         if filtering {
-            self.isa.run(FindLone {
+            self.instruction_set().run(FindLone {
                 filter: &mut self.lone_filter,
                 cells: &self.cells,
                 lone: &mut self.lone,

@@ -520,7 +520,8 @@ impl Simulation {
     }
 
     /// Builds and runs the neighbour lists, and runs the cell order's lone filter, with
-    /// `isa` from now on (the detected one by default).
+    /// `isa` from now on (by default the detected one, and for the lone filter's lookups
+    /// [`InstructionSet::for_lookups`]).
     ///
     /// # Panics
     /// If this CPU does not run it.
