@@ -15,7 +15,7 @@ hash="$(git rev-parse --short "$1^{commit}")"
 tree="target/revisions/$hash"
 if [ ! -x "$tree/target/release/$2" ]; then
     if [ ! -d "$tree" ]; then
-        git worktree add --detach --force "$tree" "$hash" >/dev/null 2>&1
+        git worktree add --detach --force "$tree" "$hash" >&2
     fi
     mkdir -p "$tree/.cargo"
     cp .cargo/config.toml "$tree/.cargo/config.toml"

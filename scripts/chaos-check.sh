@@ -16,30 +16,44 @@
 #   others): 24 copies make it rare.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-cd "$root"
 if [ $# -lt 1 ] || [ "$1" = "--" ]; then
     echo "usage: $0 PREVIOUS_REV [NEW_REV] [-- INPUT ...]" >&2
     exit 2
 fi
-previous="$(scripts/build-revision.sh "$1" fluid)"
+revisions=("$1")
 shift
-cargo build --release --quiet --bins
-lab="$root/target/release/fluid-lab"
-new="$root/target/release/fluid"
 if [ $# -gt 0 ] && [ "$1" != "--" ]; then
-    new="$(scripts/build-revision.sh "$1" fluid)"
+    revisions+=("$1")
     shift
 fi
 [ $# -gt 0 ] && [ "$1" = "--" ] && shift
-inputs=("$@")
-[ ${#inputs[@]} -gt 0 ] || inputs=(data/in/small.fld data/in/large.fld)
+# Inputs as given from the caller's folder; each once.
+inputs=()
+for input in "$@"; do
+    inputs+=("$(realpath -e "$input")")
+done
+[ ${#inputs[@]} -gt 0 ] || inputs=("$root/data/in/small.fld" "$root/data/in/large.fld")
+if [ "$(printf '%s\n' "${inputs[@]##*/}" | sort | uniq -d)" ]; then
+    echo "chaos-check.sh: two inputs share a file name" >&2
+    exit 2
+fi
+cd "$root"
+previous="$(scripts/build-revision.sh "${revisions[0]}" fluid)"
+cargo build --release --quiet --bins
+lab="$root/target/release/fluid-lab"
+new="$root/target/release/fluid"
+if [ ${#revisions[@]} -eq 2 ]; then
+    new="$(scripts/build-revision.sh "${revisions[1]}" fluid)"
+fi
 steps="${STEPS:-1000 3000}"
 copies="${COPIES:-24}"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 status=0
 for input in "${inputs[@]}"; do
-    name="$(basename "$input" .fld)"
+    # The name fluid-lab chaos perturb gives the copies: the file name less its extension.
+    name="$(basename "$input")"
+    name="${name%.*}"
     mkdir -p "$work/$name"
     "$lab" chaos perturb "$input" "$work/$name/in" --copies "$copies" >/dev/null
     for n in $steps; do
@@ -51,7 +65,7 @@ for input in "${inputs[@]}"; do
         done
         "$new" "$n" "$input" "$work/$name/new-$n.fld" >/dev/null
         echo
-        echo "### fluid $n $input: the new revision against the previous one's ensemble of $((copies + 1))"
+        echo "### fluid $n $(basename "$input"): the new revision against the previous one's ensemble of $((copies + 1))"
         echo
         if ! "$lab" chaos check "$work/$name/new-$n.fld" "${ensemble[@]}"; then
             status=1

@@ -28,17 +28,17 @@ if ! command -v hyperfine >/dev/null; then
 fi
 mkdir -p target/revisions
 commands=()
+binaries=()
 for rev in "$@"; do
-    hash="$(git rev-parse --short "$rev")"
-    fluid="$(scripts/build-revision.sh "$rev" fluid)"
-    commands+=(-n "$rev ($hash)" "$fluid $steps $input /dev/null")
+    hash="$(git rev-parse --short "$rev^{commit}")"
+    binaries+=("$(scripts/build-revision.sh "$rev" fluid)")
+    commands+=(-n "$rev ($hash)" "${binaries[-1]} $steps $input /dev/null")
 done
 report="target/revisions/$steps-$(basename "$input" .fld)"
 outputs=()
-for rev in "$@"; do
-    hash="$(git rev-parse --short "$rev")"
-    outputs+=("$report-$hash.fld")
-    "target/revisions/$hash/target/release/fluid" "$steps" "$input" "${outputs[-1]}" >/dev/null
+for fluid in "${binaries[@]}"; do
+    outputs+=("$report-$(basename "$(dirname "$(dirname "$(dirname "$fluid")")")").fld")
+    "$fluid" "$steps" "$input" "${outputs[-1]}" >/dev/null
 done
 differ=0
 for ((k = 0; k < ${#outputs[@]} - 1; k++)); do

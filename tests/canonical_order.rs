@@ -6,6 +6,7 @@
 mod common;
 
 use fluid::io::fld;
+use fluid::sim::clusters::PairStructure;
 use fluid::{Method, Simulation};
 
 /// The output `fluid STEPS INPUT` writes, from a simulation of the bundled input `name`
@@ -21,26 +22,38 @@ fn output_bytes(name: &str, steps: u64, configure: impl FnOnce(&mut Simulation))
     fld::encode(ppm, simulation.particles()).expect("a state within f32")
 }
 
-/// Asserts that every lone filter gives the bytes of the default one after `steps`.
-fn assert_filters_agree(name: &str, steps: u64) {
-    let default = output_bytes(name, steps, |_| {});
+/// Asserts that every lone filter gives the bytes of the default one after `steps`, the
+/// SIMD pair loops on `structure`.
+fn assert_filters_agree(name: &str, steps: u64, structure: PairStructure) {
+    let default = output_bytes(name, steps, |sim| sim.set_pair_structure(structure));
     // One block per particle: most blocks share a counter with another, so the filter
     // lets many lone particles through; 4096: almost none; none: every particle sorted.
     for filter in [Some(1), Some(4096), None] {
-        let bytes = output_bytes(name, steps, |sim| sim.set_lone_filter(filter));
+        let bytes = output_bytes(name, steps, |sim| {
+            sim.set_pair_structure(structure);
+            sim.set_lone_filter(filter);
+        });
         assert!(
             bytes == default,
-            "{name}, {steps} steps: lone filter {filter:?} changed the output"
+            "{name}, {steps} steps, {structure:?}: lone filter {filter:?} changed the output"
         );
     }
 }
 
 #[test]
 fn no_lone_filter_changes_a_thousand_steps_of_large() {
-    assert_filters_agree("large", 1000);
+    assert_filters_agree("large", 1000, PairStructure::default());
 }
 
 #[test]
 fn no_lone_filter_changes_a_thousand_steps_of_small() {
-    assert_filters_agree("small", 1000);
+    assert_filters_agree("small", 1000, PairStructure::default());
+}
+
+#[test]
+fn no_lone_filter_changes_a_run_on_tiles_or_clusters() {
+    // The workbench's other pair structures, on the dense steps they run.
+    for structure in [PairStructure::Tiles, PairStructure::Clusters] {
+        assert_filters_agree("small", 1000, structure);
+    }
 }

@@ -403,6 +403,37 @@ fn chaos_moves_copies_by_one_ulp_and_judges_a_state_against_their_ensemble() {
         stderr(&output)
     );
     assert!(!nowhere.exists());
+    // One particle has 3 coordinates: a fourth copy would repeat one.
+    let one = dir.path().join("one.fld");
+    let mut particle = fluid::Particles::zeroed(1);
+    particle.p[1][0] = 0.01;
+    std::fs::write(&one, fld::encode(204.0, &particle).unwrap()).unwrap();
+    for (copies, code) in [("3", 0), ("4", 2)] {
+        let folder = dir.path().join(format!("one-{copies}"));
+        let output = run_lab(&[
+            "chaos".as_ref(),
+            "perturb".as_ref(),
+            one.as_os_str(),
+            folder.as_os_str(),
+            "--copies".as_ref(),
+            copies.as_ref(),
+        ]);
+        assert_eq!(exit_code(&output), code, "{}", stderr(&output));
+        assert_eq!(folder.exists(), code == 0);
+    }
+    // A FIFO is refused at once, not waited on.
+    let fifo = dir.path().join("fifo.fld");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if made.is_ok_and(|status| status.success()) {
+        let output = run_lab(&[
+            "chaos".as_ref(),
+            "check".as_ref(),
+            fifo.as_os_str(),
+            one.as_os_str(),
+            one.as_os_str(),
+        ]);
+        assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    }
 }
 
 #[test]

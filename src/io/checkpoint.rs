@@ -1,7 +1,7 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCK8`; the step count (u64); the CRC-32 of the
+//! Layout (little-endian): the magic `FLUIDCK9`; the step count (u64); the CRC-32 of the
 //! input file the run started from (u32, so a resume from another input is refused); the
 //! case file it started from, if it did (a u8, 0 for none, else 1, then its length, u64,
 //! and its UTF-8 text: a resume needs nothing else);
@@ -35,11 +35,13 @@ use crate::sim::skin::KeptSkin;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
 use glam::DVec3;
 
-/// The first bytes of every checkpoint (format version 8).
-const MAGIC: &[u8; 8] = b"FLUIDCK8";
+/// The first bytes of every checkpoint (format version 9: version 8 holds the same
+/// fields, but its particles were ordered within a cell by the order they came in, not by
+/// id, so a resume from it would not go on as its run did).
+const MAGIC: &[u8; 8] = b"FLUIDCK9";
 
 /// The first bytes of a checkpoint of an earlier format, which is refused.
-const OLDER: [&[u8; 8]; 7] = [
+const OLDER: [&[u8; 8]; 8] = [
     b"FLUIDCK1",
     b"FLUIDCK2",
     b"FLUIDCK3",
@@ -47,6 +49,7 @@ const OLDER: [&[u8; 8]; 7] = [
     b"FLUIDCK5",
     b"FLUIDCK6",
     b"FLUIDCK7",
+    b"FLUIDCK8",
 ];
 
 /// A checkpoint's content: the steps run and the state after them.

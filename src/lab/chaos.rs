@@ -8,26 +8,28 @@
 //! coordinate of one particle moved by one ulp (of the file's f32): within the ensemble's
 //! range widened by its standard deviation on each side.
 
-use crate::io::fld::{self, FileError};
+use crate::io::fld::{self, FileError, HEADER_BYTES, RECORD_BYTES};
+use crate::lab::diagnostics::{self, Vitals};
 use crate::sim::method::Method;
 use crate::sim::particles::vector_at;
 use crate::sim::simulation::Simulation;
 use std::fmt::Write;
-
-/// Bytes of a `.fld` header: particles per metre (f32) and the particle count (i32).
-const HEADER_BYTES: usize = 8;
-/// Bytes of one particle's record: 9 f32.
-const RECORD_BYTES: usize = 36;
 
 /// The upper edges of the speed histogram's bins (m/s), one bin per decade from 0.01 to
 /// 100,000 m/s, with one below the first and one above the last: the course model's
 /// speeds span that range once it has blown up.
 const SPEED_EDGES: [f64; 8] = [1e-2, 1e-1, 1e0, 1e1, 1e2, 1e3, 1e4, 1e5];
 
+/// The most copies of an input of `particles` particles that [`perturbed`] makes, each
+/// moving another coordinate: 3 per particle.
+pub fn most_copies(particles: usize) -> usize {
+    3 * particles
+}
+
 /// Copy `copy` of the `.fld` input `bytes` with one coordinate of one particle moved up
 /// by one ulp of its f32: copies 0, 1, 2, ... move x, y, z, x, ... of particles spread
-/// evenly over the ids (of `copies` in all). Returns the copy, and which particle and
-/// axis moved.
+/// evenly over the ids (of `copies` in all, at most [`most_copies`], so that no two
+/// copies are alike). Returns the copy, and which particle and axis moved.
 pub fn perturbed(
     bytes: &[u8],
     copy: usize,
@@ -36,7 +38,12 @@ pub fn perturbed(
 ) -> Result<(Vec<u8>, usize, usize), FileError> {
     let header = fld::validate(bytes, file)?;
     let n = header.particles;
-    assert!(copy < copies, "copy {copy} of {copies}");
+    assert!(
+        copy < copies && copies <= most_copies(n),
+        "copy {copy} of {copies}"
+    );
+    // Copies k and k + 3 m share an axis; their particles differ as 2 m n / (2 copies)
+    // >= 1 while copies <= 3 n.
     let (id, axis) = ((2 * copy + 1) * n / (2 * copies), copy % 3);
     let at = HEADER_BYTES + RECORD_BYTES * id + 4 * axis;
     let value = f32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
@@ -64,6 +71,7 @@ impl Statistics {
     pub fn of(simulation: &Simulation) -> Statistics {
         let copy = simulation.with_fresh_densities();
         let (params, particles) = (copy.params(), copy.particles());
+        let kinetic = Vitals::of(&copy).kinetic;
         let n = particles.len();
         let count = n.max(1) as f64;
         let (mut speed_sum, mut square_sum, mut centre) = (0.0, 0.0, [0.0; 3]);
@@ -87,10 +95,7 @@ impl Statistics {
             ("particles".to_string(), n as f64),
             ("mean speed (m/s)".to_string(), speed_sum / count),
             ("RMS speed (m/s)".to_string(), (square_sum / count).sqrt()),
-            (
-                "kinetic energy (J)".to_string(),
-                0.5 * params.mass * square_sum,
-            ),
+            ("kinetic energy (J)".to_string(), kinetic),
             ("mean density (kg/m3)".to_string(), density / count),
         ];
         for (axis, sum) in ["x", "y", "z"].iter().zip(centre) {
@@ -99,7 +104,7 @@ impl Statistics {
         statistics.push(("fraction inside the box".to_string(), inside as f64 / count));
         statistics.push((
             "fraction with a partner closer than h".to_string(),
-            partnered(&copy) as f64 / count,
+            diagnostics::partnered(&copy) as f64 / count,
         ));
         for (bin, &in_bin) in bins.iter().enumerate() {
             let name = match bin {
@@ -123,24 +128,6 @@ impl Statistics {
         let simulation = fld::parse(bytes, file)?.into_simulation(Method::default(), file)?;
         Ok(Statistics::of(&simulation))
     }
-}
-
-/// How many particles of a placed simulation have a partner closer than h (the pairs of
-/// its tiles).
-fn partnered(simulation: &Simulation) -> usize {
-    let (particles, h2) = (simulation.particles(), simulation.params().h2);
-    let mut has_partner = vec![false; particles.len()];
-    for tile in simulation.tiles() {
-        for i in tile.firsts() {
-            for j in tile.partners(i) {
-                let r2 = (vector_at(&particles.p, i) - vector_at(&particles.p, j)).length_squared();
-                if r2 < h2 {
-                    (has_partner[i], has_partner[j]) = (true, true);
-                }
-            }
-        }
-    }
-    has_partner.iter().filter(|&&p| p).count()
 }
 
 /// One statistic of a candidate against the ensemble's.

@@ -184,20 +184,37 @@ pub struct PairCounts {
 impl PairCounts {
     /// Counts the pairs of the current tiles of `simulation`.
     pub fn of(simulation: &Simulation) -> PairCounts {
-        let (particles, h2) = (simulation.particles(), simulation.params().h2);
         let mut counts = PairCounts::default();
-        for tile in simulation.tiles() {
-            for i in tile.firsts() {
-                let partners = tile.partners(i);
-                counts.tested += partners.len() as u64;
-                for j in partners {
-                    let r2 =
-                        (vector_at(&particles.p, i) - vector_at(&particles.p, j)).length_squared();
-                    counts.within_h += u64::from(r2 < h2);
-                }
+        for_each_candidate(simulation, |_, _, within_h| {
+            counts.tested += 1;
+            counts.within_h += u64::from(within_h);
+        });
+        counts
+    }
+}
+
+/// How many particles of a placed simulation have a partner closer than h.
+pub fn partnered(simulation: &Simulation) -> usize {
+    let mut has_partner = vec![false; simulation.particles().len()];
+    for_each_candidate(simulation, |i, j, within_h| {
+        if within_h {
+            (has_partner[i], has_partner[j]) = (true, true);
+        }
+    });
+    has_partner.iter().filter(|&&partner| partner).count()
+}
+
+/// Visits every candidate pair of the tiles of `simulation` (slots `i` and `j`), with
+/// whether it is closer than h.
+fn for_each_candidate(simulation: &Simulation, mut visit: impl FnMut(usize, usize, bool)) {
+    let (particles, h2) = (simulation.particles(), simulation.params().h2);
+    for tile in simulation.tiles() {
+        for i in tile.firsts() {
+            for j in tile.partners(i) {
+                let r2 = (vector_at(&particles.p, i) - vector_at(&particles.p, j)).length_squared();
+                visit(i, j, r2 < h2);
             }
         }
-        counts
     }
 }
 

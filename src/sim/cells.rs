@@ -316,6 +316,10 @@ impl Default for LoneFilter {
 /// blocks per particle, so a block counts others by mistake rarely.
 pub const DEFAULT_FILTER_BLOCKS: usize = 64;
 
+/// The largest table the lone filter may be given, in blocks per particle (2^16: its
+/// table's index bits stay below 64 for any number of particles a `u32` slot counts).
+pub const MAX_FILTER_BLOCKS: usize = 1 << 16;
+
 /// Bits per block coordinate in a packed block; coordinates are offset to be positive.
 const BLOCK_BITS: u32 = 16;
 
@@ -473,7 +477,8 @@ pub struct CellOrder {
 
 impl CellOrder {
     /// Whether the last sort found mostly lone particles, so the next filters them out
-    /// first (part of what a checkpoint keeps: it decides the next sort's slot order).
+    /// first (part of what a checkpoint keeps: it decides the next sort's work and where
+    /// its lone particles go, never the order of the others).
     pub fn is_sparse(&self) -> bool {
         self.sparse
     }
@@ -499,11 +504,15 @@ impl CellOrder {
     /// particles that may have a pair, and so every result, does not.
     ///
     /// # Panics
-    /// If `blocks_per_particle` is `Some(0)`.
+    /// If `blocks_per_particle` is `Some(0)` or above [`MAX_FILTER_BLOCKS`].
     pub fn set_lone_filter(&mut self, blocks_per_particle: Option<usize>) {
-        assert_ne!(blocks_per_particle, Some(0), "a lone filter needs a table");
+        let blocks = blocks_per_particle.unwrap_or(DEFAULT_FILTER_BLOCKS);
+        assert!(
+            (1..=MAX_FILTER_BLOCKS).contains(&blocks),
+            "a lone filter of {blocks} blocks per particle"
+        );
         self.unfiltered = blocks_per_particle.is_none();
-        self.lone_filter.blocks_per_particle = blocks_per_particle.unwrap_or(DEFAULT_FILTER_BLOCKS);
+        self.lone_filter.blocks_per_particle = blocks;
     }
 
     /// An empty cell order whose next sort runs as after a sort that found the particles
@@ -715,21 +724,32 @@ impl CellOrder {
     /// filter decides): by insertion, as a cell holds few particles, most of them in id
     /// order already.
     fn order_cells_by_id(&mut self, ids: &[u32]) {
+        /// Cells with more particles (far cells merged, or a pile in one cell) are sorted
+        /// by a sort that is not quadratic.
+        const INSERTION_LIMIT: usize = 32;
         let paired = self.keys.len();
         let (keys, order) = (&self.keys[..], &mut self.order[..paired]);
-        for slot in 1..paired {
-            let key = keys[slot];
-            if keys[slot - 1] != key {
+        let mut start = 0;
+        for slot in 1..=paired {
+            if slot < paired && keys[slot] == keys[start] {
                 continue;
             }
-            let stored = order[slot];
-            let id = ids[stored as usize];
-            let mut at = slot;
-            while at > 0 && keys[at - 1] == key && ids[order[at - 1] as usize] > id {
-                order[at] = order[at - 1];
-                at -= 1;
+            let cell = &mut order[start..slot];
+            start = slot;
+            if cell.len() > INSERTION_LIMIT {
+                cell.sort_unstable_by_key(|&stored| ids[stored as usize]);
+                continue;
             }
-            order[at] = stored;
+            for k in 1..cell.len() {
+                let stored = cell[k];
+                let id = ids[stored as usize];
+                let mut at = k;
+                while at > 0 && ids[cell[at - 1] as usize] > id {
+                    cell[at] = cell[at - 1];
+                    at -= 1;
+                }
+                cell[at] = stored;
+            }
         }
     }
 
@@ -1080,7 +1100,9 @@ mod tests {
                 0.5,
             ]
         });
-        let points: Vec<[f64; 3]> = dense.chain(lone).collect();
+        // And a pile of 60 in one cell, more than insertion sorts.
+        let pile = (0..60).map(|k| [0.001 * f64::from(k % 5), 0.0005, 0.002]);
+        let points: Vec<[f64; 3]> = dense.chain(pile).chain(lone).collect();
         let mut shuffled: Vec<u32> = (0..points.len() as u32).collect();
         random.shuffle(&mut shuffled);
         let mut stored = positions(&points).permuted(&shuffled);
@@ -1091,7 +1113,7 @@ mod tests {
             let paired = cells.keys().len() - SENTINELS;
             // The far lattice's coarse cells merge, so it is only partly lone.
             assert!(
-                paired >= 40 && (paired < points.len()) == sparse,
+                paired >= 100 && (paired < points.len()) == sparse,
                 "{paired}"
             );
             let ids: Vec<u32> = cells
@@ -1104,8 +1126,9 @@ mod tests {
             expected.sort_unstable();
             let sorted: Vec<(u64, u32)> = keys.iter().copied().zip(ids).collect();
             assert_eq!(sorted, expected, "sparse: {sparse}");
-            // Some cells hold several particles, stored out of id order.
-            assert!(keys.windows(2).filter(|w| w[0] == w[1]).count() > 10);
+            // Some cells hold several particles, stored out of id order; one holds 60.
+            assert!(keys.windows(2).filter(|w| w[0] == w[1]).count() > 70);
+            assert!(keys.chunk_by(|a, b| a == b).any(|cell| cell.len() >= 60));
         }
     }
 

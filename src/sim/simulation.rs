@@ -401,8 +401,8 @@ impl Simulation {
         }
     }
 
-    /// The particles, unpadded, in the slot order of the last placement (the order the
-    /// next sort breaks ties by).
+    /// The particles, unpadded, in the slot order of the last placement (the next sort
+    /// orders them by cell and id; the lone ones keep this order).
     fn particles_in_slot_order(&self) -> Particles {
         if self.cells.is_in_place() {
             self.particles.permuted(self.cells.order()).unpadded()

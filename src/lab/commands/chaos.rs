@@ -1,6 +1,8 @@
 //! `fluid-lab chaos`: copies of an input with one coordinate moved by one ulp, and a
 //! state judged against the ensemble of states that runs on them give (see [`chaos`]).
 
+use crate::io::fld;
+use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
 use crate::lab::chaos::{self, Statistics};
 use crate::lab::commands::create_output_dir;
@@ -8,7 +10,7 @@ use crate::lab::UsageError;
 use clap::{Args, Subcommand};
 use std::error::Error;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The arguments of `fluid-lab chaos`.
 #[derive(Debug, Args)]
@@ -36,7 +38,7 @@ struct PerturbArgs {
     input: PathBuf,
     /// The folder the copies go to (created if missing).
     folder: PathBuf,
-    /// How many copies.
+    /// How many copies (at most 3 per particle: each moves another coordinate).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1000))]
     copies: u32,
 }
@@ -59,37 +61,54 @@ pub fn exec(args: ChaosArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
     }
 }
 
+/// Reads a regular file (never waiting on a FIFO or reading a device).
+fn read(path: &Path) -> Result<Vec<u8>, String> {
+    read_regular(path).map_err(|error| format!("cannot read {}: {error}", path.display()))
+}
+
 fn perturb(args: PerturbArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let name = args.input.display().to_string();
-    let bytes =
-        std::fs::read(&args.input).map_err(|error| format!("cannot read {name}: {error}"))?;
+    let bytes = read(&args.input)?;
     let stem = args
         .input
         .file_stem()
         .ok_or_else(|| UsageError(format!("{name} names no file")))?
         .to_string_lossy()
         .into_owned();
+    let particles = fld::validate(&bytes, &args.input)?.particles;
     let copies = args.copies as usize;
-    // Every copy made before any is written: a bad input leaves no folder.
-    let perturbed = (0..copies)
-        .map(|copy| chaos::perturbed(&bytes, copy, copies, &name))
-        .collect::<Result<Vec<_>, _>>()?;
-    create_output_dir(&args.folder)?;
-    writeln!(stdout, "copy,particle,axis,file")?;
-    for (copy, (bytes, id, axis)) in perturbed.into_iter().enumerate() {
-        let path = args.folder.join(format!("{stem}-ulp{copy}.fld"));
-        OutputFile::create(&path)?.commit(&bytes)?;
-        let axis = ["x", "y", "z"][axis];
-        writeln!(stdout, "{copy},{id},{axis},{}", path.display())?;
+    if copies > chaos::most_copies(particles) {
+        return Err(UsageError(format!(
+            "--copies {copies}: {name} has {particles} particles, so at most {} coordinates \
+             to move",
+            chaos::most_copies(particles)
+        ))
+        .into());
     }
+    create_output_dir(&args.folder)?;
+    // One copy in memory at a time; if one cannot be written, none is left.
+    let mut written = Vec::new();
+    let mut lines = String::from("copy,particle,axis,file\n");
+    for copy in 0..copies {
+        let path = args.folder.join(format!("{stem}-ulp{copy}.fld"));
+        let (bytes, id, axis) = chaos::perturbed(&bytes, copy, copies, &name)?;
+        if let Err(error) = OutputFile::create(&path).and_then(|file| file.commit(&bytes)) {
+            for path in &written {
+                let _ = std::fs::remove_file(path);
+            }
+            return Err(error.into());
+        }
+        lines += &format!("{copy},{id},{},{}\n", ["x", "y", "z"][axis], path.display());
+        written.push(path);
+    }
+    stdout.write_all(lines.as_bytes())?;
     Ok(())
 }
 
 fn check(args: CheckArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let statistics = |path: &PathBuf| -> Result<Statistics, Box<dyn Error>> {
-        let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|error| format!("cannot read {name}: {error}"))?;
-        Ok(Statistics::of_file(&bytes, &name)?)
+        let bytes = read(path)?;
+        Ok(Statistics::of_file(&bytes, &path.display().to_string())?)
     };
     let candidate = statistics(&args.candidate)?;
     let ensemble = args
