@@ -27,18 +27,18 @@ if ! command -v hyperfine >/dev/null; then
     exit 1
 fi
 mkdir -p target/revisions
+report="target/revisions/$steps-$(basename "$input" .fld)"
 commands=()
 binaries=()
+outputs=()
 for rev in "$@"; do
     hash="$(git rev-parse --short "$rev^{commit}")"
     binaries+=("$(scripts/build-revision.sh "$rev" fluid)")
     commands+=(-n "$rev ($hash)" "${binaries[-1]} $steps $input /dev/null")
+    outputs+=("$report-$hash.fld")
 done
-report="target/revisions/$steps-$(basename "$input" .fld)"
-outputs=()
-for fluid in "${binaries[@]}"; do
-    outputs+=("$report-$(basename "$(dirname "$(dirname "$(dirname "$fluid")")")").fld")
-    "$fluid" "$steps" "$input" "${outputs[-1]}" >/dev/null
+for ((k = 0; k < ${#binaries[@]}; k++)); do
+    "${binaries[$k]}" "$steps" "$input" "${outputs[$k]}" >/dev/null
 done
 differ=0
 for ((k = 0; k < ${#outputs[@]} - 1; k++)); do

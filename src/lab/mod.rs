@@ -1,7 +1,7 @@
 //! The workbench wing (`fluid-lab`): everything `fluid`'s fixed contract leaves out, on
 //! the same library. Its concepts are modules here: generated [`scene`]s, per-state
-//! [`diagnostics`], [`chaos`] (how far outputs scatter), [`accuracy`] against the reference trajectory, [`stability`] maps,
-//! iteration [`sweep`]s with their [`energy`] and [`machine`], job arrays on [`slurm`], [`chart`]s, [`render`]ed
+//! [`diagnostics`], [`chaos`] (how far outputs scatter), [`accuracy`] against the
+//! reference trajectory, [`stability`] maps, iteration [`sweep`]s with their [`energy`] and [`machine`], job arrays on [`slurm`], [`chart`]s, [`render`]ed
 //! pictures, [`gauges`], [`still_water`] and [`validation`] against experiments. The
 //! command line is [`Lab`], one module of `commands/` per subcommand.
 

@@ -541,9 +541,9 @@ impl CellOrder {
 
     /// Sorts `particles` by cell, for the caller to move them into that order (slot k
     /// receives stored particle `order()[k]`); their walls are those of the blocks the
-    /// grid gives their positions, per slot. Within a cell, the
-    /// slots are in the order of the particles' ids; the lone particles follow the others
-    /// in their previous slot order. Returns whether any particle changes slot (if not, [`Self::order`] is the
+    /// grid gives their positions, per slot. Within a cell, the slots are in the order of
+    /// the particles' ids; the lone particles follow the others in their previous slot
+    /// order. Returns whether any particle changes slot (if not, [`Self::order`] is the
     /// identity).
     pub fn sort(&mut self, grid: &Grid, particles: &Particles) -> bool {
         self.sort_placing(grid, particles, false)
@@ -721,12 +721,8 @@ impl CellOrder {
     /// Puts the slots of each cell in the order of their particles' ids (`ids`, per
     /// stored particle), so that the slot order of the particles that may have a pair
     /// depends on the particles alone, never on the order they came in (which the lone
-    /// filter decides): by insertion, as a cell holds few particles, most of them in id
-    /// order already.
+    /// filter decides). Ids are unique, so an unstable sort gives the one order.
     fn order_cells_by_id(&mut self, ids: &[u32]) {
-        /// Cells with more particles (far cells merged, or a pile in one cell) are sorted
-        /// by a sort that is not quadratic.
-        const INSERTION_LIMIT: usize = 32;
         let paired = self.keys.len();
         let (keys, order) = (&self.keys[..], &mut self.order[..paired]);
         let mut start = 0;
@@ -734,22 +730,10 @@ impl CellOrder {
             if slot < paired && keys[slot] == keys[start] {
                 continue;
             }
-            let cell = &mut order[start..slot];
+            if slot - start > 1 {
+                order[start..slot].sort_unstable_by_key(|&stored| ids[stored as usize]);
+            }
             start = slot;
-            if cell.len() > INSERTION_LIMIT {
-                cell.sort_unstable_by_key(|&stored| ids[stored as usize]);
-                continue;
-            }
-            for k in 1..cell.len() {
-                let stored = cell[k];
-                let id = ids[stored as usize];
-                let mut at = k;
-                while at > 0 && ids[cell[at - 1] as usize] > id {
-                    cell[at] = cell[at - 1];
-                    at -= 1;
-                }
-                cell[at] = stored;
-            }
         }
     }
 
@@ -1100,7 +1084,7 @@ mod tests {
                 0.5,
             ]
         });
-        // And a pile of 60 in one cell, more than insertion sorts.
+        // And a pile of 60 in one cell.
         let pile = (0..60).map(|k| [0.001 * f64::from(k % 5), 0.0005, 0.002]);
         let points: Vec<[f64; 3]> = dense.chain(pile).chain(lone).collect();
         let mut shuffled: Vec<u32> = (0..points.len() as u32).collect();
