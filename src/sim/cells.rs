@@ -864,7 +864,7 @@ pub(crate) fn jittered_block(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::params::{Domain, Params, BOX_MIN};
+    use crate::sim::params::{Domain, Params, BOX_MAX, BOX_MIN};
 
     fn grid() -> Grid {
         Grid::new(Params::new(204.0).h, &Domain::COURSE).unwrap()
@@ -920,6 +920,46 @@ mod tests {
             let coarse = coarsen(c, 5);
             assert!(coarse - previous == 0 || coarse - previous == 1, "at {c}");
             previous = coarse;
+        }
+    }
+
+    #[test]
+    fn each_slot_gets_the_walls_of_its_block() {
+        // The course grid, and one of 1, 2 and 3 blocks a side (a single block is on
+        // its low wall).
+        let course = grid();
+        let small = Grid {
+            dims: [1, 2, 3],
+            block_size: (BOX_MAX - BOX_MIN) / glam::DVec3::new(1.0, 2.0, 3.0),
+            min: BOX_MIN,
+            max: BOX_MAX,
+        };
+        let mut next = uniform(0x2545_f491_4f6c_dd1d);
+        for grid in [course, small] {
+            let mut points: Vec<[f64; 3]> = (0..1001)
+                .map(|_| std::array::from_fn(|d| BOX_MIN[d] - 0.05 + 0.3 * next()))
+                .collect();
+            // Block edges, far away, and values that are no position.
+            points.extend([BOX_MIN.to_array(), BOX_MAX.to_array()]);
+            points.push(std::array::from_fn(|d| BOX_MIN[d] + grid.block_size[d]));
+            points.push(std::array::from_fn(|d| BOX_MAX[d] - grid.block_size[d]));
+            points.extend([
+                [f64::NAN, 1e300, -1e300],
+                [f64::INFINITY, 0.0, f64::NEG_INFINITY],
+            ]);
+            let particles = positions(&points);
+            let mut cells = CellOrder::default();
+            cells.sort(&grid, &particles);
+            for (slot, &stored) in cells.order().iter().enumerate() {
+                let expected = slot_walls(&grid, &particles, stored as usize);
+                assert_eq!(
+                    cells.walls().bits()[slot],
+                    expected,
+                    "at {:?}",
+                    points[stored as usize]
+                );
+            }
+            assert!(cells.walls().bits().iter().any(|&w| w & 0b10_1010 != 0));
         }
     }
 
