@@ -449,7 +449,14 @@ fn still_water_is_checked_against_hydrostatics() {
         "--output-dir".as_ref(),
         folder.as_os_str(),
     ]);
-    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // At 0.3 s the start's waves still move it faster than the speed check allows: that
+    // check alone fails, and fails the validation once its outputs are written.
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(
+        stderr(&output).ends_with("1 of 7 checks failed: largest speed at the end\n"),
+        "{}",
+        stderr(&output)
+    );
     let checks = std::fs::read_to_string(folder.join("still-water-checks.csv")).unwrap();
     let rows: Vec<Vec<&str>> = checks
         .lines()
@@ -534,6 +541,34 @@ fn the_dam_break_validation_from_its_case_gives_the_fronts_of_its_flags() {
         stderr(&output)
     );
     assert!(!dir.path().join("no").exists());
+}
+
+#[test]
+fn a_validation_whose_checks_fail_exits_1_after_writing_its_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("coarse-step.toml");
+    // Steps of 2 ms, ten times what the water model's sound speed allows: it blows up.
+    let case = tank(&dir.path().join("unused"), 0.02)
+        .replace("name = \"wcsph\"", "name = \"wcsph\"\ntime_step_s = 0.002");
+    std::fs::write(&path, case).unwrap();
+    let folder = dir.path().join("checks");
+    let output = run_lab(&[
+        "validate".as_ref(),
+        "still-water".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    let message = stderr(&output);
+    assert_eq!(message.lines().count(), 1, "{message}");
+    assert!(message.contains(" of 7 checks failed: "), "{message}");
+    assert!(message.contains("particles lost"), "{message}");
+    assert!(stdout(&output).contains(": FAIL"));
+    let checks = std::fs::read_to_string(folder.join("still-water-checks.csv")).unwrap();
+    assert!(checks.contains(",false"), "{checks}");
+    assert!(folder.join("still-water.png").is_file());
 }
 
 #[test]

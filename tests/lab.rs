@@ -676,7 +676,16 @@ fn a_short_dam_break_front_moves_as_the_experiment_s_and_the_course_model_fails_
         "--output-dir".as_ref(),
         dir.path().as_os_str(),
     ]);
-    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // A validation is a test: the course model's failure fails it, after its outputs.
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    let message = stderr(&output);
+    assert_eq!(message.lines().count(), 1, "{message}");
+    assert!(
+        message.starts_with(
+            "fluid-lab: error: 1 of 3 runs failed: course at 150 per m failed at T = 0.0"
+        ),
+        "{message}"
+    );
     let report = stdout(&output);
     let course = report
         .lines()

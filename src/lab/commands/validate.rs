@@ -280,7 +280,28 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             writeln!(stdout, "wrote {}", path.display())?;
         }
     }
-    Ok(())
+    // A validation is a test: its outputs are written, and a run that failed fails it.
+    let failed: Vec<String> = runs
+        .iter()
+        .filter_map(|run| {
+            let (t, failure) = run.collapse.failure.as_ref()?;
+            Some(format!(
+                "{} at {} per m failed at T = {t:.3} ({failure})",
+                run.model.name(),
+                run.ppm
+            ))
+        })
+        .collect();
+    match failed.is_empty() {
+        true => Ok(()),
+        false => Err(format!(
+            "{} of {} runs failed: {}",
+            failed.len(),
+            runs.len(),
+            failed.join("; ")
+        )
+        .into()),
+    }
 }
 
 /// The error of `model`'s front at each experimental point with T up to [`SUMMARY_T`]
@@ -542,5 +563,21 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
     {
         writeln!(stdout, "wrote {}", written.display())?;
     }
-    Ok(())
+    // A validation is a test: its outputs are written, and a failed check fails it.
+    let failed: Vec<&str> = checks
+        .iter()
+        .filter(|check| !check.passed())
+        .map(|check| check.name.as_str())
+        .collect();
+    match failed.is_empty() {
+        true => Ok(()),
+        false => Err(format!(
+            "{}: {} of {} checks failed: {}",
+            path.display(),
+            failed.len(),
+            checks.len(),
+            failed.join(", ")
+        )
+        .into()),
+    }
 }
