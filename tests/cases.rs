@@ -435,20 +435,25 @@ fn bad_gauges_are_refused_with_their_line() {
     }
 }
 
+/// `fluid-lab validate still-water --case CASE --output-dir FOLDER`.
+fn validate_still_water(case: &Path, folder: &Path) -> std::process::Output {
+    run_lab(&[
+        "validate".as_ref(),
+        "still-water".as_ref(),
+        "--case".as_ref(),
+        case.as_os_str(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ])
+}
+
 #[test]
 fn still_water_is_checked_against_hydrostatics() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("still.toml");
     std::fs::write(&path, tank(&dir.path().join("unused"), 0.3)).unwrap();
     let folder = dir.path().join("checks");
-    let output = run_lab(&[
-        "validate".as_ref(),
-        "still-water".as_ref(),
-        "--case".as_ref(),
-        path.as_os_str(),
-        "--output-dir".as_ref(),
-        folder.as_os_str(),
-    ]);
+    let output = validate_still_water(&path, &folder);
     // At 0.3 s the start's waves still move it faster than the speed check allows: that
     // check alone fails, and fails the validation once its outputs are written.
     assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
@@ -552,14 +557,7 @@ fn a_validation_whose_checks_fail_exits_1_after_writing_its_outputs() {
         .replace("name = \"wcsph\"", "name = \"wcsph\"\ntime_step_s = 0.002");
     std::fs::write(&path, case).unwrap();
     let folder = dir.path().join("checks");
-    let output = run_lab(&[
-        "validate".as_ref(),
-        "still-water".as_ref(),
-        "--case".as_ref(),
-        path.as_os_str(),
-        "--output-dir".as_ref(),
-        folder.as_os_str(),
-    ]);
+    let output = validate_still_water(&path, &folder);
     assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
     let message = stderr(&output);
     assert_eq!(message.lines().count(), 1, "{message}");
@@ -816,14 +814,7 @@ fn a_model_that_cannot_take_the_case_s_box_or_gravity_is_refused_at_its_key() {
         .unwrap()
         .replace("[domain]", "[domain]\ngravity_m_s2 = [1.0, -9.8, 0.0]");
     std::fs::write(&path, tilted).unwrap();
-    let output = run_lab(&[
-        "validate".as_ref(),
-        "still-water".as_ref(),
-        "--case".as_ref(),
-        path.as_os_str(),
-        "--output-dir".as_ref(),
-        folder.as_os_str(),
-    ]);
+    let output = validate_still_water(&path, &folder);
     assert_ne!(exit_code(&output), 0);
     assert!(
         stderr(&output).contains("gravity_m_s2 = [0, -g, 0]"),

@@ -281,27 +281,15 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         }
     }
     // A validation is a test: its outputs are written, and a run that failed fails it.
-    let failed: Vec<String> = runs
-        .iter()
-        .filter_map(|run| {
-            let (t, failure) = run.collapse.failure.as_ref()?;
-            Some(format!(
-                "{} at {} per m failed at T = {t:.3} ({failure})",
-                run.model.name(),
-                run.ppm
-            ))
-        })
-        .collect();
-    match failed.is_empty() {
-        true => Ok(()),
-        false => Err(format!(
-            "{} of {} runs failed: {}",
-            failed.len(),
-            runs.len(),
-            failed.join("; ")
-        )
-        .into()),
-    }
+    let failed = runs.iter().filter_map(|run| {
+        let (t, failure) = run.collapse.failure.as_ref()?;
+        Some(format!(
+            "{} at {} per m failed at T = {t:.3} ({failure})",
+            run.model.name(),
+            run.ppm
+        ))
+    });
+    verdict(String::new(), failed.collect(), runs.len(), "runs", "; ")
 }
 
 /// The error of `model`'s front at each experimental point with T up to [`SUMMARY_T`]
@@ -564,19 +552,29 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
         writeln!(stdout, "wrote {}", written.display())?;
     }
     // A validation is a test: its outputs are written, and a failed check fails it.
-    let failed: Vec<&str> = checks
+    let failed = checks
         .iter()
         .filter(|check| !check.passed())
-        .map(|check| check.name.as_str())
-        .collect();
+        .map(|check| check.name.clone());
+    let subject = format!("{}: ", path.display());
+    verdict(subject, failed.collect(), checks.len(), "checks", ", ")
+}
+
+/// A validation's verdict: success if nothing of the `total` `things` (runs or checks)
+/// `failed`, else an error naming them (after `subject`), joined by `separator`.
+fn verdict(
+    subject: String,
+    failed: Vec<String>,
+    total: usize,
+    things: &str,
+    separator: &str,
+) -> Result<(), Box<dyn Error>> {
     match failed.is_empty() {
         true => Ok(()),
         false => Err(format!(
-            "{}: {} of {} checks failed: {}",
-            path.display(),
+            "{subject}{} of {total} {things} failed: {}",
             failed.len(),
-            checks.len(),
-            failed.join(", ")
+            failed.join(separator)
         )
         .into()),
     }
