@@ -63,6 +63,18 @@ fn a_run_reports_its_method_and_timing() {
     );
     assert!(report.contains(" ns_per_particle_step="), "{report}");
     assert!(report.contains(" simulated_s=0.003000 "), "{report}");
+    // A run of 2.5e-7 s shows it in significant digits.
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--dt".as_ref(),
+        "2.5e-7".as_ref(),
+        "--steps".as_ref(),
+        "1".as_ref(),
+        small.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "stderr: {}", stderr(&output));
+    let report = stdout(&output);
+    assert!(report.contains(" simulated_s=0.0000002500 "), "{report}");
 }
 
 #[test]

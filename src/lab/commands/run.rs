@@ -333,11 +333,12 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     writeln!(
         stdout,
         "model={} kernel={} particles={particles} steps={run} seconds={seconds:.6} \
-         ns_per_particle_step={:.3} simulated_s={simulated:.6} \
+         ns_per_particle_step={:.3} simulated_s={} \
          seconds_per_simulated_s={per_simulated_second}{builds}",
         args.simulation.model().name(),
         args.simulation.kernel().name(),
         per_particle_step * 1e9,
+        significant(simulated),
     )?;
     // The final state first, then the diagnostics, which are written even when the state
     // cannot be.
@@ -371,6 +372,17 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
 
 /// The bytes a diagnostics row usually takes, for the room reserved before a run.
 const DIAGNOSTICS_ROW_BYTES: u64 = 128;
+
+/// `value` in fixed notation with at least 6 decimals and at least 4 significant digits
+/// (a run of 1e-7 s is `0.0000001000`, not `0.000000`).
+fn significant(value: f64) -> String {
+    let magnitude = value.abs().log10().floor();
+    let decimals = match magnitude.is_finite() {
+        true => (3.0 - magnitude).clamp(6.0, 300.0) as usize,
+        false => 6,
+    };
+    format!("{value:.decimals$}")
+}
 
 /// Writes the checkpoint of `simulation` after `step` steps to `path`, atomically.
 fn write_checkpoint(
