@@ -848,3 +848,42 @@ fn the_water_s_settings_are_the_weakly_compressible_model_s_and_are_checked() {
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     assert!(out.is_file());
 }
+
+#[test]
+fn the_help_says_what_each_command_runs_in_plain_words() {
+    let help = |args: &[&str]| {
+        let output = run_lab(args);
+        assert_eq!(exit_code(&output), 0, "{args:?}: {}", stderr(&output));
+        stdout(&output)
+    };
+    let top = help(&["--help"]);
+    let summary = |name: &str| {
+        top.lines()
+            .find(|line| line.trim_start().starts_with(&format!("{name} ")))
+            .unwrap_or_else(|| panic!("no {name} in {top}"))
+            .to_string()
+    };
+    assert!(summary("validate").contains("still water"), "{top}");
+    assert!(summary("slurm").contains("accuracy"), "{top}");
+    assert!(summary("accuracy").contains("one model"), "{top}");
+    assert!(help(&["slurm", "--help"]).contains("(sweep, stability or accuracy)"));
+    // No rustdoc link syntax reaches a user.
+    let commands = [
+        "run",
+        "export",
+        "render",
+        "compare",
+        "chaos",
+        "accuracy",
+        "stability",
+        "scene",
+        "sweep",
+        "chart",
+        "validate",
+        "slurm",
+    ];
+    for command in commands {
+        let text = help(&[command, "--help"]);
+        assert!(!text.contains("[`"), "{command}: {text}");
+    }
+}

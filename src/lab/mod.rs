@@ -64,8 +64,8 @@ enum Command {
     /// Copies of an input moved by one ulp, and a state judged against the ensemble of
     /// states runs on them give (is a change of the outputs no bigger than chaos?).
     Chaos(commands::chaos::ChaosArgs),
-    /// Time per step against error, for each model and kernel, relative to the reference
-    /// trajectory: a CSV and two charts.
+    /// Time per step against error, for one model and each kernel and method, relative to
+    /// the reference trajectory: a CSV and two charts.
     Accuracy(commands::accuracy::AccuracyArgs),
     /// Run a scene over time steps and resolutions and map where each model fails.
     Stability(commands::stability::StabilityArgs),
@@ -77,11 +77,13 @@ enum Command {
     Sweep(commands::sweep::SweepArgs),
     /// Chart a sweep CSV: time, energy and power against iterations, as PNG and SVG.
     Chart(commands::chart::ChartArgs),
-    /// Validate the models against an experiment (the dam break of Martin and Moyce,
-    /// 1952): fronts, errors at each experimental point, and a chart.
+    /// Validate the models against what water does: the dam break of Martin and Moyce
+    /// (1952) and Koshizuka and Oka (1996) (fronts, errors, charts) or still water
+    /// against hydrostatics (checks, a chart); exits 1 if a run or check fails.
     Validate(commands::validate::ValidateArgs),
-    /// Run a sweep or a stability map as a Slurm job array, one point per task; merge
-    /// its shards into the usual CSV and charts; resubmit the points that failed.
+    /// Run a sweep, a stability map or an accuracy sweep as a Slurm job array, one point
+    /// per task; merge its shards into the usual CSV and charts; resubmit the points that
+    /// failed.
     Slurm(commands::slurm::SlurmArgs),
 }
 

@@ -25,8 +25,8 @@ pub struct SlurmArgs {
 // The actions (a plain comment: clap would take a doc comment as the about).
 #[derive(Debug, Subcommand)]
 enum Action {
-    /// Write the job folder and submit the subcommand after `--` (sweep or stability) as
-    /// an array, one point per task.
+    /// Write the job folder and submit the subcommand after `--` (sweep, stability or
+    /// accuracy) as an array, one point per task.
     Submit(SubmitArgs),
     /// Run one point of a job folder and write its shard (what job.sh runs in each task).
     Task(TaskArgs),

@@ -53,7 +53,7 @@ pub enum Kernel {
     /// Four partners at a time in `wide::f64x4` lanes, with masks for the cut-off and the
     /// tail lanes.
     Simd,
-    /// As [`Kernel::Simd`], eight partners at a time in `wide::f64x8` lanes (one AVX-512
+    /// As the simd kernel, eight partners at a time in `wide::f64x8` lanes (one AVX-512
     /// register; two AVX2 registers elsewhere).
     Simd8,
     /// Mixed precision: the pair terms in f32 lanes, the sums by particle in f64. On tiles (and for
