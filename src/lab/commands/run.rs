@@ -374,7 +374,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
 const DIAGNOSTICS_ROW_BYTES: u64 = 128;
 
 /// `value` in fixed notation with at least 6 decimals and at least 4 significant digits
-/// (a run of 1e-7 s is `0.0000001000`, not `0.000000`).
+/// (a run of 2.5e-7 s is `0.0000002500`, not `0.000000`).
 fn significant(value: f64) -> String {
     let magnitude = value.abs().log10().floor();
     let decimals = match magnitude.is_finite() {
