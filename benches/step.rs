@@ -227,7 +227,7 @@ fn stage_one_parts(c: &mut Criterion) {
             let mut placed = Particles::default();
             let (mut a, mut rho) = (particles.a.clone(), particles.rho.clone());
             b.iter(|| {
-                placed.gather_kinematics(particles, paired, GRAVITY);
+                placed.gather_for_pairs(particles, paired, GRAVITY);
                 rho[..n].fill(1.0);
                 for (&slot, &from) in paired.iter().zip(&placed.rho) {
                     rho[slot as usize] = from;

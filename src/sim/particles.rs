@@ -37,6 +37,15 @@ pub fn vector_at(arrays: &AxisArrays, slot: usize) -> DVec3 {
     DVec3::new(arrays[0][slot], arrays[1][slot], arrays[2][slot])
 }
 
+/// `target` made the slots `order` of `source`, padded with zeros.
+fn gather_axes(target: &mut AxisArrays, source: &AxisArrays, order: &[u32]) {
+    for (t, s) in target.iter_mut().zip(source) {
+        t.clear();
+        t.extend(order.iter().map(|&k| s[k as usize]));
+        t.resize(order.len() + PADDING, 0.0);
+    }
+}
+
 impl Particles {
     /// The bytes its arrays hold on the heap.
     pub fn heap_bytes(&self) -> usize {
@@ -97,19 +106,20 @@ impl Particles {
     /// sets them (0 and `gravity`), so the reordering also does that stage; every array
     /// is padded. `self`'s buffers are reused.
     pub fn gather_kinematics(&mut self, source: &Particles, order: &[u32], gravity: DVec3) {
+        self.gather_for_pairs(source, order, gravity);
+        gather_axes(&mut self.hv, &source.hv, order);
+    }
+
+    /// As [`Self::gather_kinematics`] without the half-step velocities, which the pair
+    /// passes do not read: a copy for them alone (its `hv` empty, so that no step can
+    /// read one by mistake).
+    pub fn gather_for_pairs(&mut self, source: &Particles, order: &[u32], gravity: DVec3) {
         self.id.clear();
         self.id.extend(order.iter().map(|&s| source.id[s as usize]));
-        let fields = [
-            (&mut self.p, &source.p),
-            (&mut self.hv, &source.hv),
-            (&mut self.v, &source.v),
-        ];
-        for (target, source) in fields {
-            for (t, s) in target.iter_mut().zip(source) {
-                t.clear();
-                t.extend(order.iter().map(|&k| s[k as usize]));
-                t.resize(order.len() + PADDING, 0.0);
-            }
+        gather_axes(&mut self.p, &source.p, order);
+        gather_axes(&mut self.v, &source.v, order);
+        for axis in &mut self.hv {
+            axis.clear();
         }
         self.reset_densities_and_accelerations(gravity);
     }
@@ -209,6 +219,25 @@ mod tests {
         assert_eq!(target.rho, [0.0; 3 + PADDING]);
         assert_eq!(target.acceleration(2), GRAVITY);
         assert_eq!(target.p[0].len(), 3 + PADDING);
+    }
+
+    #[test]
+    fn a_copy_for_the_pair_passes_has_no_half_step_velocities() {
+        let mut source = Particles::zeroed(3);
+        for slot in 0..3 {
+            source.p[1][slot] = slot as f64;
+            source.hv[0][slot] = 10.0 + slot as f64;
+            source.v[0][slot] = 20.0 + slot as f64;
+        }
+        let mut target = Particles::default();
+        target.gather_kinematics(&source, &[0, 1, 2], GRAVITY);
+        target.gather_for_pairs(&source, &[1, 2], GRAVITY);
+        assert_eq!(target.id, vec![1, 2]);
+        assert_eq!(target.p[1][..2], [1.0, 2.0]);
+        assert_eq!(target.v[0][..2], [21.0, 22.0]);
+        assert!(target.hv.iter().all(Vec::is_empty));
+        assert_eq!(target.rho, [0.0; 2 + PADDING]);
+        assert_eq!(target.acceleration(1), GRAVITY);
     }
 
     #[test]

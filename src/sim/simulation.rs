@@ -741,7 +741,11 @@ impl Simulation {
             } else {
                 self.cells.order()
             };
-            if self.dynamics.carries_densities() {
+            if in_place && !self.dynamics.carries_densities() {
+                // A copy for the pair passes alone.
+                self.spare
+                    .gather_for_pairs(&self.particles, order, self.params.domain.gravity);
+            } else if self.dynamics.carries_densities() {
                 self.spare.gather_with_densities(
                     &self.particles,
                     order,
