@@ -436,8 +436,11 @@ fn bad_gauges_are_refused_with_their_line() {
 }
 
 /// `fluid-lab validate still-water --case CASE --output-dir FOLDER`.
+/// `validate still-water` on `case` into `folder`, quiet (its stderr the verdict alone,
+/// however long the run).
 fn validate_still_water(case: &Path, folder: &Path) -> std::process::Output {
     run_lab(&[
+        "--quiet".as_ref(),
         "validate".as_ref(),
         "still-water".as_ref(),
         "--case".as_ref(),
@@ -899,4 +902,100 @@ fn a_resumed_run_reads_its_gauges_on_the_schedule_it_goes_on() {
         whole.len()
     );
     assert_eq!(resumed[1..], whole[from..]);
+}
+
+#[test]
+fn a_run_to_a_time_that_would_take_too_many_fixed_steps_is_refused_at_its_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("o");
+    let path = dir.path().join("tiny-steps.toml");
+    let with = |model: &str, until: &str| {
+        tank(&folder, 0.1)
+            .replace("name = \"wcsph\"", model)
+            .replace("until_s = 0.1", until)
+    };
+    // (the case's [model] and [run] lines, the flags, where the error points, its words)
+    let refused = [
+        (
+            "name = \"wcsph\"\ntime_step_s = 1e-300",
+            "until_s = 0.1",
+            &[][..],
+            Some((8, 15)),
+            "time_step_s = 1e-300 s would take 1.000e299 steps to until_s = 0.1 s, more than the 1e7",
+        ),
+        (
+            "name = \"course\"",
+            "until_s = 1e5",
+            &[],
+            Some((9, 11)),
+            "the model's time step of 0.001 s would take 1.000e8 steps to until_s = 100000 s",
+        ),
+        (
+            "name = \"wcsph\"",
+            "until_s = 0.1",
+            &["--dt", "1e-300"],
+            Some((9, 11)),
+            "--dt 1e-300 would take 1.000e299 steps to until_s = 0.1 s",
+        ),
+    ];
+    for (model, until, flags, at, words) in refused {
+        std::fs::write(&path, with(model, until)).unwrap();
+        for subcommand in ["run", "export", "render"] {
+            let out = dir.path().join(format!("out-{subcommand}"));
+            let out = match subcommand {
+                "render" => out.with_extension("png"),
+                _ => out,
+            };
+            let mut args = vec![
+                subcommand.as_ref(),
+                "--case".as_ref(),
+                path.as_os_str(),
+                out.as_os_str(),
+            ];
+            args.extend(flags.iter().map(std::ffi::OsStr::new));
+            let output = run_lab(&args);
+            let message = stderr(&output);
+            assert_eq!(exit_code(&output), 2, "{subcommand} {until}: {message}");
+            let place = match at {
+                Some((line, column)) => format!("{}:{line}:{column}: ", path.display()),
+                None => String::new(),
+            };
+            assert!(
+                message.starts_with(&format!("fluid-lab: error: {place}{words}")),
+                "{subcommand}: {message}"
+            );
+            assert_eq!(message.lines().count(), 1, "{message}");
+            assert!(
+                !out.exists() && !folder.exists(),
+                "{subcommand}: nothing written"
+            );
+        }
+    }
+    // The same flags on a .fld input; and a time step that fits runs.
+    let small = common::input("small");
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--dt".as_ref(),
+        "1e-300".as_ref(),
+        "--until".as_ref(),
+        "0.1".as_ref(),
+        small.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 2);
+    assert!(
+        stderr(&output).starts_with(
+            "fluid-lab: error: --dt 1e-300 would take 1.000e299 steps to --until 0.1, "
+        ),
+        "{}",
+        stderr(&output)
+    );
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--dt".as_ref(),
+        "1e-8".as_ref(),
+        "--until".as_ref(),
+        "2e-8".as_ref(),
+        small.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
 }

@@ -78,6 +78,69 @@ fn a_run_reports_its_method_and_timing() {
 }
 
 #[test]
+fn a_run_logged_to_a_file_prints_progress_lines_unless_quiet() {
+    // Stderr is a pipe here, as in a CI or Slurm log: no bar, plain lines at the set
+    // interval (0 s: after every step).
+    let small = input("small");
+    let args = |extra: &[&str]| {
+        let mut args: Vec<std::ffi::OsString> = extra.iter().map(Into::into).collect();
+        args.extend(["run", "--steps", "4"].map(Into::into));
+        args.push(small.clone().into());
+        args
+    };
+    let output = run_lab(&args(&["--progress-every", "0"]));
+    assert_eq!(exit_code(&output), 0, "stderr: {}", stderr(&output));
+    let log = stderr(&output);
+    let lines: Vec<&str> = log.lines().collect();
+    assert_eq!(lines.len(), 4, "{log}");
+    assert!(
+        lines[1].starts_with("fluid-lab: progress: step 2 of 4, t = 0.002000 s (50%), "),
+        "{log}"
+    );
+    assert!(lines[1].contains(" steps/s, about "), "{log}");
+    assert!(lines[3].ends_with(", about 0 s left"), "{log}");
+    // The same run to a physical time gives its goal in seconds.
+    let output = run_lab(&[
+        "--progress-every",
+        "0",
+        "run",
+        "--until",
+        "0.002",
+        small.to_str().unwrap(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "stderr: {}", stderr(&output));
+    assert!(
+        stderr(&output).starts_with("fluid-lab: progress: step 1, t = 0.001000 of 0.002 s (50%), "),
+        "{}",
+        stderr(&output)
+    );
+    // --quiet, before or after the subcommand: nothing on stderr.
+    for quiet in [
+        &["--quiet", "--progress-every", "0"][..],
+        &["--progress-every", "0"],
+    ] {
+        let mut args = args(quiet);
+        if quiet.len() == 2 {
+            args.push("--quiet".into());
+        }
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 0, "stderr: {}", stderr(&output));
+        assert_eq!(stderr(&output), "");
+        assert!(stdout(&output).contains(" steps=4 "), "{}", stdout(&output));
+    }
+    // By default a line every 10 s: a short run prints none.
+    let output = run_lab(&args(&[]));
+    assert_eq!(stderr(&output), "");
+    let output = run_lab(&args(&["--progress-every", "-1"]));
+    assert_eq!(exit_code(&output), 2);
+    assert!(
+        stderr(&output).contains("-1 is not a number of seconds from 0 to 1e9"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
 fn lists_kept_with_a_skin_give_the_state_of_lists_rebuilt_every_step() {
     let dir = tempfile::tempdir().unwrap();
     let small = input("small");
@@ -687,11 +750,22 @@ fn a_short_dam_break_front_moves_as_the_experiment_s_and_the_course_model_fails_
         "2".as_ref(),
         "--output-dir".as_ref(),
         dir.path().as_os_str(),
+        "--progress-every".as_ref(),
+        "0".as_ref(),
     ]);
     // A validation is a test: the course model's failure fails it, after its outputs.
     assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
-    let message = stderr(&output);
-    assert_eq!(message.lines().count(), 1, "{message}");
+    // Its log names each run in its progress lines (here after every step).
+    let log = stderr(&output);
+    for model in ["course", "fluidanimate", "wcsph"] {
+        let first = format!("fluid-lab: progress: {model} at 150 per m: step 1, t = ");
+        assert!(log.lines().any(|l| l.starts_with(&first)), "{model}");
+    }
+    let message: String = log
+        .lines()
+        .filter(|l| !l.starts_with("fluid-lab: progress: "))
+        .collect();
+    assert_eq!(log.lines().last(), Some(&message[..]));
     assert!(
         message.starts_with(
             "fluid-lab: error: 1 of 3 runs failed: course at 150 per m failed at T = 0.0"

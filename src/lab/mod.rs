@@ -2,8 +2,8 @@
 //! the same library. Its concepts are modules here: generated [`scene`]s, per-state
 //! [`diagnostics`], [`chaos`] (how far outputs scatter), [`accuracy`] against the
 //! reference trajectory, [`stability`] maps, iteration [`sweep`]s with their [`energy`] and [`machine`], job arrays on [`slurm`], [`chart`]s, [`render`]ed
-//! pictures, [`gauges`], [`still_water`] and [`validation`] against experiments. The
-//! command line is [`Lab`], one module of `commands/` per subcommand.
+//! pictures, [`gauges`], [`still_water`] and [`validation`] against experiments, and a long
+//! run's [`progress`]. The command line is [`Lab`], one module of `commands/` per subcommand.
 
 pub mod accuracy;
 pub mod chaos;
@@ -13,6 +13,7 @@ pub mod diagnostics;
 pub mod energy;
 pub mod gauges;
 pub mod machine;
+pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod slurm;
@@ -47,6 +48,22 @@ impl Error for UsageError {}
 pub struct Lab {
     #[command(subcommand)]
     command: Command,
+    /// Show no progress: no bar on a terminal, no progress lines in a log.
+    #[arg(long, global = true)]
+    quiet: bool,
+    /// Seconds of wall time between two progress lines, where stderr is not a terminal
+    /// (a CI or Slurm log) and a run shows its progress as lines.
+    #[arg(long, global = true, value_name = "SECONDS", default_value_t = progress::DEFAULT_EVERY.as_secs_f64(), allow_negative_numbers = true, value_parser = parse_interval)]
+    progress_every: f64,
+}
+
+/// Parses an interval of wall time in seconds: finite and not negative (0: a line after
+/// every step).
+fn parse_interval(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(seconds) if (0.0..1e9).contains(&seconds) => Ok(seconds),
+        _ => Err(format!("{text} is not a number of seconds from 0 to 1e9")),
+    }
 }
 
 // The subcommands, each with its arguments (a module of `commands` each). A plain comment:
@@ -90,6 +107,10 @@ enum Command {
 impl Lab {
     /// Runs the parsed command, writing its report to `stdout`.
     pub fn execute(self, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+        progress::configure(progress::Settings {
+            quiet: self.quiet,
+            every: std::time::Duration::from_secs_f64(self.progress_every),
+        });
         match self.command {
             Command::Run(args) => commands::run::exec(args, stdout),
             Command::Export(args) => commands::export::exec(args, stdout),

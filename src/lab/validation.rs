@@ -9,6 +9,7 @@
 //! against T = t sqrt(2 g / a).
 
 use crate::lab::diagnostics::{self, Checks, Diagnostics, Failure, Vitals};
+use crate::lab::progress::Progress;
 use crate::lab::scene;
 use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY, RADIUS_MULTIPLIER};
 use crate::sim::particles::Particles;
@@ -141,7 +142,13 @@ pub struct Collapse {
 /// `until`, sampling the front at step 0 and every `every` steps. The run stops at the
 /// first failure of [`Checks`] (non-finite values, particles out of the box, energy
 /// growth): a model that blows up is reported, not followed.
-pub fn collapse(simulation: &mut Simulation, dam: &DamBreak, until: f64, every: u64) -> Collapse {
+pub fn collapse(
+    simulation: &mut Simulation,
+    dam: &DamBreak,
+    until: f64,
+    every: u64,
+    progress: &mut Progress,
+) -> Collapse {
     let unit = dam.time_unit();
     let checks = Checks::from(&Vitals::of(simulation));
     let sample = |simulation: &Simulation, step: u64| {
@@ -164,6 +171,7 @@ pub fn collapse(simulation: &mut Simulation, dam: &DamBreak, until: f64, every: 
     while !simulation.has_reached(end) {
         simulation.step_towards(end);
         step += 1;
+        progress.show(step, simulation.time());
         if let Some(failure) = checks.failure(&Vitals::of(simulation)) {
             return Collapse {
                 samples,
@@ -366,7 +374,9 @@ mod tests {
         };
         let mut simulation =
             Simulation::with_method(150.0, dam.particles().unwrap(), method).unwrap();
-        let collapse = collapse(&mut simulation, &dam, 1.0, 5);
+        let goal = crate::lab::progress::Goal::Until(dam.time_unit());
+        let mut progress = Progress::towards(goal);
+        let collapse = collapse(&mut simulation, &dam, 1.0, 5, &mut progress);
         assert_eq!(collapse.failure, None);
         let (first, last) = (collapse.samples[0], *collapse.samples.last().unwrap());
         assert!((first.z - 1.0).abs() < 0.1, "{first:?}");

@@ -54,15 +54,34 @@ fn run_with<S: AsRef<std::ffi::OsStr>>(program: &str, args: &[S], vars: &[(&str,
         .stderr(Stdio::piped())
         .spawn()
         .expect("spawn the binary");
+    // Both pipes drained while the binary runs: one that fills (64 KiB) would stop it.
+    let drain = |pipe: Option<Box<dyn std::io::Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            pipe.expect("a piped stream")
+                .read_to_end(&mut bytes)
+                .expect("read the binary's output");
+            bytes
+        })
+    };
+    let stdout = drain(child.stdout.take().map(|p| Box::new(p) as _));
+    let stderr = drain(child.stderr.take().map(|p| Box::new(p) as _));
     let start = Instant::now();
-    while child.try_wait().expect("wait for the binary").is_none() {
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for the binary") {
+            break status;
+        }
         if start.elapsed() > TIME_LIMIT {
             child.kill().ok();
             panic!("{program} did not finish within {TIME_LIMIT:?}");
         }
         std::thread::sleep(Duration::from_millis(5));
+    };
+    Output {
+        status,
+        stdout: stdout.join().expect("stdout read"),
+        stderr: stderr.join().expect("stderr read"),
     }
-    child.wait_with_output().expect("collect the output")
 }
 
 /// The exit status as the shell sees it (0-255).

@@ -46,6 +46,7 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
     args.span
         .take_case(args.simulation.read.as_ref(), args.every);
     let output_dir = needed(args.output_dir.take(), "output folder")?;
+    let extent = args.simulation.extent(args.span.until)?;
     let Loaded {
         stem,
         name,
@@ -53,7 +54,6 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         ..
     } = load(&args.simulation)?;
     super::create_output_dir(&output_dir)?;
-    let extent = args.simulation.extent(args.span.until);
     let visits = args.span.frames(args.every);
     let collection = output_dir.join(format!("{stem}.pvd"));
     let mut frames = Vec::new();

@@ -67,7 +67,7 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         .take_case(args.simulation.read.as_ref(), args.every);
     let output = &needed(args.output.take(), "output (.png or .gif)")?;
     let picture = Picture::of(output)?;
-    let extent = args.simulation.extent(args.span.until);
+    let extent = args.simulation.extent(args.span.until)?;
     let series = args.span.is_series(args.every);
     let frame_path = |step: u64| match series {
         true => {

@@ -2,9 +2,7 @@
 //! optionally per-step diagnostics and the final state.
 
 use super::same_file;
-use super::simulation_args::{
-    failure, load, parse_seconds, progress_over, Extent, Loaded, SimulationArgs,
-};
+use super::simulation_args::{failure, load, parse_seconds, Extent, Loaded, SimulationArgs};
 use crate::io::checkpoint::{self, Checkpoint};
 use crate::io::fld;
 use crate::io::input::read_regular;
@@ -13,6 +11,7 @@ use crate::lab::chart;
 use crate::lab::diagnostics::{self, Diagnostics};
 use crate::lab::gauges::GaugeTable;
 use crate::lab::machine::Machine;
+use crate::lab::progress::{Goal, Progress};
 use crate::lab::UsageError;
 use crate::sim::simulation::Simulation;
 use crate::sim::skin::Skin;
@@ -143,7 +142,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
             .into());
         }
     }
-    let extent = args.simulation.extent(args.until);
+    let extent = args.simulation.extent(args.until)?;
     let input = &args.simulation.source().to_path_buf();
     // The side files must be files of their own: not the input, the output or each other
     // (the output may be the input, as with `fluid`).
@@ -275,9 +274,9 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         }
     };
     read_gauges(&simulation, &mut gauges);
-    let progress = progress_over(match extent {
-        Extent::Steps(steps) => Extent::Steps(steps + 1 - first),
-        until => until,
+    let mut progress = Progress::towards(match extent {
+        Extent::Steps(steps) => Goal::Steps(steps + 1 - first),
+        Extent::Until(end) => Goal::Until(end),
     });
     let end = match extent {
         Extent::Until(end) => end,
@@ -291,11 +290,11 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         simulation.step_towards(end);
         seconds += started.elapsed().as_secs_f64();
         read_gauges(&simulation, &mut gauges);
-        extent.show(&progress, &simulation);
+        progress.show(step + 1 - first, simulation.time());
         // A run that failed (NaN or infinities, a collapsed step) stops here, naming the
         // step, instead of writing its state out; its diagnostics are written.
         if let Some(failure) = failure(&simulation, extent, step) {
-            progress.finish_and_clear();
+            progress.finish();
             if let Some(file) = diagnostics_file {
                 diagnose(&simulation, step);
                 file.commit(rows.as_bytes())?;
@@ -313,7 +312,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
             }
         }
     }
-    progress.finish_and_clear();
+    progress.finish();
     let particles = simulation.particles().len();
     let run = step + 1 - first;
     let seconds = seconds + gauge_seconds;

@@ -1,10 +1,12 @@
 //! The simulation a subcommand runs: its arguments (input, steps, model, kernel, time
-//! step), the input placed for it, and a run with a progress bar that visits chosen steps.
+//! step), the input placed for it, and a run with its progress that visits chosen steps.
 
 use crate::io::case::{self, Case, CaseError};
 use crate::io::fld;
+use crate::io::gformat::format_g;
 use crate::io::input::read_regular;
 use crate::lab::diagnostics::Vitals;
+use crate::lab::progress::{Goal, Progress};
 use crate::lab::scene::{self, Region};
 use crate::lab::UsageError;
 use crate::sim::clusters::PairStructure;
@@ -17,9 +19,7 @@ use crate::sim::simulation::Simulation;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
 use clap::Args;
 use clap::ValueEnum;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::error::Error;
-use std::io::IsTerminal;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -192,9 +192,14 @@ impl SimulationArgs {
 
     /// How far to run: `until` (the command's `--until`), else `--steps`, else the case's
     /// steps or time, else 1 step.
-    pub fn extent(&self, until: Option<f64>) -> Extent {
+    ///
+    /// # Errors
+    /// A run to a time on fixed steps that would take more than [`MOST_STEPS_TO_GO`]
+    /// steps (the limit an adaptive step has): at the case's key that sets the step (or
+    /// the time), else as a usage error.
+    pub fn extent(&self, until: Option<f64>) -> Result<Extent, Box<dyn Error>> {
         let run = self.read.as_ref().map(|case| &case.run);
-        match (until, self.steps, run) {
+        let extent = match (until, self.steps, run) {
             (Some(end), _, _) => Extent::Until(end),
             (None, Some(steps), _) => Extent::Steps(steps),
             (None, None, Some(run)) => match (&run.until_s, &run.steps) {
@@ -203,7 +208,42 @@ impl SimulationArgs {
                 (None, None) => Extent::Steps(1),
             },
             (None, None, None) => Extent::Steps(1),
+        };
+        let (Extent::Until(end), TimeStep::Fixed(dt)) = (extent, self.time_step()) else {
+            return Ok(extent);
+        };
+        let steps = (end / dt).ceil();
+        if steps <= MOST_STEPS_TO_GO {
+            return Ok(extent);
         }
+        // Each of the two named as it was given: a case's key, a flag, or the model's.
+        let case = self.read.as_ref();
+        fn given(key: Option<&toml::Spanned<f64>>, value: f64) -> Option<&toml::Spanned<f64>> {
+            key.filter(|key| *key.get_ref() == value)
+        }
+        let dt_key = given(case.and_then(|c| c.model.time_step_s.as_ref()), dt);
+        let end_key =
+            given(case.and_then(|c| c.run.until_s.as_ref()), end).filter(|_| until.is_none());
+        let (dt, end) = (format_g(dt), format_g(end));
+        let step = match (dt_key, self.dt) {
+            (Some(_), _) => format!("time_step_s = {dt} s"),
+            (None, Some(_)) => format!("--dt {dt}"),
+            (None, None) => format!("the model's time step of {dt} s"),
+        };
+        let time = match end_key {
+            Some(_) => format!("until_s = {end} s"),
+            None => format!("--until {end}"),
+        };
+        let message = format!(
+            "{step} would take {steps:.3e} steps to {time}, more than the \
+             {MOST_STEPS_TO_GO:.0e} a run to a time may take (give steps for a longer run)"
+        );
+        let text = self.case_text.as_deref().unwrap_or_default();
+        let name = self.source().display().to_string();
+        Err(match dt_key.or(end_key) {
+            Some(key) => Box::new(CaseError::at_span(text, &name, key.span(), message)),
+            None => Box::new(UsageError(message)),
+        })
     }
 
     /// The file the scene comes from: the case, or the input.
@@ -434,17 +474,6 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     })
 }
 
-/// A progress bar over `steps` on stderr, with steps per second, if stderr is a terminal;
-/// hidden otherwise.
-fn progress_bar(steps: u64) -> ProgressBar {
-    if steps == 0 || !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
-    }
-    let style = ProgressStyle::with_template("{bar:30} {pos}/{len} steps  {per_sec}  eta {eta}")
-        .expect("a valid template");
-    ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::stderr()).with_style(style)
-}
-
 /// How far a run of `export` or `render` goes, in physical time if asked, and which of its
 /// states it writes besides the last: the options they share beside their `--every`.
 #[derive(Debug, Args)]
@@ -502,11 +531,11 @@ impl Extent {
         }
     }
 
-    /// Moves `progress` (made by [`progress_over`]) on past a step to `simulation`.
-    pub fn show(self, progress: &ProgressBar, simulation: &Simulation) {
+    /// Where a run over this extent is going, for its [`Progress`].
+    pub fn goal(self) -> Goal {
         match self {
-            Extent::Steps(_) => progress.inc(1),
-            Extent::Until(_) => progress.set_position((simulation.time() * 1e6) as u64),
+            Extent::Steps(steps) => Goal::Steps(steps),
+            Extent::Until(end) => Goal::Until(end),
         }
     }
 }
@@ -520,24 +549,6 @@ pub enum Frames {
     EverySteps(u64),
     /// Time 0 and every this many simulated seconds, each landed on exactly.
     EverySeconds(f64),
-}
-
-/// A progress bar over the run's extent on stderr (steps, or simulated microseconds), with
-/// its rate, if stderr is a terminal; hidden otherwise.
-pub fn progress_over(extent: Extent) -> ProgressBar {
-    match extent {
-        Extent::Steps(steps) => progress_bar(steps),
-        Extent::Until(_) if !std::io::stderr().is_terminal() => ProgressBar::hidden(),
-        Extent::Until(end) => {
-            let style = ProgressStyle::with_template(
-                "{bar:30} {pos}/{len} simulated us  {per_sec}  eta {eta}",
-            )
-            .expect("a valid template");
-            let micros = (end * 1e6).ceil() as u64;
-            ProgressBar::with_draw_target(Some(micros), ProgressDrawTarget::stderr())
-                .with_style(style)
-        }
-    }
 }
 
 /// The most steps a run to a physical time may still need at its current adaptive step
@@ -577,7 +588,7 @@ pub fn run_visiting(
     frames: Frames,
     mut visit: impl FnMut(&Simulation, u64) -> Result<(), Box<dyn Error>>,
 ) -> Result<(), Box<dyn Error>> {
-    let progress = progress_over(extent);
+    let mut progress = Progress::towards(extent.goal());
     let mut step = 0;
     // Frames in time land on multiples of the interval, counted, not summed.
     let mut frame = 0u64;
@@ -601,9 +612,9 @@ pub fn run_visiting(
         }
         simulation.step_towards(end);
         step += 1;
-        extent.show(&progress, simulation);
+        progress.show(step, simulation.time());
         if let Some(failure) = failure(simulation, extent, step) {
-            progress.finish_and_clear();
+            progress.finish();
             return Err(failure.into());
         }
         let on_frame = match frames {
@@ -618,7 +629,7 @@ pub fn run_visiting(
             visit(simulation, step)?;
         }
     }
-    progress.finish_and_clear();
+    progress.finish();
     Ok(())
 }
 

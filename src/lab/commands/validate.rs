@@ -10,6 +10,7 @@ use super::simulation_args::{
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
+use crate::lab::progress::{Goal, Progress};
 use crate::lab::still_water::{self, Tank};
 use crate::lab::validation::{self, Collapse, Comparison, DamBreak, EXPERIMENTS};
 use crate::lab::UsageError;
@@ -169,7 +170,11 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             simulation.set_time_step(time_step);
             let rule = rule_name(time_step);
             let started = Instant::now();
-            let collapse = validation::collapse(&mut simulation, &dam, args.until, args.every);
+            let mut progress = Progress::towards(Goal::Until(args.until * dam.time_unit()))
+                .labelled(format!("{} at {ppm} per m", model.name()));
+            let collapse =
+                validation::collapse(&mut simulation, &dam, args.until, args.every, &mut progress);
+            progress.finish();
             let seconds = started.elapsed().as_secs_f64();
             let comparisons = validation::compare(&collapse, &dam);
             let cells = format!(
@@ -469,7 +474,7 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
     args.read_case(&mut None)?;
     let case = args.read.as_ref().expect("a case read");
     let tank = Tank::of_case(case).map_err(|error| format!("{}: {error}", path.display()))?;
-    let Extent::Until(end) = args.extent(None) else {
+    let Extent::Until(end) = args.extent(None)? else {
         return Err(format!(
             "{}: a still-water case runs to [run] until_s",
             path.display()
@@ -489,13 +494,19 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
     let mut table = tank.gauges();
     let interval = end / 200.0;
     let started = Instant::now();
+    let mut progress = Progress::towards(Goal::Until(end));
+    let mut step = 0;
     while !simulation.has_reached(end) {
         table.read_due(&simulation, interval);
         simulation.step_towards(end);
-        if let Some(failure) = failure(&simulation, Extent::Until(end), 0) {
+        step += 1;
+        progress.show(step, simulation.time());
+        if let Some(failure) = failure(&simulation, Extent::Until(end), step) {
+            progress.finish();
             return Err(failure.into());
         }
     }
+    progress.finish();
     table.read(&simulation);
     let seconds = started.elapsed().as_secs_f64();
     let checks = still_water::checks(&tank, &table, &simulation, particles);
