@@ -999,3 +999,151 @@ fn a_run_to_a_time_that_would_take_too_many_fixed_steps_is_refused_at_its_key() 
     ]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
 }
+
+#[test]
+fn a_case_s_output_places_are_refused_at_their_key_before_anything_is_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let here = dir.path();
+    std::fs::write(here.join("afile"), "not a folder").unwrap();
+    std::fs::create_dir(here.join("afolder")).unwrap();
+    let case_path = here.join("c.toml");
+    // A tank with gauges; its [output] as each row gives it (relative to `here`).
+    let with_output = |output: &str| {
+        let good = tank(Path::new("o"), 0.01);
+        let at = good.find("[output]").unwrap();
+        let gauges = good.find("[gauges]").unwrap();
+        format!("{}[output]\n{output}\n{}", &good[..at], &good[gauges..])
+    };
+    let refused = [
+        (
+            "folder = \"afile\"",
+            "folder = \"afile\" is a file, not a folder",
+        ),
+        (
+            "folder = \"afile/o\"",
+            "folder = \"afile/o\" is under afile, a file",
+        ),
+        (
+            "folder = \"\"",
+            "folder must name a folder (\".\" for the current one)",
+        ),
+        (
+            "folder = \"o\"\nfinal_state = \"\"",
+            "final_state must name a file",
+        ),
+        (
+            "folder = \"o\"\nfinal_state = \".\"",
+            "final_state must name a file",
+        ),
+        (
+            "folder = \"o\"\nfinal_state = \"o/\"",
+            "final_state must name a file",
+        ),
+        (
+            "folder = \"o\"\nfinal_state = \"afolder\"",
+            "final_state = \"afolder\" is a folder: name a .fld file",
+        ),
+        (
+            "folder = \"o\"\nfinal_state = \"afile/x.fld\"",
+            "final_state = \"afile/x.fld\" is under afile, a file",
+        ),
+        (
+            "folder = \"o\"\nfinal_state = \"c.toml\"",
+            "final_state = \"c.toml\" is the case file: give the state a file of its own",
+        ),
+    ];
+    for (output, words) in refused {
+        let text = with_output(output);
+        // The line of the key at fault: the last of the row's.
+        let line = text[..text.find(output).unwrap()].lines().count() + output.lines().count();
+        std::fs::write(&case_path, text).unwrap();
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_fluid-lab"))
+            .current_dir(here)
+            .args(["run", "--case", "c.toml"])
+            .output()
+            .unwrap();
+        let message = stderr(&run);
+        assert_eq!(exit_code(&run), 2, "{output}: {message}");
+        let at = format!("fluid-lab: error: c.toml:{line}:");
+        assert!(message.starts_with(&at), "{output}: {message}");
+        assert!(message.contains(words), "{output}: {message}");
+        assert_eq!(message.lines().count(), 1, "{message}");
+        let mut left = entries(here);
+        left.sort();
+        assert_eq!(
+            left,
+            ["afile", "afolder", "c.toml"],
+            "{output}: nothing made"
+        );
+    }
+    // A case that is not UTF-8: at its first bad byte.
+    std::fs::write(&case_path, b"[run]\nsteps = 3 # caf\xc3\xa9 \xff\n").unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), case_path.as_os_str()]);
+    assert_eq!(exit_code(&output), 2);
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: {}:2:18: not UTF-8 text\n",
+            case_path.display()
+        )
+    );
+    // The case file given as export's output folder.
+    std::fs::write(&case_path, with_output("folder = \"o\"")).unwrap();
+    let output = run_lab(&[
+        "export".as_ref(),
+        "--case".as_ref(),
+        case_path.as_os_str(),
+        case_path.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: the output folder {} is a file\n",
+            case_path.display()
+        )
+    );
+}
+
+#[test]
+fn a_run_that_fails_mid_way_leaves_no_folder_it_made() {
+    // Two particles at 100 km/s: the adaptive step collapses at step 1 (as in
+    // tests/hostile.rs), after export has made its folder and its parent.
+    let dir = tempfile::tempdir().unwrap();
+    let mut particles = fluid::Particles::zeroed(2);
+    for slot in 0..2 {
+        particles.p[0][slot] = -0.01 + 0.002 * slot as f64;
+        particles.hv[0][slot] = 1e5;
+        particles.v[0][slot] = 1e5;
+    }
+    let fast = dir.path().join("fast.fld");
+    std::fs::write(&fast, fluid::io::fld::encode(204.0, &particles).unwrap()).unwrap();
+    let export = |folder: &Path| {
+        run_lab(&[
+            "export".as_ref(),
+            fast.as_os_str(),
+            folder.as_os_str(),
+            "--adaptive".as_ref(),
+            "0.3".as_ref(),
+            "--until".as_ref(),
+            "1".as_ref(),
+        ])
+    };
+    let output = export(&dir.path().join("o").join("frames"));
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("the run failed at step 1"),
+        "{}",
+        stderr(&output)
+    );
+    assert_eq!(
+        entries(dir.path()),
+        ["fast.fld"],
+        "the folders it made are gone"
+    );
+    // A folder that was there stays, empty or not.
+    let kept = dir.path().join("kept");
+    std::fs::create_dir(&kept).unwrap();
+    assert_eq!(exit_code(&export(&kept)), 1);
+    assert!(kept.is_dir());
+}

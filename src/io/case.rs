@@ -13,6 +13,7 @@ use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
 use std::ops::Range;
+use std::path::Path;
 use toml::Spanned;
 
 /// A case file's scene and run, as read (values the file leaves out are `None` or
@@ -348,6 +349,18 @@ impl CaseError {
             message,
         }
     }
+
+    /// The error of `bytes`, the contents of `file`, that are not UTF-8: at the first
+    /// byte that is not.
+    pub fn not_utf8(bytes: &[u8], file: &str, error: std::str::Utf8Error) -> CaseError {
+        let valid = std::str::from_utf8(&bytes[..error.valid_up_to()]).unwrap_or_default();
+        CaseError::at_span(
+            valid,
+            file,
+            valid.len()..valid.len(),
+            "not UTF-8 text".into(),
+        )
+    }
 }
 
 impl std::error::Error for CaseError {}
@@ -577,8 +590,17 @@ impl Case {
             }
         }
         if let Some(path) = &self.output.final_state {
-            if path.get_ref().is_empty() {
+            let name = path.get_ref();
+            if name.is_empty() || name.ends_with('/') || Path::new(name).file_name().is_none() {
                 return Err((path.span(), "final_state must name a file".into()));
+            }
+        }
+        if let Some(folder) = &self.output.folder {
+            if folder.get_ref().is_empty() {
+                return Err((
+                    folder.span(),
+                    "folder must name a folder (\".\" for the current one)".into(),
+                ));
             }
         }
         self.check_gauges(inside)
@@ -749,6 +771,15 @@ impl ModelSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn text_that_is_not_utf8_is_refused_at_its_first_bad_byte() {
+        let bytes = [&b"[run]\nsteps = 3 # caf\xc3\xa9 "[..], &[0xff], b"\n"].concat();
+        let error = std::str::from_utf8(&bytes).unwrap_err();
+        let refused = CaseError::not_utf8(&bytes, "c.toml", error);
+        assert_eq!(refused.at, Some((2, 18)));
+        assert_eq!(refused.to_string(), "c.toml:2:18: not UTF-8 text");
+    }
 
     const DAM: &str = r#"
 [domain]

@@ -435,7 +435,7 @@ impl States {
 /// choices within the budgets (or, with `--from-csv`, only the charts and choices).
 pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let (times, candidates) = args.plan()?;
-    super::create_output_dir(&args.output_dir)?;
+    let _folder = super::create_output_dir(&args.output_dir)?;
     if let Some(csv) = &args.from_csv {
         return args.chart(csv, stdout);
     }

@@ -85,7 +85,7 @@ fn perturb(args: PerturbArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
         ))
         .into());
     }
-    create_output_dir(&args.folder)?;
+    let _folder = create_output_dir(&args.folder)?;
     // One copy in memory at a time; if one cannot be written, none is left.
     let mut written = Vec::new();
     let mut lines = String::from("copy,particle,axis,file\n");

@@ -22,11 +22,13 @@ pub struct ChartArgs {
 /// Reads the sweep CSV and draws its charts.
 pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let table = read(&args.csv)?;
+    let _made = args
+        .output_dir
+        .as_deref()
+        .map(create_output_dir)
+        .transpose()?;
     let folder = match args.output_dir {
-        Some(folder) => {
-            create_output_dir(&folder)?;
-            folder
-        }
+        Some(folder) => folder,
         None => args.csv.parent().map(PathBuf::from).unwrap_or_default(),
     };
     draw(&table, &folder, stdout)

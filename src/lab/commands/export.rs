@@ -4,6 +4,7 @@
 use super::simulation_args::{load, needed, run_visiting, Loaded, SimulationArgs, Span};
 use crate::io::export::{pvd_collection, Snapshot};
 use crate::io::output::OutputFile;
+use crate::lab::UsageError;
 use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::error::Error;
@@ -46,6 +47,10 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
     args.span
         .take_case(args.simulation.read.as_ref(), args.every);
     let output_dir = needed(args.output_dir.take(), "output folder")?;
+    if output_dir.exists() && !output_dir.is_dir() {
+        let shown = output_dir.display();
+        return Err(UsageError(format!("the output folder {shown} is a file")).into());
+    }
     let extent = args.simulation.extent(args.span.until)?;
     let Loaded {
         stem,
@@ -53,7 +58,7 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         mut simulation,
         ..
     } = load(&args.simulation)?;
-    super::create_output_dir(&output_dir)?;
+    let _folder = super::create_output_dir(&output_dir)?;
     let visits = args.span.frames(args.every);
     let collection = output_dir.join(format!("{stem}.pvd"));
     let mut frames = Vec::new();

@@ -17,12 +17,52 @@ pub mod stability;
 pub mod sweep;
 pub mod validate;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Creates `dir` (and its parents) for a subcommand's output files; the error names it.
-pub fn create_output_dir(dir: &Path) -> Result<(), String> {
-    std::fs::create_dir_all(dir)
-        .map_err(|error| format!("cannot create {}: {error}", dir.display()))
+/// The folders it made are removed again when the returned [`MadeFolder`] is dropped, if
+/// they are still empty: a command that fails before writing leaves none behind.
+pub fn create_output_dir(dir: &Path) -> Result<MadeFolder, String> {
+    let shown = dir.display();
+    if dir.exists() && !dir.is_dir() {
+        return Err(format!("cannot use {shown} as a folder: it is a file"));
+    }
+    // The folders missing, outermost first.
+    let mut missing: Vec<PathBuf> = (dir.ancestors())
+        .take_while(|folder| !folder.as_os_str().is_empty() && !folder.exists())
+        .map(Path::to_path_buf)
+        .collect();
+    missing.reverse();
+    // Made before the folders are: a failure part way removes those it made.
+    let made = MadeFolder { made: missing };
+    std::fs::create_dir_all(dir).map_err(|error| format!("cannot create {shown}: {error}"))?;
+    Ok(made)
+}
+
+/// The folders [`create_output_dir`] made, outermost first; those still empty are
+/// removed when it is dropped, unless kept ([`MadeFolder::keep`]).
+#[must_use = "dropped at once, it removes the folders it made"]
+#[derive(Debug)]
+pub struct MadeFolder {
+    made: Vec<PathBuf>,
+}
+
+impl MadeFolder {
+    /// Keeps the folders made, empty or not (for what writes into them later).
+    pub fn keep(mut self) {
+        self.made.clear();
+    }
+}
+
+impl Drop for MadeFolder {
+    fn drop(&mut self) {
+        // Innermost first; a folder that holds anything stays (and so do its parents).
+        for folder in self.made.iter().rev() {
+            if std::fs::remove_dir(folder).is_err() {
+                break;
+            }
+        }
+    }
 }
 
 /// Whether `a` and `b` name the same file: the same file on disk if both exist, else the

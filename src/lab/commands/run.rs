@@ -3,6 +3,7 @@
 
 use super::same_file;
 use super::simulation_args::{failure, load, parse_seconds, Extent, Loaded, SimulationArgs};
+use crate::io::case::CaseError;
 use crate::io::checkpoint::{self, Checkpoint};
 use crate::io::fld;
 use crate::io::input::read_regular;
@@ -133,6 +134,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         args.output = (case.output.final_state.as_ref()).map(|path| PathBuf::from(path.get_ref()));
         from_case = args.output.is_some();
     }
+    check_case_outputs(&args.simulation, from_case)?;
     if let (Some(case), Some(output)) = (&args.simulation.case, &args.output) {
         if same_file(case, output) {
             return Err(UsageError(format!(
@@ -173,6 +175,8 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         (case.output.folder.as_ref()).map(|folder| PathBuf::from(folder.get_ref()))
     });
     let interval = case.and_then(|case| case.gauges.interval_s.as_ref().map(|i| *i.get_ref()));
+    // Declared before the files that go into them, so dropped after those.
+    let mut made = Vec::new();
     let open_output = || args.output.as_deref().map(OutputFile::create).transpose();
     let mut output = if from_case { None } else { open_output()? };
     let mut diagnostics_file = args
@@ -185,17 +189,18 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         mut simulation,
         ..
     } = load(&args.simulation)?;
-    // Made once the scene is: a case refused leaves no folder behind.
+    // Made once the scene is: a case refused leaves no folder behind, nor does a run
+    // that fails before writing into them (`made`, each removed on return if still empty).
     if from_case {
         let folder = args.output.as_deref().and_then(Path::parent);
         if let Some(folder) = folder.filter(|folder| !folder.as_os_str().is_empty()) {
-            super::create_output_dir(folder)?;
+            made.push(super::create_output_dir(folder)?);
         }
         output = open_output()?;
     }
     let gauges_file = match (&gauge_folder, gauges.is_empty()) {
         (Some(folder), false) => {
-            super::create_output_dir(folder)?;
+            made.push(super::create_output_dir(folder)?);
             Some((OutputFile::create(&folder.join("gauges.csv"))?, folder))
         }
         _ => None,
@@ -364,6 +369,73 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         );
         for chart in gauges.charts(&footer) {
             chart::render(&chart, folder, (900, 560))?;
+        }
+    }
+    Ok(())
+}
+
+/// Refuses, at its key (exit 2, before anything is made), a place the case names for its
+/// outputs that cannot be what it must: a `folder` that is a file or lies under one; a
+/// `final_state` (where `used`) that is a folder, lies under a file, or is the case file.
+fn check_case_outputs(args: &SimulationArgs, used: bool) -> Result<(), Box<dyn Error>> {
+    let Some(case) = &args.read else {
+        return Ok(());
+    };
+    let text = args.case_text.as_deref().unwrap_or_default();
+    let name = args.source().display().to_string();
+    let at = |named: &str, key: &toml::Spanned<String>, why: String| -> Box<dyn Error> {
+        let message = format!("{named} = \"{}\" is {why}", key.get_ref());
+        Box::new(CaseError::at_span(text, &name, key.span(), message))
+    };
+    // The nearest of `path` and its folders that exists, if it is not a folder.
+    let file_in_the_way = |path: &Path| {
+        (path.ancestors())
+            .filter(|place| !place.as_os_str().is_empty())
+            .find(|place| place.exists())
+            .filter(|place| !place.is_dir())
+            .map(Path::to_path_buf)
+    };
+    if let Some(folder) = &case.output.folder {
+        match file_in_the_way(Path::new(folder.get_ref())) {
+            Some(file) if file == Path::new(folder.get_ref()) => {
+                return Err(at("folder", folder, "a file, not a folder".into()))
+            }
+            Some(file) => {
+                return Err(at(
+                    "folder",
+                    folder,
+                    format!("under {}, a file", file.display()),
+                ))
+            }
+            None => {}
+        }
+    }
+    if let Some(state) = case.output.final_state.as_ref().filter(|_| used) {
+        let path = Path::new(state.get_ref());
+        if path.is_dir() {
+            return Err(at(
+                "final_state",
+                state,
+                "a folder: name a .fld file".into(),
+            ));
+        }
+        if let Some(file) = path.parent().and_then(file_in_the_way) {
+            return Err(at(
+                "final_state",
+                state,
+                format!("under {}, a file", file.display()),
+            ));
+        }
+        if args
+            .case
+            .as_deref()
+            .is_some_and(|case| same_file(case, path))
+        {
+            return Err(at(
+                "final_state",
+                state,
+                "the case file: give the state a file of its own".into(),
+            ));
         }
     }
     Ok(())

@@ -269,11 +269,8 @@ impl SimulationArgs {
         };
         let shown = path.display().to_string();
         let bytes = read_regular(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
-        let text = String::from_utf8(bytes).map_err(|_| CaseError {
-            file: shown.clone(),
-            at: None,
-            message: "not UTF-8 text".into(),
-        })?;
+        let text = String::from_utf8(bytes)
+            .map_err(|error| CaseError::not_utf8(error.as_bytes(), &shown, error.utf8_error()))?;
         self.take_case(text, &shown, output)
     }
 

@@ -5,6 +5,7 @@
 use super::accuracy::AccuracyArgs;
 use super::stability::StabilityArgs;
 use super::sweep::SweepArgs;
+use super::MadeFolder;
 use crate::io::output::OutputFile;
 use crate::lab::slurm::{self, Job, JobDir, Placement, SlurmEnergy, Submission, TaskPlace};
 use crate::lab::stability;
@@ -252,11 +253,11 @@ impl Tool {
     }
 
     /// Makes the folder of its CSV, as the subcommand does.
-    fn create_folder(&self) -> Result<(), String> {
+    fn create_folder(&self) -> Result<Option<MadeFolder>, String> {
         match self {
-            Tool::Sweep(_) => Ok(()),
-            Tool::Stability(args) => super::create_output_dir(args.output_dir()),
-            Tool::Accuracy(args) => super::create_output_dir(args.output_dir()),
+            Tool::Sweep(_) => Ok(None),
+            Tool::Stability(args) => super::create_output_dir(args.output_dir()).map(Some),
+            Tool::Accuracy(args) => super::create_output_dir(args.output_dir()).map(Some),
         }
     }
 
@@ -314,18 +315,12 @@ fn submit(args: SubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error
     )?;
     // The merged CSV's place must take it, as the subcommand's own run checks first; it
     // may be in the job folder, made here (and removed again if the check fails).
-    let made = !dir.path.exists();
-    let checked = super::create_output_dir(&dir.path)
-        .and_then(|()| tool.create_folder())
-        .and_then(|()| OutputFile::create(&tool.csv_path()).map_err(|e| e.to_string()));
-    match checked {
-        Ok(unwritten) => drop(unwritten),
-        Err(error) => {
-            if made {
-                let _ = std::fs::remove_dir(&dir.path);
-            }
-            return Err(error.into());
-        }
+    let job_folder = super::create_output_dir(&dir.path)?;
+    let tool_folder = tool.create_folder()?;
+    drop(OutputFile::create(&tool.csv_path())?);
+    job_folder.keep();
+    if let Some(folder) = tool_folder {
+        folder.keep();
     }
     let count = points.len();
     dir.create(&Job {

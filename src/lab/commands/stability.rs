@@ -186,7 +186,7 @@ impl StabilityArgs {
 /// Watches every (model, ppm, time step) run and writes the CSV and the map.
 pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let cells = args.cells()?;
-    super::create_output_dir(&args.output_dir)?;
+    let _folder = super::create_output_dir(&args.output_dir)?;
     // The CSV is opened before the runs, so an unwritable folder fails first.
     let csv_path = args.csv_path();
     let csv_file = OutputFile::create(&csv_path)?;

@@ -134,7 +134,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     if !(args.until.is_finite() && args.until > 0.0) {
         return Err(format!("--until: {} is not a positive, finite T", args.until).into());
     }
-    create_output_dir(&args.output_dir)?;
+    let _folder = create_output_dir(&args.output_dir)?;
     let fronts_path = args.output_dir.join("dam-break.csv");
     let errors_path = args.output_dir.join("dam-break-errors.csv");
     let (fronts_file, errors_file) = (
@@ -483,7 +483,7 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
     };
     // The folder once the scene is made: a case refused leaves none behind.
     let Loaded { mut simulation, .. } = load(&args)?;
-    create_output_dir(folder)?;
+    let _folder = create_output_dir(folder)?;
     let readings_path = folder.join("still-water.csv");
     let checks_path = folder.join("still-water-checks.csv");
     let (readings_file, checks_file) = (
