@@ -181,7 +181,17 @@ fn flags_beside_a_case_override_it_and_its_run_and_outputs_apply() {
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     assert_eq!(
         entries(&timed),
-        ["ball_000000.vtk", "ball_000002.vtk", "ball_000004.vtk"]
+        [
+            "ball-frames.csv",
+            "ball_000000.vtk",
+            "ball_000002.vtk",
+            "ball_000004.vtk"
+        ]
+    );
+    // Their times in the index beside them.
+    assert_eq!(
+        std::fs::read_to_string(timed.join("ball-frames.csv")).unwrap(),
+        "step,time_s,file\n0,0,ball_000000.vtk\n2,0.001,ball_000002.vtk\n4,0.002,ball_000004.vtk\n"
     );
     let picture = dir.path().join("ball.png");
     let output = run_lab(&[
@@ -215,10 +225,31 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "until_s = 0.5\nspeed = 1",
             "unknown field `speed`",
         ),
+        // Types in the case's words, not Rust's.
         (
             "particles_per_m = 400.0",
             "particles_per_m = \"400\"",
-            "invalid type",
+            "invalid type: text \"400\", expected a number",
+        ),
+        (
+            "seed = 0",
+            "seed = 1.5",
+            "invalid type: the number `1.5`, expected a whole number, 0 or more",
+        ),
+        (
+            "max_m = [-0.012999999999999998, 0.046, 0.065]",
+            "max_m = [-0.0129, 0.046]",
+            "a list of 2 items, expected a list of 3 numbers",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = 3",
+            "invalid type: the whole number `3`, expected text in quotes",
+        ),
+        (
+            "until_s = 0.5",
+            "until_s = { seconds = 0.5 }",
+            "invalid type: a table, expected a number",
         ),
         (
             "particles_per_m = 400.0",
@@ -308,6 +339,9 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
         assert!(message.contains(words), "{to}: {message}");
         assert_eq!(message.lines().count(), 1, "{message}");
         assert!(!out.exists(), "nothing written");
+        for rust in ["f64", "u64", "sequence", "map,", "string \"", "struct "] {
+            assert!(!message.contains(rust), "{to}: {message}");
+        }
     }
     let entries = std::fs::read_dir(dir.path()).unwrap().count();
     assert_eq!(entries, 1, "only the case file in the folder");
@@ -400,6 +434,26 @@ fn a_run_reads_its_gauges_into_a_table_and_charts() {
         let svg = std::fs::read_to_string(folder.join(format!("{chart}.svg"))).unwrap();
         assert!(svg.contains("deep") || svg.contains("middle"), "{chart}");
     }
+    // Run again: its table replaces the first's, and it says so (the first run did not).
+    assert!(!stderr(&output).contains("note:"), "{}", stderr(&output));
+    let again = run_lab(&[
+        "--quiet".as_ref(),
+        "run".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        "--steps".as_ref(),
+        "2".as_ref(),
+    ]);
+    assert_eq!(exit_code(&again), 0, "{}", stderr(&again));
+    let table_path = folder.join("gauges.csv");
+    assert_eq!(
+        stderr(&again),
+        format!(
+            "fluid-lab: note: {} and its charts replace an earlier run's\n",
+            table_path.display()
+        )
+    );
+    assert_ne!(std::fs::read_to_string(&table_path).unwrap(), table);
 }
 
 #[test]
@@ -419,7 +473,7 @@ fn bad_gauges_are_refused_with_their_line() {
         (
             "at_m = [0.0, 0.0]",
             "at_m = [0.0, 0.0, 0.0]",
-            "invalid length 3",
+            "a list of 3 items, expected a list of 2 numbers",
         ),
     ];
     for (from, to, words) in bad {

@@ -91,9 +91,15 @@ fn vtk_exports_of_a_run_match_the_input_and_the_reference_outputs() {
     let names: Vec<String> = (0..=2).map(|step| format!("small_{step:06}.vtk")).collect();
     let expected: String = names
         .iter()
+        .chain([&"small-frames.csv".to_string()])
         .map(|name| format!("wrote {out}/{name}\n"))
         .collect();
     assert_eq!(stdout(&output), expected);
+    // The index of the frames: each one's step, physical time (1 ms steps) and file.
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("small-frames.csv")).unwrap(),
+        "step,time_s,file\n0,0,small_000000.vtk\n1,0.001,small_000001.vtk\n2,0.002,small_000002.vtk\n"
+    );
 
     for (step, name) in names.iter().enumerate().take(2) {
         let vtk = parse_vtk(&std::fs::read_to_string(dir.path().join(name)).unwrap());
@@ -274,7 +280,10 @@ fn csv_exports_hold_the_final_state_only_by_default() {
         "--format",
         "csv",
     ]);
-    assert_eq!(stdout(&output), format!("wrote {out}/large_000003.csv\n"));
+    assert_eq!(
+        stdout(&output),
+        format!("wrote {out}/large_000003.csv\nwrote {out}/large-frames.csv\n")
+    );
     let truth = std::fs::read(reference_output("large", 3)).unwrap();
     let truth = fld::parse(&truth, "large-3.fld").unwrap().particles;
     let text = std::fs::read_to_string(dir.path().join("large_000003.csv")).unwrap();

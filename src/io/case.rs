@@ -279,7 +279,7 @@ fn exactly<'de, D: Deserializer<'de>, const N: usize>(
     let count = numbers.len();
     numbers
         .try_into()
-        .map_err(|_| D::Error::invalid_length(count, &format!("an array of {N} numbers").as_str()))
+        .map_err(|_| D::Error::invalid_length(count, &format!("a list of {N} numbers").as_str()))
 }
 
 /// The same, with where they are.
@@ -289,9 +289,10 @@ fn exactly_spanned<'de, D: Deserializer<'de>, const N: usize>(
     let numbers = Spanned::<Vec<f64>>::deserialize(deserializer)?;
     let span = numbers.span();
     let count = numbers.get_ref().len();
-    let array = numbers.into_inner().try_into().map_err(|_| {
-        D::Error::invalid_length(count, &format!("an array of {N} numbers").as_str())
-    })?;
+    let array = numbers
+        .into_inner()
+        .try_into()
+        .map_err(|_| D::Error::invalid_length(count, &format!("a list of {N} numbers").as_str()))?;
     Ok(Spanned::new(span, array))
 }
 
@@ -387,11 +388,61 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
             .next()
             .unwrap_or("not a case")
             .trim();
-        error_at(error.span(), message.to_string())
+        error_at(error.span(), in_case_words(message))
     })?;
     case.check()
         .map_err(|(span, message)| error_at(Some(span), message))?;
     Ok(case)
+}
+
+/// A message of the TOML reader in a case's words: the kinds of value a case file holds
+/// (a number, a whole number, text, a list, a table) for Rust's (`f64`, `u64`, a string,
+/// a sequence, a map, a struct).
+fn in_case_words(message: &str) -> String {
+    let mut words = message.to_string();
+    // A list of fixed length: "an array of length 3" ("invalid length 2, expected ...").
+    for length in 1..=4 {
+        words = words.replace(
+            &format!("an array of length {length}"),
+            &format!("a list of {length} numbers"),
+        );
+    }
+    // "invalid length 4, expected ...": the list given.
+    if let Some(rest) = words.strip_prefix("invalid length ") {
+        if let Some((count, expected)) = rest.split_once(", ") {
+            words = format!("a list of {count} items, {expected}");
+        }
+    }
+    const WORDS: [(&str, &str); 16] = [
+        ("expected f64", "expected a number"),
+        ("expected f32", "expected a number"),
+        ("expected u64", "expected a whole number, 0 or more"),
+        ("expected u32", "expected a whole number, 0 or more"),
+        ("expected usize", "expected a whole number, 0 or more"),
+        ("expected i64", "expected a whole number"),
+        ("expected a string", "expected text in quotes"),
+        ("expected a boolean", "expected true or false"),
+        ("expected a sequence", "expected a list"),
+        ("invalid type: map", "invalid type: a table"),
+        ("invalid type: sequence", "invalid type: a list"),
+        ("invalid type: string", "invalid type: text"),
+        ("invalid type: integer", "invalid type: the whole number"),
+        ("invalid type: floating point", "invalid type: the number"),
+        ("invalid type: boolean", "invalid type:"),
+        ("invalid value: integer", "invalid value:"),
+    ];
+    for (rust, case) in WORDS {
+        words = words.replace(rust, case);
+    }
+    // "expected struct PointGauge": a table.
+    if let Some(at) = words.find("expected struct ") {
+        let rest = &words[at + "expected struct ".len()..];
+        let name_end = rest
+            .find(|c: char| !c.is_alphanumeric())
+            .unwrap_or(rest.len());
+        words = format!("{}expected a table{}", &words[..at], &rest[name_end..]);
+    }
+    words
 }
 
 /// The line and column (1-based, in characters) of byte `offset` of `text`.
@@ -773,6 +824,40 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_reader_s_messages_speak_of_what_a_case_holds() {
+        let cases = [
+            (
+                "invalid type: string \"400\", expected f64",
+                "invalid type: text \"400\", expected a number",
+            ),
+            (
+                "invalid type: floating point `1.5`, expected u64",
+                "invalid type: the number `1.5`, expected a whole number, 0 or more",
+            ),
+            (
+                "invalid length 2, expected an array of length 3",
+                "a list of 2 items, expected a list of 3 numbers",
+            ),
+            (
+                "invalid type: map, expected a sequence",
+                "invalid type: a table, expected a list",
+            ),
+            (
+                "invalid type: integer `3`, expected a string",
+                "invalid type: the whole number `3`, expected text in quotes",
+            ),
+            (
+                "invalid type: string \"x\", expected struct PointGauge",
+                "invalid type: text \"x\", expected a table",
+            ),
+            ("unknown field `speed`", "unknown field `speed`"),
+        ];
+        for (rust, case) in cases {
+            assert_eq!(in_case_words(rust), case);
+        }
+    }
+
+    #[test]
     fn text_that_is_not_utf8_is_refused_at_its_first_bad_byte() {
         let bytes = [&b"[run]\nsteps = 3 # caf\xc3\xa9 "[..], &[0xff], b"\n"].concat();
         let error = std::str::from_utf8(&bytes).unwrap_err();
@@ -923,7 +1008,7 @@ until_s = 0.01
                 "box_max_m = [0.065, 0.1, 0.065]",
                 "box_max_m = [0.065, 0.1, 0.065]\ngravity_m_s2 = [0.0, -9.8]",
                 (5, 16),
-                "an array of 3 numbers",
+                "a list of 3 numbers",
             ),
             (
                 "box_max_m = [0.065, 0.1, 0.065]",
@@ -956,13 +1041,13 @@ until_s = 0.01
                 "\nmin_m = [-0.065, -0.08, -0.065]",
                 "\nmin_m = [-0.065, -0.08, -0.065, 1.0]",
                 (10, 9),
-                "invalid length 4, expected an array of 3 numbers",
+                "a list of 4 items, expected a list of 3 numbers",
             ),
             (
                 "box_max_m = [0.065, 0.1, 0.065]",
                 "box_max_m = [0.065, 0.1]",
                 (4, 13),
-                "invalid length 2",
+                "a list of 2 items, expected a list of 3 numbers",
             ),
         ];
         for (from, to, at, words) in cases {

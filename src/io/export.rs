@@ -145,6 +145,22 @@ pub fn pvd_collection(frames: &[(String, f64)]) -> String {
     text
 }
 
+/// The index of a series of frames exported without times of their own (CSV, legacy
+/// VTK): a CSV of each frame's step, its physical time (s) and its file (relative to
+/// the index), as the `.pvd` is for `.vtp` frames.
+pub fn frames_index(frames: &[(u64, f64, String)]) -> String {
+    let mut writer = csv::Writer::from_writer(Vec::new());
+    let rows = std::iter::once(["step", "time_s", "file"].map(String::from)).chain(
+        frames
+            .iter()
+            .map(|(step, time, file)| [step.to_string(), time.to_string(), file.clone()]),
+    );
+    for row in rows {
+        writer.write_record(&row).expect("a CSV row in memory");
+    }
+    String::from_utf8(writer.into_inner().expect("CSV in memory")).expect("UTF-8 fields")
+}
+
 /// `text` with the characters XML reserves in attributes escaped.
 fn xml_escaped(text: &str) -> String {
     text.replace('&', "&amp;")

@@ -2,7 +2,7 @@
 //! binary arrays and a `.pvd` time series, for ParaView) or CSV files.
 
 use super::simulation_args::{load, needed, run_visiting, Loaded, SimulationArgs, Span};
-use crate::io::export::{pvd_collection, Snapshot};
+use crate::io::export::{frames_index, pvd_collection, Snapshot};
 use crate::io::output::OutputFile;
 use crate::lab::UsageError;
 use clap::builder::RangedI64ValueParser;
@@ -32,9 +32,11 @@ pub struct ExportArgs {
 /// The format of exported states.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ExportFormat {
-    /// Legacy VTK polydata, which ParaView opens (a numbered series as a time series).
+    /// Legacy VTK polydata, which ParaView opens (a numbered series as a time series),
+    /// and INPUT-STEM-frames.csv, each file's step and physical time.
     Vtk,
-    /// One row per particle.
+    /// One row per particle, and INPUT-STEM-frames.csv, each file's step and physical
+    /// time.
     Csv,
     /// VTK XML PolyData with raw binary arrays, and INPUT-STEM.pvd, the collection of the
     /// files with each one's physical time (ParaView plays it in simulated time).
@@ -60,7 +62,10 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
     } = load(&args.simulation)?;
     let _folder = super::create_output_dir(&output_dir)?;
     let visits = args.span.frames(args.every);
-    let collection = output_dir.join(format!("{stem}.pvd"));
+    let collection = match args.format {
+        ExportFormat::Vtp => output_dir.join(format!("{stem}.pvd")),
+        ExportFormat::Csv | ExportFormat::Vtk => output_dir.join(format!("{stem}-frames.csv")),
+    };
     let mut frames = Vec::new();
     run_visiting(&mut simulation, extent, visits, |simulation, step| {
         let snapshot = Snapshot::of(simulation, step);
@@ -78,15 +83,22 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         let path = output_dir.join(&file);
         OutputFile::create(&path)?.commit(&bytes)?;
         writeln!(stdout, "wrote {}", path.display())?;
-        if args.format == ExportFormat::Vtp {
-            // Rewritten with every frame, so a stopped run leaves the series so far.
-            frames.push((file, snapshot.time));
-            OutputFile::create(&collection)?.commit(pvd_collection(&frames).as_bytes())?;
-        }
+        // The index of the frames and their times, rewritten with every frame, so a
+        // stopped run leaves the series so far.
+        frames.push((step, snapshot.time, file));
+        let index = match args.format {
+            ExportFormat::Vtp => {
+                let files: Vec<(String, f64)> = frames
+                    .iter()
+                    .map(|(_, time, file)| (file.clone(), *time))
+                    .collect();
+                pvd_collection(&files)
+            }
+            ExportFormat::Csv | ExportFormat::Vtk => frames_index(&frames),
+        };
+        OutputFile::create(&collection)?.commit(index.as_bytes())?;
         Ok(())
     })?;
-    if args.format == ExportFormat::Vtp {
-        writeln!(stdout, "wrote {}", collection.display())?;
-    }
+    writeln!(stdout, "wrote {}", collection.display())?;
     Ok(())
 }

@@ -201,7 +201,13 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     let gauges_file = match (&gauge_folder, gauges.is_empty()) {
         (Some(folder), false) => {
             made.push(super::create_output_dir(folder)?);
-            Some((OutputFile::create(&folder.join("gauges.csv"))?, folder))
+            let table = folder.join("gauges.csv");
+            if table.exists() {
+                // A case run again writes over its last run's readings: said, not silent.
+                let shown = table.display();
+                eprintln!("fluid-lab: note: {shown} and its charts replace an earlier run's");
+            }
+            Some((OutputFile::create(&table)?, folder))
         }
         _ => None,
     };
