@@ -23,5 +23,5 @@ scripts/accuracy-sweeps.sh docs/accuracy
 "$lab" stability --kernels simd8 --integrators leapfrog,verlet --output-dir docs/stability/integrators
 # The course model fails (it is unstable), so the validation exits 1 after its outputs.
 { "$lab" validate dam-break --models course,fluidanimate,wcsph --ppms 200,300,400,600 --width 0.026 \
-    --until 3.65 --output-dir docs/validation || [ $? -eq 1 ]; } | tee docs/validation/summary.txt
+    --until-t 3.65 --output-dir docs/validation || [ $? -eq 1 ]; } | tee docs/validation/summary.txt
 scripts/water-settings.sh target/water-settings >docs/validation/settings.md

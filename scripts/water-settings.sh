@@ -39,7 +39,7 @@ for index in "${!variants[@]}"; do
     name="${variants[$index]%%|*}"
     read -r -a options <<<"${variants[$index]#*|}"
     dir="$out/$index"
-    "$lab" validate dam-break --models wcsph --ppms "$ppms" --width 0.026 --until 3.65 \
+    "$lab" validate dam-break --models wcsph --ppms "$ppms" --width 0.026 --until-t 3.65 \
         --output-dir "$dir" "${options[@]}" >"$dir.txt"
     grep '^model=wcsph' "$dir.txt" | while read -r line; do
         field() { sed -E "s/.* $1=([^ ]+).*/\1/" <<<"$line"; }

@@ -565,7 +565,7 @@ fn the_dam_break_validation_from_its_case_gives_the_fronts_of_its_flags() {
     let validate = |extra: &[&std::ffi::OsStr], folder: &Path| {
         let mut args: Vec<&std::ffi::OsStr> = vec!["validate".as_ref(), "dam-break".as_ref()];
         args.extend_from_slice(extra);
-        args.extend(["--until", "0.6", "--output-dir"].map(std::ffi::OsStr::new));
+        args.extend(["--until-t", "0.6", "--output-dir"].map(std::ffi::OsStr::new));
         args.push(folder.as_os_str());
         let output = run_lab(&args);
         assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
@@ -1200,4 +1200,32 @@ fn a_run_that_fails_mid_way_leaves_no_folder_it_made() {
     std::fs::create_dir(&kept).unwrap();
     assert_eq!(exit_code(&export(&kept)), 1);
     assert!(kept.is_dir());
+}
+
+#[test]
+fn a_dam_break_validation_of_another_tank_is_refused_at_its_box() {
+    let dir = tempfile::tempdir().unwrap();
+    let tank = case("tank");
+    let text = std::fs::read_to_string(&tank).unwrap();
+    let line = text[..text.find("box_min_m").unwrap()].lines().count() + 1;
+    let output = run_lab(&[
+        "validate".as_ref(),
+        "dam-break".as_ref(),
+        "--case".as_ref(),
+        tank.as_os_str(),
+        "--output-dir".as_ref(),
+        dir.path().join("v").as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    let message = stderr(&output);
+    assert!(
+        message.starts_with(&format!(
+            "fluid-lab: error: {}:{line}:13: a dam-break validation runs in the course's box, \
+             [-0.065, -0.08, -0.065] to [0.065, 0.1, 0.065] m, under gravity [0, -9.8, 0] m/s^2",
+            tank.display()
+        )),
+        "{message}"
+    );
+    assert_eq!(message.lines().count(), 1);
+    assert!(!dir.path().join("v").exists());
 }

@@ -735,6 +735,52 @@ fn stability_reports_each_run_and_maps_them() {
 }
 
 #[test]
+fn a_dam_break_validation_runs_to_seconds_with_until_and_to_t_with_until_t() {
+    let dir = tempfile::tempdir().unwrap();
+    let validate = |end: &[&str]| {
+        let mut args = vec![
+            "validate",
+            "dam-break",
+            "--models",
+            "fluidanimate",
+            "--ppms",
+            "150",
+        ];
+        args.extend_from_slice(end);
+        args.extend(["--output-dir", dir.path().to_str().unwrap()]);
+        run_lab(&args)
+    };
+    // The last sample's time (s) and T in the fronts.
+    let last = || {
+        let fronts = std::fs::read_to_string(dir.path().join("dam-break.csv")).unwrap();
+        let row: Vec<f64> = (fronts.lines().last().unwrap().split(',').skip(6).take(2))
+            .map(|field| field.parse().unwrap())
+            .collect();
+        (row[0], row[1])
+    };
+    // --until in seconds, as everywhere else.
+    let output = validate(&["--until", "0.02"]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let (time, t) = last();
+    assert!((time - 0.02).abs() < 1e-12, "{time}");
+    // --until-t in the experiment's T = t sqrt(2 g / a).
+    let output = validate(&["--until-t", "0.5"]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let (time_at_half, t_half) = last();
+    assert!((t_half - 0.5).abs() < 1e-9, "{t_half}");
+    // The same unit in both runs: T / t is sqrt(2 g / a).
+    assert!((t / time - t_half / time_at_half).abs() < 1e-6 * t_half / time_at_half);
+    // Not both; and a time that is not one is refused.
+    for end in [
+        &["--until", "0.02", "--until-t", "1"][..],
+        &["--until", "-1"],
+    ] {
+        let output = validate(end);
+        assert_eq!(exit_code(&output), 2, "{end:?}: {}", stderr(&output));
+    }
+}
+
+#[test]
 fn a_short_dam_break_front_moves_as_the_experiment_s_and_the_course_model_fails_early() {
     let dir = tempfile::tempdir().unwrap();
     let output = run_lab(&[
@@ -746,7 +792,7 @@ fn a_short_dam_break_front_moves_as_the_experiment_s_and_the_course_model_fails_
         "wcsph".as_ref(),
         "--ppms".as_ref(),
         "150".as_ref(),
-        "--until".as_ref(),
+        "--until-t".as_ref(),
         "2".as_ref(),
         "--output-dir".as_ref(),
         dir.path().as_os_str(),

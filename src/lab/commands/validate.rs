@@ -4,9 +4,10 @@
 
 use super::create_output_dir;
 use super::simulation_args::{
-    asked_time_step, failure, load, parse_courant, parse_time_step, Extent, Loaded, SimulationArgs,
-    WaterArgs,
+    asked_time_step, failure, load, parse_courant, parse_seconds, parse_time_step, Extent, Loaded,
+    SimulationArgs, WaterArgs,
 };
+use crate::io::case::CaseError;
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
@@ -17,7 +18,7 @@ use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
-use crate::sim::params::{Domain, BOX_MAX, BOX_MIN, FLUID_DENSITY};
+use crate::sim::params::{Domain, BOX_MAX, BOX_MIN, FLUID_DENSITY, GRAVITY};
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::TimeStep;
 use clap::{Args, ValueEnum};
@@ -52,7 +53,7 @@ pub struct ValidateArgs {
     /// The case to validate: still-water, a tank of one box of fluid on the floor, run to
     /// its until_s; dam-break, a column of one box of fluid a wide and 2a high against the
     /// low-x wall, whose model, kernel, settings, time step, resolution and seed replace
-    /// the flags' (--until and --every stay).
+    /// the flags' (--until-t or --until, and --every, stay).
     #[arg(long, value_name = "FILE")]
     case: Option<PathBuf>,
     /// Models to run.
@@ -67,9 +68,17 @@ pub struct ValidateArgs {
     /// lets the front run to Z = 0.13 / a.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.03)]
     width: f64,
-    /// Run until the experiment's T = t sqrt(2 g / a) reaches this.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 4.0)]
-    until: f64,
+    /// Run until the experiment's dimensionless time T = t sqrt(2 g / a) reaches this.
+    #[arg(
+        long,
+        value_name = "T",
+        allow_negative_numbers = true,
+        default_value_t = 4.0
+    )]
+    until_t: f64,
+    /// Run to this physical time in seconds instead (as --until everywhere else).
+    #[arg(long, value_name = "SECONDS", conflicts_with = "until_t", allow_negative_numbers = true, value_parser = parse_seconds)]
+    until: Option<f64>,
     /// Sample the front every this many steps.
     #[arg(long, default_value_t = 5,
           value_parser = clap::builder::RangedI64ValueParser::<u64>::new().range(1..))]
@@ -131,8 +140,8 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         }
         (Experiment::DamBreak, None) => {}
     }
-    if !(args.until.is_finite() && args.until > 0.0) {
-        return Err(format!("--until: {} is not a positive, finite T", args.until).into());
+    if !(args.until_t.is_finite() && args.until_t > 0.0) {
+        return Err(format!("--until-t: {} is not a positive, finite T", args.until_t).into());
     }
     let _folder = create_output_dir(&args.output_dir)?;
     let fronts_path = args.output_dir.join("dam-break.csv");
@@ -170,10 +179,12 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             simulation.set_time_step(time_step);
             let rule = rule_name(time_step);
             let started = Instant::now();
-            let mut progress = Progress::towards(Goal::Until(args.until * dam.time_unit()))
+            // The end in the experiment's T: --until's seconds in this column's unit.
+            let until = args.until.map_or(args.until_t, |end| end / dam.time_unit());
+            let mut progress = Progress::towards(Goal::Until(until * dam.time_unit()))
                 .labelled(format!("{} at {ppm} per m", model.name()));
             let collapse =
-                validation::collapse(&mut simulation, &dam, args.until, args.every, &mut progress);
+                validation::collapse(&mut simulation, &dam, until, args.every, &mut progress);
             progress.finish();
             let seconds = started.elapsed().as_secs_f64();
             let comparisons = validation::compare(&collapse, &dam);
@@ -409,10 +420,15 @@ fn front_chart(runs: &[Validated], footer: &str) -> PointChart {
     }
 }
 
+/// A vector's coordinates as a case writes them: "x, y, z".
+fn join(vector: [f64; 3]) -> String {
+    vector.map(|x| x.to_string()).join(", ")
+}
+
 /// Takes the dam break of the case at `path` in place of the flags': its one box of fluid,
 /// the column (a wide and 2a high against the low-x wall, through the box's depth), gives
 /// the width, its lattice the resolution and seed; its model, kernel, settings and time
-/// step replace the flags'. `--until`, `--every` and `--output-dir` stay the command
+/// step replace the flags'. `--until-t` (or `--until`), `--every` and `--output-dir` stay the command
 /// line's.
 fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<dyn Error>> {
     let mut simulation = SimulationArgs::of_case(path);
@@ -420,9 +436,26 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     let case = simulation.read.as_ref().expect("a case read");
     let shown = path.display();
     if case.domain.simulated() != Domain::COURSE {
-        return Err(format!(
-            "{shown}: a dam-break case runs in the course's box under its gravity, the box of \
-             the experiments' scale this validation was made for (leave [domain] out)"
+        // At the first key that differs from the course's.
+        let domain = &case.domain;
+        let course = [BOX_MIN, BOX_MAX, GRAVITY].map(|v| v.to_array());
+        let keys = [&domain.box_min_m, &domain.box_max_m, &domain.gravity_m_s2];
+        let (key, _) = (keys.iter().zip(course))
+            .find(|(key, course)| *key.get_ref() != *course)
+            .expect("a key that differs");
+        let text = simulation.case_text.as_deref().unwrap_or_default();
+        return Err(CaseError::at_span(
+            text,
+            &shown.to_string(),
+            key.span(),
+            format!(
+                "a dam-break validation runs in the course's box, [{}] to [{}] m, under \
+                 gravity [{}] m/s^2 (leave [domain] out): its front is measured from that \
+                 box's low-x wall; run another tank with `fluid-lab run --case`",
+                join(BOX_MIN.to_array()),
+                join(BOX_MAX.to_array()),
+                join(GRAVITY.to_array()),
+            ),
         )
         .into());
     }
