@@ -1229,3 +1229,36 @@ fn a_dam_break_validation_of_another_tank_is_refused_at_its_box() {
     assert_eq!(message.lines().count(), 1);
     assert!(!dir.path().join("v").exists());
 }
+
+#[test]
+fn a_case_too_big_for_memory_is_refused_before_anything_is_allocated() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("big.toml"),
+        "[domain]\nbox_min_m = [0.0, 0.0, 0.0]\nbox_max_m = [0.3, 0.3, 0.3]\n\
+         [fluid]\nparticles_per_m = 1215\n[[fluid.box]]\nmin_m = [0.0, 0.0, 0.0]\n\
+         max_m = [0.3, 0.3, 0.3]\n[model]\nname = \"wcsph\"\n",
+    )
+    .unwrap();
+    // Under a 2 GB address-space limit, as a shared machine may set.
+    let run = std::process::Command::new("sh")
+        .current_dir(dir.path())
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 2000000 && exec '{}' run --case big.toml big.fld",
+            env!("CARGO_BIN_EXE_fluid-lab")
+        ))
+        .output()
+        .unwrap();
+    let message = stderr(&run);
+    assert_eq!(exit_code(&run), 2, "{message}");
+    assert!(
+        message.starts_with(
+            "fluid-lab: error: big.toml:5:19: particles_per_m = 1215 fills about 4.843e7 \
+             particles, which need about 23.3 GB of memory; this process's ulimit -v allows \
+             2.0 GB"
+        ),
+        "{message}"
+    );
+    assert_eq!(entries(dir.path()), ["big.toml"], "nothing left");
+}

@@ -275,7 +275,14 @@ fn item_7_signals_leave_nothing_behind_and_end_the_process_as_they_would() {
     let dir = tempfile::tempdir().unwrap();
     let (large, small) = (input("large"), input("small"));
     let lab = env!("CARGO_BIN_EXE_fluid-lab");
-    for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT] {
+    // SIGABRT as a failed memory allocation raises it.
+    for signal in [
+        libc::SIGINT,
+        libc::SIGTERM,
+        libc::SIGHUP,
+        libc::SIGQUIT,
+        libc::SIGABRT,
+    ] {
         let runs: [(&str, Vec<&OsStr>); 3] = [
             (
                 lab,

@@ -480,6 +480,21 @@ pub fn choice<T: ValueEnum>(name: &Spanned<String>, key: &str) -> Result<T, Faul
 }
 
 impl Case {
+    /// About the most particles the fills hold: their volumes (overlaps counted twice)
+    /// times the particles per cubic metre.
+    pub fn particles_at_most(&self) -> f64 {
+        let fluid = &self.fluid;
+        let boxes = fluid.boxes.iter().map(|fill| {
+            let BoxFill { min_m, max_m } = fill.get_ref();
+            (0..3)
+                .map(|axis| max_m[axis] - min_m[axis])
+                .product::<f64>()
+        });
+        let spheres = (fluid.spheres.iter())
+            .map(|fill| 4.0 / 3.0 * std::f64::consts::PI * fill.get_ref().radius_m.powi(3));
+        boxes.chain(spheres).sum::<f64>() * fluid.particles_per_m.get_ref().powi(3)
+    }
+
     /// The checks beyond types: sizes, ranges, fills inside the box, names.
     fn check(&self) -> Result<(), Fault> {
         let (low, high) = (&self.domain.box_min_m, &self.domain.box_max_m);
@@ -540,7 +555,6 @@ impl Case {
                 low.get_ref()[axis] <= point[axis] && point[axis] <= high.get_ref()[axis]
             })
         };
-        let mut volume = 0.0;
         for fill in &self.fluid.boxes {
             let BoxFill { min_m, max_m } = fill.get_ref();
             if !(finite(min_m) && finite(max_m)) {
@@ -558,9 +572,6 @@ impl Case {
                     "a box of fluid reaches outside the domain".into(),
                 ));
             }
-            volume += (0..3)
-                .map(|axis| max_m[axis] - min_m[axis])
-                .product::<f64>();
         }
         for fill in &self.fluid.spheres {
             let SphereFill { centre_m, radius_m } = fill.get_ref();
@@ -577,9 +588,8 @@ impl Case {
                     "a sphere of fluid reaches outside the domain".into(),
                 ));
             }
-            volume += 4.0 / 3.0 * std::f64::consts::PI * radius_m.powi(3);
         }
-        let most = volume * ppm.get_ref().powi(3);
+        let most = self.particles_at_most();
         if most > MAX_PARTICLES {
             return Err((
                 ppm.span(),

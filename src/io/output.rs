@@ -218,6 +218,7 @@ impl Temporary {
         let kept = name.len().min(room);
         let mut prefix = OsString::from(".");
         prefix.push(std::ffi::OsStr::from_bytes(&name[..kept]));
+        prefix.push(".");
         let dir = match target.parent() {
             Some(dir) if !dir.as_os_str().is_empty() => dir,
             _ => Path::new("."),
@@ -369,7 +370,14 @@ mod tests {
         let target = dir.path().join("out.fld");
         let output = OutputFile::create(&target).unwrap();
         assert!(!target.exists());
-        assert_eq!(entries(dir.path()).len(), 1, "the temporary file");
+        // The temporary file, named as the README says: `.NAME.XXXXXX.tmp`.
+        let [temporary] = &entries(dir.path())[..] else {
+            panic!("one temporary file");
+        };
+        let random = temporary
+            .strip_prefix(".out.fld.")
+            .and_then(|rest| rest.strip_suffix(".tmp"));
+        assert_eq!(random.map(str::len), Some(6), "{temporary}");
         output.commit(b"data").unwrap();
         assert_eq!(std::fs::read(&target).unwrap(), b"data");
         assert_eq!(entries(dir.path()), ["out.fld"]);

@@ -13,8 +13,10 @@ use std::sync::atomic::{AtomicI32, AtomicU8, Ordering};
 use std::sync::Once;
 
 /// The signals whose default ends the process and that a user or a scheduler sends:
-/// Ctrl-C, Ctrl-\\, `kill`, a closed terminal, `timeout`, and the user signals.
-pub const ENDING: [libc::c_int; 7] = [
+/// Ctrl-C, Ctrl-\\, `kill`, a closed terminal, `timeout`, and the user signals; and the
+/// abort of a failed memory allocation.
+pub const ENDING: [libc::c_int; 8] = [
+    libc::SIGABRT,
     libc::SIGINT,
     libc::SIGQUIT,
     libc::SIGTERM,

@@ -69,9 +69,80 @@ fn commit(folder: &Path) -> Option<String> {
     })
 }
 
+/// The memory this process may use, in bytes, and what sets it: its address-space limit
+/// (`ulimit -v`) or the memory and swap the machine has available (`/proc/meminfo`),
+/// whichever is less; `None` where neither can be read.
+pub fn usable_memory() -> Option<(u64, &'static str)> {
+    let limit = address_space_limit().map(|bytes| (bytes, "this process's ulimit -v"));
+    let available = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|text| available_memory(&text))
+        .map(|bytes| (bytes, "the memory and swap this machine has available"));
+    [limit, available]
+        .into_iter()
+        .flatten()
+        .min_by_key(|(bytes, _)| *bytes)
+}
+
+/// This process's address-space limit (`ulimit -v`) in bytes, if it has one.
+fn address_space_limit() -> Option<u64> {
+    let mut limit = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit writes the limit into `limit`, a plain struct it is given.
+    let read = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut limit) } == 0;
+    (read && limit.rlim_cur != libc::RLIM_INFINITY).then_some(limit.rlim_cur)
+}
+
+/// `MemAvailable` plus `SwapFree` of a `/proc/meminfo` text, in bytes.
+fn available_memory(meminfo: &str) -> Option<u64> {
+    let kib = |key: &str| {
+        meminfo
+            .lines()
+            .find_map(|line| line.strip_prefix(key))
+            .and_then(|rest| rest.trim().strip_suffix("kB"))
+            .and_then(|number| number.trim().parse::<u64>().ok())
+    };
+    Some((kib("MemAvailable:")? + kib("SwapFree:").unwrap_or(0)) * 1024)
+}
+
+/// A number of bytes for people: "512 MB", "2.1 GB" (powers of 1000).
+pub fn shown_bytes(bytes: f64) -> String {
+    match bytes {
+        b if b < 1e6 => format!("{:.0} kB", b / 1e3),
+        b if b < 1e9 => format!("{:.0} MB", b / 1e6),
+        b => format!("{:.1} GB", b / 1e9),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn available_memory_is_memavailable_and_free_swap() {
+        let meminfo = "MemTotal:       16384000 kB\nMemFree:         1000000 kB\n\
+                       MemAvailable:    8000000 kB\nSwapTotal:       2000000 kB\n\
+                       SwapFree:        1500000 kB\n";
+        assert_eq!(available_memory(meminfo), Some(9_500_000 * 1024));
+        let no_swap = "MemAvailable:    8000000 kB\n";
+        assert_eq!(available_memory(no_swap), Some(8_000_000 * 1024));
+        assert_eq!(available_memory("MemTotal: 1 kB\n"), None);
+    }
+
+    #[test]
+    fn this_process_has_memory_to_use() {
+        let (bytes, _) = usable_memory().expect("/proc/meminfo on Linux");
+        assert!(bytes > 1 << 20);
+    }
+
+    #[test]
+    fn bytes_read_in_their_unit() {
+        assert_eq!(shown_bytes(512e3), "512 kB");
+        assert_eq!(shown_bytes(23.4e6), "23 MB");
+        assert_eq!(shown_bytes(2.048e9), "2.0 GB");
+    }
 
     #[test]
     fn the_cpu_model_is_the_first_model_name() {

@@ -6,6 +6,7 @@ use crate::io::fld;
 use crate::io::gformat::format_g;
 use crate::io::input::read_regular;
 use crate::lab::diagnostics::Vitals;
+use crate::lab::machine;
 use crate::lab::progress::{Goal, Progress};
 use crate::lab::scene::{self, Region};
 use crate::lab::UsageError;
@@ -403,6 +404,31 @@ pub fn needed(output: Option<PathBuf>, what: &str) -> Result<PathBuf, UsageError
     output.ok_or_else(|| UsageError(format!("give the {what}")))
 }
 
+/// The peak memory of a run per particle (bytes), above [`RUN_BASE_BYTES`]: measured on
+/// the water model, the largest (457 B from 144,000 to 486,000 particles), rounded up.
+const BYTES_PER_PARTICLE: f64 = 480.0;
+
+/// The peak memory of a run with few particles (bytes): the program, its tables, the
+/// allocator's arenas.
+const RUN_BASE_BYTES: f64 = 16e6;
+
+/// Refuses a case whose particles would need more memory than this process may use (its
+/// `ulimit -v`, or the machine's available memory and swap), before any is allocated.
+fn check_memory(case: &Case) -> Result<(), String> {
+    let most = case.particles_at_most();
+    let needed = RUN_BASE_BYTES + most * BYTES_PER_PARTICLE;
+    match machine::usable_memory() {
+        Some((usable, set_by)) if needed > usable as f64 => Err(format!(
+            "particles_per_m = {} fills about {most:.3e} particles, which need about {} of \
+             memory; {set_by} allows {}",
+            case.fluid.particles_per_m.get_ref(),
+            machine::shown_bytes(needed),
+            machine::shown_bytes(usable as f64)
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Reads and places the input of `args` (or makes the scene of its case) with its model,
 /// kernel and time step.
 pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
@@ -425,6 +451,7 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             let regions = Region::of_case(&case.fluid);
             let domain = case.domain.simulated();
             check_domain(&case.domain, method.model).map_err(|(span, why)| at_key(span, why))?;
+            check_memory(case).map_err(|why| at_key(spacing.span(), why))?;
             let particles = scene::filled(ppm, case.fluid.seed, &regions, &domain)
                 .map_err(|error| at_key(spacing.span(), error))?;
             let simulation = Simulation::with_dynamics(ppm, domain, particles, method, dynamics)
