@@ -433,6 +433,32 @@ fn a_run_reads_its_gauges_into_a_table_and_charts() {
         assert!(png.starts_with(b"\x89PNG"));
         let svg = std::fs::read_to_string(folder.join(format!("{chart}.svg"))).unwrap();
         assert!(svg.contains("deep") || svg.contains("middle"), "{chart}");
+        // Tick labels that differ on each axis (x labels centred under their ticks, y
+        // labels right-aligned), and a time axis that ends at the run's 0.05 s.
+        let labels = |anchor: &str| -> Vec<String> {
+            svg.split("<text")
+                .filter(|element| element.contains(&format!("text-anchor=\"{anchor}\"")))
+                .filter_map(|element| element.split('>').nth(1))
+                .map(|text| text.trim_end_matches("</text").trim().to_string())
+                .filter(|text| text.parse::<f64>().is_ok())
+                .collect()
+        };
+        for anchor in ["middle", "end"] {
+            let axis = labels(anchor);
+            let mut distinct = axis.clone();
+            distinct.sort();
+            distinct.dedup();
+            assert!(
+                axis.len() > 2 && distinct.len() == axis.len(),
+                "{chart}: {axis:?}"
+            );
+        }
+        let time = labels("middle");
+        assert_eq!(
+            time.last().map(String::as_str),
+            Some("0.050"),
+            "{chart}: {time:?}"
+        );
     }
     // Run again: its table replaces the first's, and it says so (the first run did not).
     assert!(!stderr(&output).contains("note:"), "{}", stderr(&output));

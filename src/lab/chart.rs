@@ -595,7 +595,8 @@ impl PointChart {
             .filter(|&point| self.shows(point))
     }
 
-    /// The x axis: from 0 to past the largest x, or (logarithmic) from below the
+    /// The x axis: from 0 to the largest x (a series over time ends where its data do;
+    /// points alone get room for their markers), or (logarithmic) from below the
     /// smallest x to above the largest.
     pub fn x_range(&self) -> Range<f64> {
         let (smallest, largest) = self
@@ -603,8 +604,9 @@ impl PointChart {
             .fold((f64::INFINITY, 0.0f64), |(lo, hi), (x, _)| {
                 (lo.min(x), hi.max(x))
             });
+        let room = if self.lines { 1.0 } else { 1.05 };
         match (self.x_log, largest > 0.0) {
-            (false, true) => 0.0..largest * 1.15,
+            (false, true) => 0.0..largest * room,
             (false, false) => 0.0..1.0,
             (true, true) => (smallest / 1.6).min(largest / 10.0)..largest * 1.6,
             (true, false) => 0.1..1.0,
@@ -653,12 +655,11 @@ impl Drawing for PointChart {
             let digits = (1 - x.log10().floor() as i32).max(0) as usize;
             format!("{x:.digits$}")
         };
-        let linear = |x: &f64| match x.fract() == 0.0 {
-            true => format!("{x:.0}"),
-            false => format!("{x:.1}"),
-        };
         let log_y = |y: &f64| format!("{y:.0e}");
         let (x, y) = (self.x_range(), self.y_range());
+        let (x_digits, y_digits) = (tick_decimals(&x), tick_decimals(&y));
+        let linear_x = move |x: &f64| format!("{x:.x_digits$}");
+        let linear_y = move |y: &f64| format!("{y:.y_digits$}");
         match (self.x_log, self.y_log) {
             (true, true) => self.draw_in(
                 builder.build_cartesian_2d(x.log_scale(), y.log_scale())?,
@@ -668,14 +669,16 @@ impl Drawing for PointChart {
             (true, false) => self.draw_in(
                 builder.build_cartesian_2d(x.log_scale(), y)?,
                 &log_x,
-                &linear,
+                &linear_y,
             )?,
             (false, true) => self.draw_in(
                 builder.build_cartesian_2d(x, y.log_scale())?,
-                &linear,
+                &linear_x,
                 &log_y,
             )?,
-            (false, false) => self.draw_in(builder.build_cartesian_2d(x, y)?, &linear, &linear)?,
+            (false, false) => {
+                self.draw_in(builder.build_cartesian_2d(x, y)?, &linear_x, &linear_y)?
+            }
         }
         root.present()?;
         Ok(())
@@ -774,6 +777,16 @@ impl PointChart {
             .position(self.legend.clone())
             .draw()?;
         Ok(())
+    }
+}
+
+/// The decimals a linear axis over `range` labels its ticks with: enough for ticks about
+/// a tenth of the range apart to differ (0.05 apart: two), none for whole numbers.
+fn tick_decimals(range: &Range<f64>) -> usize {
+    let step = (range.end - range.start).abs() / 10.0;
+    match step.is_finite() && step > 0.0 {
+        true => (-step.log10().floor()).clamp(0.0, 12.0) as usize,
+        false => 1,
     }
 }
 
@@ -1034,6 +1047,33 @@ mod tests {
             let points: usize = chart.series.iter().map(|s| s.points.len()).sum();
             assert_eq!(markers, points, "{}", svg.display());
         }
+    }
+
+    #[test]
+    fn ticks_have_the_digits_to_differ_and_time_axes_end_with_their_data() {
+        // A gauge over 0.3 s, heights 0 to 0.2 m: ticks 0.05 and 0.02 apart.
+        let chart = PointChart::over_time(
+            "gauges-surface",
+            "surface".into(),
+            "height (m)",
+            vec![("middle".into(), vec![(0.0, 0.1), (0.15, 0.2), (0.3, 0.18)])],
+            SeriesLabelPosition::UpperLeft,
+            "",
+        );
+        assert_eq!(chart.x_range(), 0.0..0.3);
+        let decimals = tick_decimals(&chart.x_range());
+        let ticks: Vec<String> = (0..=6)
+            .map(|k| format!("{:.decimals$}", 0.05 * k as f64))
+            .collect();
+        assert_eq!(
+            ticks,
+            ["0.00", "0.05", "0.10", "0.15", "0.20", "0.25", "0.30"]
+        );
+        assert_eq!(tick_decimals(&chart.y_range()), 2);
+        // Whole numbers stay whole; a range of nothing keeps one decimal.
+        assert_eq!(tick_decimals(&(0.0..1200.0)), 0);
+        assert_eq!(tick_decimals(&(0.0..0.002)), 4);
+        assert_eq!(tick_decimals(&(1.0..1.0)), 1);
     }
 
     #[test]
