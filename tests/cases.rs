@@ -1288,3 +1288,26 @@ fn a_case_too_big_for_memory_is_refused_before_anything_is_allocated() {
     );
     assert_eq!(entries(dir.path()), ["big.toml"], "nothing left");
 }
+
+#[test]
+fn a_height_gauge_reads_a_layer_a_spacing_thick_on_the_floor() {
+    // One layer of particles at 100 per metre on the floor (y = -0.08): a surge front's
+    // thin tongue. Its surface is 1 cm up.
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("g");
+    let path = dir.path().join("layer.toml");
+    let case = format!(
+        "[fluid]\nparticles_per_m = 100\n[[fluid.box]]\nmin_m = [-0.065, -0.08, -0.065]\n\
+         max_m = [0.065, -0.07, 0.065]\n[model]\nname = \"wcsph\"\n[run]\nsteps = 0\n\
+         [output]\nfolder = \"{}\"\n[gauges]\ninterval_s = 0.01\n\
+         [[gauges.height]]\nname = \"front\"\nat_m = [0.0, 0.0]\n",
+        folder.display()
+    );
+    std::fs::write(&path, case).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), path.as_os_str()]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let table = std::fs::read_to_string(folder.join("gauges.csv")).unwrap();
+    let row = table.lines().nth(1).expect("the reading at the start");
+    let surface: f64 = row.split(',').nth(1).unwrap().parse().unwrap();
+    assert!((surface - -0.07).abs() < 5e-4, "{table}");
+}

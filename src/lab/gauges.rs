@@ -118,8 +118,9 @@ pub fn read_point(state: &Simulation, at: DVec3) -> Option<PointReading> {
 /// fresh densities, as for [`read_point`]): the highest y,
 /// from the floor up in quarter spacings, at which the kernel-weighted volume of the
 /// particles reaches half of the full fluid's (linear between samples), or `None` where
-/// no fluid is on the line. Near a side wall the particles' mirror images across it count
-/// too, so the wall does not cut the kernel short.
+/// no fluid is on the line. Near a side wall or the floor the particles' mirror images
+/// across it count too, so the wall does not cut the kernel short (a layer a spacing or
+/// two thick on the floor reads its own thickness).
 pub fn read_height(state: &Simulation, at: DVec2) -> Option<f64> {
     let support = support(state);
     let particles = state.particles();
@@ -133,16 +134,22 @@ pub fn read_height(state: &Simulation, at: DVec2) -> Option<f64> {
     let (bottom, top) = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
         (lo.min(y), hi.max(y))
     });
-    // Each particle and its images, with its volume, once for every sample.
-    let mirrors = side_mirrors(&state.params().domain, line, support);
+    // Each particle and its images, with its volume, once for every sample: across the
+    // side walls near the line, and across the floor where the particle is near it.
+    let domain = &state.params().domain;
+    let mirrors = side_mirrors(domain, line, support);
+    let floor = domain.min.y;
     let flip = |value: f64, wall: Option<f64>| wall.map_or(value, |w| 2.0 * w - value);
     let images: Vec<(DVec3, f64)> = slots
         .iter()
         .flat_map(|&slot| {
             let (p, v) = (particles.position(slot), mass / particles.rho[slot]);
-            mirrors
-                .iter()
-                .map(move |&(x, z)| (DVec3::new(flip(p.x, x), p.y, flip(p.z, z)), v))
+            let below = (p.y - floor < support).then_some(2.0 * floor - p.y);
+            mirrors.iter().flat_map(move |&(x, z)| {
+                let side = DVec3::new(flip(p.x, x), p.y, flip(p.z, z));
+                let floor_image = below.map(|y| (DVec3::new(side.x, y, side.z), v));
+                std::iter::once((side, v)).chain(floor_image)
+            })
         })
         .collect();
     let fraction = |y: f64| {
@@ -409,6 +416,11 @@ mod tests {
     /// A slab of water at rest, `depth` deep over the whole floor, at `ppm`, with the
     /// densities of its positions.
     fn slab(ppm: f64, depth: f64) -> Simulation {
+        slab_of(Model::Fluidanimate, ppm, depth)
+    }
+
+    /// [`slab`] on `model`.
+    fn slab_of(model: Model, ppm: f64, depth: f64) -> Simulation {
         let spacing = 1.0 / ppm;
         let extent = BOX_MAX - BOX_MIN;
         let [nx, nz] = [extent.x, extent.z].map(|e| (e * ppm).floor() as usize);
@@ -423,7 +435,7 @@ mod tests {
             }
         }
         let method = Method {
-            model: Model::Fluidanimate,
+            model,
             kernel: crate::sim::kernel::Kernel::Scalar,
         };
         Simulation::with_method(ppm, particles, method)
@@ -528,6 +540,26 @@ mod tests {
                 (Some(BOX_MIN.x), Some(BOX_MAX.z))
             ]
         );
+    }
+
+    #[test]
+    fn a_height_gauge_reads_a_layer_one_or_two_spacings_thick() {
+        let ppm = 150.0;
+        // On the water model, whose densities are its own (rest density here): the
+        // layer's volumes are those of full particles. Without the floor's images one
+        // layer read 0.86 of its thickness.
+        for layers in [1.0, 2.0, 3.0] {
+            let simulation = slab_of(Model::Wcsph, ppm, layers / ppm);
+            let rest = simulation.particles().rho[0];
+            assert!((rest / 1000.0 - 1.0).abs() < 0.01, "{rest}");
+            let at = DVec2::new(0.001, -0.003);
+            let height = read_height(&simulation, at).expect("a layer on the floor");
+            let thickness = height - BOX_MIN.y;
+            assert!(
+                (thickness - layers / ppm).abs() < 0.05 / ppm,
+                "{layers} layers: {thickness}"
+            );
+        }
     }
 
     #[test]
