@@ -1221,6 +1221,24 @@ fn a_run_that_fails_mid_way_leaves_no_folder_it_made() {
         ["fast.fld"],
         "the folders it made are gone"
     );
+    // A case whose gauges' folder cannot be made, after its final state's folder was:
+    // exit 1 with the system's reason, and that folder gone again.
+    let case = dir.path().join("c.toml");
+    let text = tank(Path::new("/proc/no-such-folder"), 0.01)
+        .replace("[output]\n", "[output]\nfinal_state = \"s/end.fld\"\n");
+    std::fs::write(&case, text).unwrap();
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_fluid-lab"))
+        .current_dir(dir.path())
+        .args(["run", "--case", "c.toml"])
+        .output()
+        .unwrap();
+    assert_eq!(exit_code(&run), 1, "{}", stderr(&run));
+    assert!(
+        stderr(&run).starts_with("fluid-lab: error: cannot create /proc/no-such-folder: "),
+        "{}",
+        stderr(&run)
+    );
+    assert_eq!(entries(dir.path()), ["c.toml", "fast.fld"]);
     // A folder that was there stays, empty or not.
     let kept = dir.path().join("kept");
     std::fs::create_dir(&kept).unwrap();
