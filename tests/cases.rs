@@ -475,7 +475,7 @@ fn a_run_reads_its_gauges_into_a_table_and_charts() {
     assert_eq!(
         stderr(&again),
         format!(
-            "fluid-lab: note: {} and its charts replace an earlier run's\n",
+            "fluid-lab: note: {} and its charts replaced an earlier run's\n",
             table_path.display()
         )
     );

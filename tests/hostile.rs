@@ -703,8 +703,7 @@ fn a_run_to_a_physical_time_stops_when_its_adaptive_step_collapses() {
         assert_eq!(exit_code(&run), 1, "{subcommand}");
         let message = stderr(&run);
         assert!(
-            message
-                .contains("the run failed at step 1, t = 0.000000 s: its adaptive step collapsed"),
+            message.contains("the run failed at step 1, t = 0 s: its adaptive step of 2.0"),
             "{subcommand}: {message}"
         );
         assert_eq!(message.lines().count(), 1, "{message}");
@@ -1076,4 +1075,102 @@ fn a_stopped_sweep_keeps_its_rows_and_stops_the_run_it_measures() {
         std::fs::read_to_string(format!("/proc/{child}/stat"))
             .map_or(true, |stat| stat.contains(") Z "))
     });
+}
+
+// What the second hostile pass (issue 47) found: every one a line, exit 2, no hang.
+
+#[test]
+fn limits_that_would_run_for_ever_or_overflow_are_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let small = small.to_str().unwrap();
+    let folder = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let gif = folder("x.gif");
+    let (vd, sd, ad, ex) = (folder("vd"), folder("sd"), folder("ad"), folder("ex"));
+    let refused: [(Vec<&str>, &str); 7] = [
+        (
+            vec!["render", small, &gif, "--steps", "1", "--delay-ms", "4294967295"],
+            "fluid-lab: error: invalid value '4294967295' for '--delay-ms <DELAY_MS>': 4294967295 is not in 0..=655350",
+        ),
+        (
+            vec!["export", small, &ex, "--until", "0.002", "--frame-every", "1e-12"],
+            "fluid-lab: error: --frame-every 1e-12 would write 2.000e9 frames to 0.002 s, more than the 1e7 a run may take steps for",
+        ),
+        (
+            vec!["validate", "dam-break", "--until-t", "1e300", "--output-dir", &vd],
+            "fluid-lab: error: --until-t 1e+300 is not a T from 0 to 1000",
+        ),
+        (
+            vec!["validate", "dam-break", "--until", "100", "--output-dir", &vd],
+            "fluid-lab: error: --until 100 is more than the 60 s a dam break may run",
+        ),
+        (
+            vec!["stability", "--output-dir", &sd, "--ppms", "100", "--dt-factors", "1", "--adaptive", "", "--duration", "1e300"],
+            "fluid-lab: error: --duration 1e+300 s on steps of 0.001 s would take 1.000e303 steps a run, more than the 1e7 a run may take",
+        ),
+        (
+            vec!["accuracy", small, "--output-dir", &ad, "--dt-factors", "1", "--adaptive", "", "--times", "0.002", "--reference-dt", "1e-300"],
+            "fluid-lab: error: --times up to 0.002 s on reference steps of 1e-300 s would take 2.000e297 steps, more than the 1e7 a run may take",
+        ),
+        (
+            vec!["run", small, "--progress-every", "nan"],
+            "fluid-lab: error: invalid value 'nan' for '--progress-every <SECONDS>': nan is not a number of seconds from 0 to 1e9",
+        ),
+    ];
+    for (args, message) in refused {
+        let output = run_lab(&args);
+        assert_refused(&output, 2, message);
+        assert!(
+            entries(dir.path()).is_empty(),
+            "{args:?}: {:?}",
+            entries(dir.path())
+        );
+    }
+}
+
+#[test]
+fn a_tiny_gauge_interval_reads_every_step_and_a_failed_run_says_nothing_of_replacing() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("c.toml");
+    let text = |interval: &str| {
+        format!(
+            "[fluid]\nparticles_per_m = 100\n[[fluid.box]]\nmin_m = [-0.065, -0.08, -0.065]\n\
+             max_m = [0.0, 0.0, 0.065]\n[model]\nname = \"wcsph\"\n[run]\nsteps = 2\n\
+             [output]\nfolder = \"{}\"\n[gauges]\ninterval_s = {interval}\n\
+             [[gauges.point]]\nname = \"p\"\nat_m = [-0.03, -0.07, 0.0]",
+            dir.path().join("g").display()
+        )
+    };
+    std::fs::write(&case, text("1e-300")).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), case.as_os_str()]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let table = std::fs::read_to_string(dir.path().join("g/gauges.csv")).unwrap();
+    assert_eq!(table.lines().count(), 1 + 3, "{table}");
+    // Run again and fail (steps too long to stay finite): the table stays, unmentioned.
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        case.as_os_str(),
+        "--dt".as_ref(),
+        "1e300".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(!stderr(&output).contains("note:"), "{}", stderr(&output));
+    assert_eq!(stderr(&output).lines().count(), 1, "{}", stderr(&output));
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("g/gauges.csv")).unwrap(),
+        table
+    );
+    // A path with control characters is refused at its key.
+    let bad = text("0.01").replace("[output]\n", "[output]\nfinal_state = \"a\\nb.fld\"\n");
+    std::fs::write(&case, bad).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), case.as_os_str()]);
+    assert_refused(
+        &output,
+        2,
+        &format!(
+            "fluid-lab: error: {}:11:15: a path must not hold control characters",
+            case.display()
+        ),
+    );
 }

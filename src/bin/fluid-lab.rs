@@ -1,5 +1,6 @@
 //! `fluid-lab`: the workbench binary (see [`fluid::lab`]).
 
+use clap::error::ErrorKind;
 use clap::Parser;
 use fluid::io::case::CaseError;
 use fluid::io::fld::FileError;
@@ -8,7 +9,28 @@ use std::io::Write;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    let lab = fluid::lab::Lab::parse();
+    let lab = match fluid::lab::Lab::try_parse() {
+        Ok(lab) => lab,
+        Err(error)
+            if !error.use_stderr()
+                || error.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
+            error.exit()
+        }
+        Err(error) => {
+            // One line, as every other error: clap's first paragraph (its message and
+            // what it lists), without its usage and tips.
+            let text = error.render().to_string();
+            let message: Vec<&str> = (text.lines())
+                .take_while(|line| !line.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            let message = message.join(" ");
+            let message = message.strip_prefix("error: ").unwrap_or(&message);
+            let _ = writeln!(std::io::stderr(), "fluid-lab: error: {message}");
+            return ExitCode::from(2);
+        }
+    };
     match lab.execute(&mut std::io::stdout().lock()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {

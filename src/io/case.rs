@@ -410,7 +410,21 @@ fn in_case_words(message: &str) -> String {
     // "invalid length 4, expected ...": the list given.
     if let Some(rest) = words.strip_prefix("invalid length ") {
         if let Some((count, expected)) = rest.split_once(", ") {
-            words = format!("a list of {count} items, {expected}");
+            let items = if count == "1" { "item" } else { "items" };
+            words = format!("a list of {count} {items}, {expected}");
+        }
+    }
+    // "`99999999999999999999` as i128": past the largest whole number a key takes.
+    words = words.replace(" as i128", "");
+    // "a table with 13 elements": a table.
+    if let Some(at) = words.find("a table with ") {
+        let rest = &words[at + "a table with ".len()..];
+        if let Some(end) = rest.find(" elements") {
+            words = format!(
+                "{}a table{}",
+                &words[..at],
+                &rest[end + " elements".len()..]
+            );
         }
     }
     const WORDS: [(&str, &str); 16] = [
@@ -656,6 +670,15 @@ impl Case {
                 return Err((path.span(), "final_state must name a file".into()));
             }
         }
+        let paths = [&self.output.final_state, &self.output.folder];
+        for path in paths.into_iter().flatten() {
+            if path.get_ref().chars().any(char::is_control) {
+                return Err((
+                    path.span(),
+                    "a path must not hold control characters".into(),
+                ));
+            }
+        }
         if let Some(folder) = &self.output.folder {
             if folder.get_ref().is_empty() {
                 return Err((
@@ -861,6 +884,14 @@ mod tests {
                 "invalid type: text \"x\", expected a table",
             ),
             ("unknown field `speed`", "unknown field `speed`"),
+            (
+                "invalid type: integer `99999999999999999999` as i128, expected u64",
+                "invalid type: the whole number `99999999999999999999`, expected a whole number, 0 or more",
+            ),
+            (
+                "invalid length 1, expected a table with 13 elements",
+                "a list of 1 item, expected a table",
+            ),
         ];
         for (rust, case) in cases {
             assert_eq!(in_case_words(rust), case);

@@ -200,6 +200,27 @@ fn side_mirrors(domain: &Domain, line: DVec3, support: f64) -> Vec<(Option<f64>,
     mirrors
 }
 
+/// The first due time after `time` (beyond 1e-12 relative) on from `next`: sums of
+/// `interval`, as the schedule takes them; where they would be more than a million, or
+/// `interval` too small to move the sum, the first multiple of it past `time` (or the
+/// next number past it), so that no interval makes the schedule hang.
+fn next_due(next: f64, time: f64, interval: f64) -> f64 {
+    let end = time * (1.0 + 1e-12);
+    if (end - next) / interval > 1e6 || next + interval == next {
+        let multiple = ((end / interval).floor() + 1.0) * interval;
+        return if multiple > end {
+            multiple
+        } else {
+            end.next_up()
+        };
+    }
+    let mut next = next;
+    while next <= end {
+        next += interval;
+    }
+    next
+}
+
 /// The columns of a point gauge, after its name.
 const POINT_COLUMNS: [&str; 5] = ["pressure_pa", "vx_m_s", "vy_m_s", "vz_m_s", "density_kg_m3"];
 
@@ -269,11 +290,7 @@ impl GaugeTable {
         let due = self.next.is_none_or(|next| time >= next * (1.0 - 1e-12));
         if due {
             self.read(simulation);
-            let mut next = self.next.unwrap_or(time);
-            while next <= time * (1.0 + 1e-12) {
-                next += interval;
-            }
-            self.next = Some(next);
+            self.next = Some(next_due(self.next.unwrap_or(time), time, interval));
         }
         due
     }
@@ -286,11 +303,7 @@ impl GaugeTable {
             return;
         };
         let before = simulation.time() - dt;
-        let mut next = 0.0;
-        while next <= before * (1.0 + 1e-12) {
-            next += interval;
-        }
-        self.next = Some(next);
+        self.next = Some(next_due(0.0, before, interval));
     }
 
     /// Reads every gauge at the state of `simulation` (on a copy with the densities of its
@@ -558,6 +571,20 @@ mod tests {
             assert!(
                 (thickness - layers / ppm).abs() < 0.05 / ppm,
                 "{layers} layers: {thickness}"
+            );
+        }
+    }
+
+    #[test]
+    fn no_interval_makes_the_schedule_hang() {
+        // As ever: sums of the interval.
+        assert_eq!(next_due(0.0, 0.025, 0.01), 0.01 + 0.01 + 0.01);
+        // Too small to add, or too many sums: past the time at once.
+        for (next, time, interval) in [(1.0, 1.0, 1e-300), (0.0, 1e300, 1e-3), (0.0, 5.0, 1e-9)] {
+            let due = next_due(next, time, interval);
+            assert!(
+                due > time * (1.0 + 1e-12) && due.is_finite(),
+                "{time} {interval}: {due}"
             );
         }
     }

@@ -155,7 +155,7 @@ fn line(goal: Goal, step: u64, time: f64, elapsed: Duration) -> String {
         Goal::Until(end) => (time / end, String::new()),
     };
     let goal_time = match goal {
-        Goal::Until(end) => format!(" of {end}"),
+        Goal::Until(end) => format!(" of {}", crate::io::gformat::format_g(end)),
         Goal::Steps(_) => String::new(),
     };
     let left = match done {
@@ -173,7 +173,8 @@ fn duration(seconds: f64) -> String {
     match seconds {
         s if s < 120.0 => format!("{s:.0} s"),
         s if s < 7200.0 => format!("{:.0} min", s / 60.0),
-        s => format!("{:.1} h", s / 3600.0),
+        s if s < 3.6e9 => format!("{:.1} h", s / 3600.0),
+        s => format!("{:.1e} h", s / 3600.0),
     }
 }
 
@@ -206,5 +207,6 @@ mod tests {
         assert_eq!(duration(59.4), "59 s");
         assert_eq!(duration(600.0), "10 min");
         assert_eq!(duration(36_000.0), "10.0 h");
+        assert_eq!(duration(3.6e300), "1.0e297 h");
     }
 }

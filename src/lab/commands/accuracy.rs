@@ -4,10 +4,12 @@
 
 use super::simulation_args::{parse_courants, Courants};
 use crate::io::fld;
+use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
 use crate::lab::accuracy::{self, Candidate, Convergence, Errors, Metric, Observed, Run, Sweep};
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
+use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
@@ -118,6 +120,9 @@ impl AccuracyArgs {
     }
 }
 
+/// The most steps a run of the sweep may take (as a run to a time elsewhere).
+const MOST_STEPS: f64 = 1e7;
+
 /// The scene an accuracy sweep starts from.
 struct Start {
     /// The start state, on the model asked for.
@@ -135,8 +140,30 @@ impl AccuracyArgs {
         let candidates = self.candidates()?;
         if let Some(step) = self.reference_dt {
             if !(step.is_finite() && step > 0.0) {
-                return Err("--reference-dt needs a positive, finite step".into());
+                return Err(
+                    UsageError("--reference-dt needs a positive, finite step".into()).into(),
+                );
             }
+        }
+        // The most steps a run takes that is known before running: the reference's on its
+        // step (or on an eighth of the shortest fixed one), to the last time.
+        let fixed = candidates
+            .iter()
+            .filter_map(|candidate| match candidate.time_step {
+                TimeStep::Fixed(dt) => Some(dt / 8.0),
+                TimeStep::Adaptive { .. } => None,
+            });
+        let shortest = fixed.chain(self.reference_dt).fold(f64::INFINITY, f64::min);
+        let last = times.iter().copied().fold(0.0, f64::max);
+        let steps = last / shortest;
+        if steps > MOST_STEPS {
+            return Err(UsageError(format!(
+                "--times up to {} s on reference steps of {} s would take {steps:.3e} steps, \
+                 more than the {MOST_STEPS:.0e} a run may take",
+                format_g(last),
+                format_g(shortest)
+            ))
+            .into());
         }
         Ok((times, candidates))
     }

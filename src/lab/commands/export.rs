@@ -54,6 +54,7 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         return Err(UsageError(format!("the output folder {shown} is a file")).into());
     }
     let extent = args.simulation.extent(args.span.until)?;
+    args.span.check(extent, &args.simulation)?;
     let Loaded {
         stem,
         name,

@@ -33,8 +33,10 @@ pub struct RenderArgs {
     /// Colour range LOW,HIGH, finite [default: each frame's own].
     #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
     range: Option<(f64, f64)>,
-    /// Milliseconds per GIF frame.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 80)]
+    /// Milliseconds per GIF frame (the format counts hundredths of a second: at most
+    /// 655350).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 80,
+          value_parser = RangedI64ValueParser::<u32>::new().range(0..=655_350))]
     delay_ms: u32,
 }
 
@@ -68,6 +70,7 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
     let output = &needed(args.output.take(), "output (.png or .gif)")?;
     let picture = Picture::of(output)?;
     let extent = args.simulation.extent(args.span.until)?;
+    args.span.check(extent, &args.simulation)?;
     let series = args.span.is_series(args.every);
     let frame_path = |step: u64| match series {
         true => {

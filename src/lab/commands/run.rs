@@ -202,12 +202,9 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         (Some(folder), false) => {
             made.push(super::create_output_dir(folder)?);
             let table = folder.join("gauges.csv");
-            if table.exists() {
-                // A case run again writes over its last run's readings: said, not silent.
-                let shown = table.display();
-                eprintln!("fluid-lab: note: {shown} and its charts replace an earlier run's");
-            }
-            Some((OutputFile::create(&table)?, folder))
+            // A case run again writes over its last run's readings: said once they are.
+            let replaces = table.exists();
+            Some((OutputFile::create(&table)?, folder, replaces))
         }
         _ => None,
     };
@@ -361,8 +358,13 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     let diagnosed = diagnostics_file.map_or(Ok(()), |file| file.commit(rows.as_bytes()));
     stored?;
     diagnosed?;
-    if let Some((file, folder)) = gauges_file {
+    if let Some((file, folder, replaces)) = gauges_file {
         file.commit(gauges.csv().as_bytes())?;
+        if replaces {
+            let shown = folder.join("gauges.csv");
+            let shown = shown.display();
+            eprintln!("fluid-lab: note: {shown} and its charts replaced an earlier run's");
+        }
         let machine = Machine::this();
         let footer = format!(
             "{}: {} on {} particles, {} kernel; {}, commit {}",
@@ -454,11 +456,15 @@ const DIAGNOSTICS_ROW_BYTES: u64 = 128;
 /// (a run of 2.5e-7 s is `0.0000002500`, not `0.000000`).
 fn significant(value: f64) -> String {
     let magnitude = value.abs().log10().floor();
-    let decimals = match magnitude.is_finite() {
-        true => (3.0 - magnitude).clamp(6.0, 300.0) as usize,
-        false => 6,
-    };
-    format!("{value:.decimals$}")
+    match magnitude.is_finite() {
+        // Beyond 15 decimals, in scientific notation: 5e-324 s is not 327 digits.
+        true if magnitude < -12.0 => format!("{value:.3e}"),
+        true => {
+            let decimals = (3.0 - magnitude).clamp(6.0, 15.0) as usize;
+            format!("{value:.decimals$}")
+        }
+        false => format!("{value:.6}"),
+    }
 }
 
 /// Writes the checkpoint of `simulation` after `step` steps to `path`, atomically.

@@ -531,6 +531,41 @@ impl Span {
         }
     }
 
+    /// Refuses frames in time that a run to `extent` would write more than
+    /// [`MOST_STEPS_TO_GO`] of (each frame cuts a step short): at the case's key that sets
+    /// them (`args`' case), else as a usage error.
+    pub fn check(&self, extent: Extent, args: &SimulationArgs) -> Result<(), Box<dyn Error>> {
+        let (Extent::Until(end), Some(interval)) = (extent, self.frame_every) else {
+            return Ok(());
+        };
+        let frames = end / interval;
+        if frames <= MOST_STEPS_TO_GO {
+            return Ok(());
+        }
+        let key = (args.read.as_ref())
+            .and_then(|case| case.output.frame_interval_s.as_ref())
+            .filter(|key| *key.get_ref() == interval);
+        let every = format_g(interval);
+        let named = match key {
+            Some(_) => format!("frame_interval_s = {every} s"),
+            None => format!("--frame-every {every}"),
+        };
+        let message = format!(
+            "{named} would write {frames:.3e} frames to {} s, more than the {MOST_STEPS_TO_GO:.0e} \
+             a run may take steps for",
+            format_g(end)
+        );
+        Err(match key {
+            Some(key) => Box::new(CaseError::at_span(
+                args.case_text.as_deref().unwrap_or_default(),
+                &args.source().display().to_string(),
+                key.span(),
+                message,
+            )),
+            None => Box::new(UsageError(message)),
+        })
+    }
+
     /// Whether states besides the last are written.
     pub fn is_series(&self, every: Option<u64>) -> bool {
         self.frames(every) != Frames::Last
@@ -597,9 +632,10 @@ pub fn failure(simulation: &Simulation, extent: Extent, step: u64) -> Option<Str
     let to_go = end - simulation.time();
     (adaptive && dt * MOST_STEPS_TO_GO < to_go).then(|| {
         format!(
-            "the run failed at step {step}, t = {:.6} s: its adaptive step collapsed to \
-             {dt:.3e} s, with {to_go:.6} s still to go",
-            simulation.time()
+            "the run failed at step {step}, t = {} s: its adaptive step of {dt:.3e} s \
+             would take more than {MOST_STEPS_TO_GO:.0e} steps for the {} s still to go",
+            format_g(simulation.time()),
+            format_g(to_go)
         )
     })
 }

@@ -2,11 +2,13 @@
 //! it fails; a CSV and the stability map.
 
 use super::simulation_args::{is_time_step, parse_courants, Courants};
+use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
 use crate::lab::chart;
 use crate::lab::machine::Machine;
 use crate::lab::scene::SceneKind;
 use crate::lab::stability::{self, rule_name, Outcome};
+use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
@@ -57,32 +59,51 @@ pub struct StabilityArgs {
     shortest_step: f64,
 }
 
+/// The most steps one run of the map may take (as a run to a time elsewhere).
+const MOST_STEPS: f64 = 1e7;
+
 /// One run of the map: its method, integrator, particles per metre and time-step rule.
 type Cell = (Method, Integrator, f64, TimeStep);
 
 impl StabilityArgs {
     /// The runs asked for, checked: every cell, in the map's order.
     fn cells(&self) -> Result<Vec<Cell>, Box<dyn Error>> {
+        let refuse = |message: String| -> Result<Vec<Cell>, Box<dyn Error>> {
+            Err(UsageError(message).into())
+        };
         for &factor in &self.dt_factors {
             if !is_time_step(factor * TIME_STEP) {
-                return Err(
-                    format!("--dt-factors: {factor} does not give a positive time step").into(),
-                );
+                return refuse(format!(
+                    "--dt-factors: {factor} does not give a positive time step"
+                ));
             }
         }
         if !(self.duration.is_finite() && self.duration > 0.0) {
-            return Err(format!(
+            return refuse(format!(
                 "--duration: {} is not a positive, finite time",
                 self.duration
-            )
-            .into());
+            ));
         }
         if !(self.shortest_step.is_finite() && self.shortest_step > 0.0) {
-            return Err(format!(
+            return refuse(format!(
                 "--shortest-step: {} is not a positive step",
                 self.shortest_step
-            )
-            .into());
+            ));
+        }
+        // The shortest step a run may take: the smallest fixed one, or the adaptive floor.
+        let adaptive = !Courants::all(&self.adaptive).is_empty();
+        let fixed = (self.dt_factors.iter()).map(|factor| factor * TIME_STEP);
+        let shortest = fixed
+            .chain(adaptive.then_some(self.shortest_step))
+            .fold(f64::INFINITY, f64::min);
+        let steps = self.duration / shortest;
+        if steps > MOST_STEPS {
+            return refuse(format!(
+                "--duration {} s on steps of {} s would take {steps:.3e} steps a run, more \
+                 than the {MOST_STEPS:.0e} a run may take",
+                format_g(self.duration),
+                format_g(shortest)
+            ));
         }
         let rules: Vec<TimeStep> = self
             .dt_factors

@@ -8,6 +8,7 @@ use super::simulation_args::{
     SimulationArgs, WaterArgs,
 };
 use crate::io::case::CaseError;
+use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
@@ -68,7 +69,8 @@ pub struct ValidateArgs {
     /// lets the front run to Z = 0.13 / a.
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.03)]
     width: f64,
-    /// Run until the experiment's dimensionless time T = t sqrt(2 g / a) reaches this.
+    /// Run until the experiment's dimensionless time T = t sqrt(2 g / a) reaches this (at
+    /// most 1000).
     #[arg(
         long,
         value_name = "T",
@@ -76,7 +78,8 @@ pub struct ValidateArgs {
         default_value_t = 4.0
     )]
     until_t: f64,
-    /// Run to this physical time in seconds instead (as --until everywhere else).
+    /// Run to this physical time in seconds instead (as --until everywhere else; at most
+    /// 60).
     #[arg(long, value_name = "SECONDS", conflicts_with = "until_t", allow_negative_numbers = true, value_parser = parse_seconds)]
     until: Option<f64>,
     /// Sample the front every this many steps.
@@ -107,6 +110,12 @@ const FRONTS_HEADER: &str = "model,kernel,ppm,width_m,time_step,step,time_s,T,fr
 /// The CSV columns of the comparisons.
 const ERRORS_HEADER: &str = "model,kernel,ppm,width_m,time_step,experiment,T,Z_experiment,\
                              Z_model,relative_error";
+/// The longest dam break in the experiment's T (the experiments end by T = 4; the
+/// column has long settled by this).
+const MOST_T: f64 = 1000.0;
+/// The longest dam break in seconds (a 3 cm column's T = 1000 is 35 s).
+const MOST_SECONDS: f64 = 60.0;
+
 /// The experiment's points compared in the summary: T up to this.
 const SUMMARY_T: f64 = 3.6;
 
@@ -140,8 +149,16 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         }
         (Experiment::DamBreak, None) => {}
     }
-    if !(args.until_t.is_finite() && args.until_t > 0.0) {
-        return Err(format!("--until-t: {} is not a positive, finite T", args.until_t).into());
+    if !(args.until_t > 0.0 && args.until_t <= MOST_T) {
+        let t = format_g(args.until_t);
+        let message = format!("--until-t {t} is not a T from 0 to {MOST_T}");
+        return Err(UsageError(message).into());
+    }
+    if let Some(end) = args.until.filter(|&end| end > MOST_SECONDS) {
+        let end = format_g(end);
+        let message =
+            format!("--until {end} is more than the {MOST_SECONDS} s a dam break may run");
+        return Err(UsageError(message).into());
     }
     let _folder = create_output_dir(&args.output_dir)?;
     let fronts_path = args.output_dir.join("dam-break.csv");
