@@ -1329,3 +1329,38 @@ fn a_height_gauge_reads_a_layer_a_spacing_thick_on_the_floor() {
     let surface: f64 = row.split(',').nth(1).unwrap().parse().unwrap();
     assert!((surface - -0.07).abs() < 5e-4, "{table}");
 }
+
+#[test]
+fn a_case_given_beside_a_checkpoint_is_not_taken_for_an_input_file() {
+    // A checkpoint of the case, then a resume that names the case again.
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("c.toml");
+    std::fs::write(&case, tank(&dir.path().join("g"), 0.004)).unwrap();
+    let checkpoint = dir.path().join("c.bin");
+    let run = |extra: &[&std::ffi::OsStr]| {
+        let mut args: Vec<&std::ffi::OsStr> =
+            vec!["run".as_ref(), "--case".as_ref(), case.as_os_str()];
+        args.extend_from_slice(extra);
+        run_lab(&args)
+    };
+    let output = run(&[
+        dir.path().join("a.fld").as_os_str(),
+        "--steps".as_ref(),
+        "2".as_ref(),
+        "--checkpoint".as_ref(),
+        checkpoint.as_os_str(),
+        "--checkpoint-every".as_ref(),
+        "1".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // No output named: the run is timed, its gauges read (it used to be refused as a
+    // checkpoint "of a run from an input file").
+    let output = run(&[
+        "--steps".as_ref(),
+        "3".as_ref(),
+        "--resume".as_ref(),
+        checkpoint.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert!(stdout(&output).contains(" steps=1 "), "{}", stdout(&output));
+}

@@ -390,7 +390,7 @@ fn render_refuses_unknown_outputs_and_empty_ranges() {
     // One line, as every error of the workbench.
     assert_eq!(
         stderr(&output),
-        "fluid-lab: error: invalid value '5,1' for '--range <RANGE>': 5,1 is empty\n"
+        "fluid-lab: error: invalid value '5,1' for '--range <RANGE>': 5,1 is empty: LOW must be below HIGH\n"
     );
     assert!(!png.exists());
 }

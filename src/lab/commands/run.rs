@@ -119,7 +119,10 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     });
     match carried {
         Some((text, name)) => args.simulation.take_case(text, &name, &mut args.output)?,
-        None if args.simulation.input.is_none() && args.resume.is_some() => {
+        None if args.simulation.input.is_none()
+            && args.simulation.case.is_none()
+            && args.resume.is_some() =>
+        {
             return Err(UsageError(format!(
                 "{} is a checkpoint of a run from an input file: give that input",
                 args.resume.as_ref().expect("a checkpoint").display()
