@@ -1299,7 +1299,7 @@ fn a_case_too_big_for_memory_is_refused_before_anything_is_allocated() {
     assert!(
         message.starts_with(
             "fluid-lab: error: big.toml:5:19: particles_per_m = 1215 fills about 4.843e7 \
-             particles, which need about 23.3 GB of memory; this process's ulimit -v allows \
+             particles, which need about 72.7 GB of memory; this process's ulimit -v allows \
              2.0 GB"
         ),
         "{message}"
@@ -1363,4 +1363,38 @@ fn a_case_given_beside_a_checkpoint_is_not_taken_for_an_input_file() {
     ]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     assert!(stdout(&output).contains(" steps=1 "), "{}", stdout(&output));
+}
+
+#[test]
+fn a_final_state_that_is_a_gauge_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("g");
+    let case = dir.path().join("c.toml");
+    let state = folder.join("gauges.csv");
+    let text = tank(&folder, 0.01).replace(
+        "[output]\n",
+        &format!("[output]\nfinal_state = \"{}\"\n", state.display()),
+    );
+    std::fs::write(&case, text).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), case.as_os_str()]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(
+        stderr(&output).ends_with(&format!(
+            ":11:15: the final state {} is the gauges' gauges.csv: give it a file of its own\n",
+            state.display()
+        )),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!folder.exists());
+    // The same file named on the command line.
+    let chart = folder.join("gauges-surface.png");
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        case.as_os_str(),
+        chart.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(!folder.exists());
 }

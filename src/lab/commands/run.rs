@@ -138,6 +138,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         from_case = args.output.is_some();
     }
     check_case_outputs(&args.simulation, from_case)?;
+    check_gauge_files(&args.simulation, args.output.as_deref(), from_case)?;
     if let (Some(case), Some(output)) = (&args.simulation.case, &args.output) {
         if same_file(case, output) {
             return Err(UsageError(format!(
@@ -450,6 +451,55 @@ fn check_case_outputs(args: &SimulationArgs, used: bool) -> Result<(), Box<dyn E
         }
     }
     Ok(())
+}
+
+/// The files a case's gauges write into its folder.
+const GAUGE_FILES: [&str; 5] = [
+    "gauges.csv",
+    "gauges-pressure.png",
+    "gauges-pressure.svg",
+    "gauges-surface.png",
+    "gauges-surface.svg",
+];
+
+/// Refuses a final state that is one of the files the case's gauges write (it would be
+/// written over): at `final_state` where the case names it (`from_case`), else as a usage
+/// error.
+fn check_gauge_files(
+    args: &SimulationArgs,
+    output: Option<&Path>,
+    from_case: bool,
+) -> Result<(), Box<dyn Error>> {
+    let (Some(case), Some(output)) = (&args.read, output) else {
+        return Ok(());
+    };
+    let (Some(folder), false) = (
+        &case.output.folder,
+        case.gauges.points.is_empty() && case.gauges.heights.is_empty(),
+    ) else {
+        return Ok(());
+    };
+    let folder = Path::new(folder.get_ref());
+    let Some(name) = GAUGE_FILES.iter().find(|name| {
+        // The same file, or (its folder not made yet) the same path.
+        let file = folder.join(name);
+        same_file(output, &file) || output.components().eq(file.components())
+    }) else {
+        return Ok(());
+    };
+    let message = format!(
+        "the final state {} is the gauges' {name}: give it a file of its own",
+        output.display()
+    );
+    match (from_case, &case.output.final_state) {
+        (true, Some(key)) => Err(Box::new(CaseError::at_span(
+            args.case_text.as_deref().unwrap_or_default(),
+            &args.source().display().to_string(),
+            key.span(),
+            message,
+        ))),
+        _ => Err(UsageError(message).into()),
+    }
 }
 
 /// The bytes a diagnostics row usually takes, for the room reserved before a run.

@@ -404,13 +404,15 @@ pub fn needed(output: Option<PathBuf>, what: &str) -> Result<PathBuf, UsageError
     output.ok_or_else(|| UsageError(format!("give the {what}")))
 }
 
-/// The peak memory of a run per particle (bytes), above [`RUN_BASE_BYTES`]: measured on
-/// the water model, the largest (457 B from 144,000 to 486,000 particles), rounded up.
-const BYTES_PER_PARTICLE: f64 = 480.0;
+/// The memory a run takes per particle (bytes), above [`RUN_BASE_BYTES`]: its address
+/// space, which `ulimit -v` limits, not only its resident pages (457 B from 144,000 to
+/// 486,000 particles on the water model): a 373,000-particle water run with gauges needed
+/// between 400 and 550 MB of address space, about 1.3 kB a particle; with room to spare.
+const BYTES_PER_PARTICLE: f64 = 1500.0;
 
-/// The peak memory of a run with few particles (bytes): the program, its tables, the
+/// The address space of a run with few particles (bytes): the program, its tables, the
 /// allocator's arenas.
-const RUN_BASE_BYTES: f64 = 16e6;
+const RUN_BASE_BYTES: f64 = 64e6;
 
 /// Refuses a case whose particles would need more memory than this process may use (its
 /// `ulimit -v`, or the machine's available memory and swap), before any is allocated.
@@ -632,9 +634,10 @@ pub fn failure(simulation: &Simulation, extent: Extent, step: u64) -> Option<Str
     let to_go = end - simulation.time();
     (adaptive && dt * MOST_STEPS_TO_GO < to_go).then(|| {
         format!(
-            "the run failed at step {step}, t = {} s: its adaptive step of {dt:.3e} s \
+            "the run failed at step {step}, t = {} s: its adaptive step of {} s \
              would take more than {MOST_STEPS_TO_GO:.0e} steps for the {} s still to go",
             format_g(simulation.time()),
+            format_g(dt),
             format_g(to_go)
         )
     })
