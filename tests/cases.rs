@@ -1190,14 +1190,8 @@ fn a_run_that_fails_mid_way_leaves_no_folder_it_made() {
     // Two particles at 100 km/s: the adaptive step collapses at step 1 (as in
     // tests/hostile.rs), after export has made its folder and its parent.
     let dir = tempfile::tempdir().unwrap();
-    let mut particles = fluid::Particles::zeroed(2);
-    for slot in 0..2 {
-        particles.p[0][slot] = -0.01 + 0.002 * slot as f64;
-        particles.hv[0][slot] = 1e5;
-        particles.v[0][slot] = 1e5;
-    }
     let fast = dir.path().join("fast.fld");
-    std::fs::write(&fast, fluid::io::fld::encode(204.0, &particles).unwrap()).unwrap();
+    common::write_fast_pair(&fast);
     let export = |folder: &Path| {
         run_lab(&[
             "export".as_ref(),

@@ -676,14 +676,8 @@ fn a_run_to_a_physical_time_stops_when_its_adaptive_step_collapses() {
     // would take fifty million steps (more than the ten million allowed). Each
     // simulating subcommand stops at once instead.
     let dir = tempfile::tempdir().unwrap();
-    let mut particles = fluid::Particles::zeroed(2);
-    for slot in 0..2 {
-        particles.p[0][slot] = -0.01 + 0.002 * slot as f64;
-        particles.hv[0][slot] = 1e5;
-        particles.v[0][slot] = 1e5;
-    }
     let fast = dir.path().join("fast.fld");
-    std::fs::write(&fast, fluid::io::fld::encode(204.0, &particles).unwrap()).unwrap();
+    common::write_fast_pair(&fast);
     let out = dir.path().join("out");
     let outputs = [
         ("run", out.with_extension("fld")),

@@ -693,7 +693,8 @@ fn stability_reports_each_run_and_maps_them() {
         "--output-dir".as_ref(),
         dir.path().as_os_str(),
     ]);
-    assert_eq!(exit_code(&output), 1);
+    // A usage error, as clap's.
+    assert_eq!(exit_code(&output), 2);
     assert!(stderr(&output).contains("--dt-factors: 0 does not give a positive time step"));
     let fixed_only = run_lab(&[
         "stability".as_ref(),
@@ -725,7 +726,7 @@ fn stability_reports_each_run_and_maps_them() {
             "--output-dir".as_ref(),
             dir.path().as_os_str(),
         ]);
-        assert_eq!(exit_code(&output), 1, "{duration}");
+        assert_eq!(exit_code(&output), 2, "{duration}");
         assert!(
             stderr(&output).contains("is not a positive, finite time"),
             "{}",
