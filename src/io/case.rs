@@ -400,13 +400,6 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
 /// a sequence, a map, a struct).
 fn in_case_words(message: &str) -> String {
     let mut words = message.to_string();
-    // A list of fixed length: "an array of length 3" ("invalid length 2, expected ...").
-    for length in 1..=4 {
-        words = words.replace(
-            &format!("an array of length {length}"),
-            &format!("a list of {length} numbers"),
-        );
-    }
     // "invalid length 4, expected ...": the list given.
     if let Some(rest) = words.strip_prefix("invalid length ") {
         if let Some((count, expected)) = rest.split_once(", ") {
@@ -868,7 +861,7 @@ mod tests {
                 "invalid type: the number `1.5`, expected a whole number, 0 or more",
             ),
             (
-                "invalid length 2, expected an array of length 3",
+                "invalid length 2, expected a list of 3 numbers",
                 "a list of 2 items, expected a list of 3 numbers",
             ),
             (

@@ -381,6 +381,11 @@ pub trait Drawing {
         DB::ErrorType: 'static;
 }
 
+/// The files of the chart `name` in `folder`: its PNG and its SVG.
+pub fn files(folder: &Path, name: &str) -> [PathBuf; 2] {
+    ["png", "svg"].map(|extension| folder.join(format!("{name}.{extension}")))
+}
+
 /// Writes `drawing` as `DIR/NAME.png` and `DIR/NAME.svg`, `size` pixels, each whole or not
 /// at all; returns both paths.
 pub fn render<D: Drawing>(
@@ -389,8 +394,7 @@ pub fn render<D: Drawing>(
     size: (u32, u32),
 ) -> Result<[PathBuf; 2], Box<dyn Error>> {
     register_font()?;
-    let png = folder.join(format!("{}.png", drawing.name()));
-    let svg = folder.join(format!("{}.svg", drawing.name()));
+    let [png, svg] = files(folder, drawing.name());
     let (png_file, svg_file) = (OutputFile::create(&png)?, OutputFile::create(&svg)?);
     let staged = png_file.staged()?;
     drawing.draw_on(BitMapBackend::new(staged.path(), size).into_drawing_area())?;

@@ -221,6 +221,13 @@ fn next_due(next: f64, time: f64, interval: f64) -> f64 {
     next
 }
 
+/// The file of the gauges' table, in a case's `[output] folder`.
+pub const TABLE_FILE: &str = "gauges.csv";
+
+/// The names of the gauges' charts (pressure, free surface), each a PNG and an SVG
+/// ([`crate::lab::chart::files`]) beside the table.
+pub const CHART_NAMES: [&str; 2] = ["gauges-pressure", "gauges-surface"];
+
 /// The columns of a point gauge, after its name.
 const POINT_COLUMNS: [&str; 5] = ["pressure_pa", "vx_m_s", "vy_m_s", "vz_m_s", "density_kg_m3"];
 
@@ -387,13 +394,13 @@ impl GaugeTable {
         };
         [
             chart(
-                "gauges-pressure",
+                CHART_NAMES[0],
                 "Pressure at the point gauges",
                 "pressure (Pa)",
                 "_pressure_pa",
             ),
             chart(
-                "gauges-surface",
+                CHART_NAMES[1],
                 "Free surface at the height gauges",
                 "height (m)",
                 "_surface_m",

@@ -2,7 +2,7 @@
 //! trajectory at equal physical times; a CSV, the accuracy-speed chart with its Pareto
 //! fronts, the error-time chart, and the fastest method within each error budget.
 
-use super::simulation_args::{parse_courants, Courants};
+use super::simulation_args::{parse_courants, Courants, MOST_STEPS_TO_GO};
 use crate::io::fld;
 use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
@@ -120,9 +120,6 @@ impl AccuracyArgs {
     }
 }
 
-/// The most steps a run of the sweep may take (as a run to a time elsewhere).
-const MOST_STEPS: f64 = 1e7;
-
 /// The scene an accuracy sweep starts from.
 struct Start {
     /// The start state, on the model asked for.
@@ -156,10 +153,10 @@ impl AccuracyArgs {
         let shortest = fixed.chain(self.reference_dt).fold(f64::INFINITY, f64::min);
         let last = times.iter().copied().fold(0.0, f64::max);
         let steps = last / shortest;
-        if steps > MOST_STEPS {
+        if steps > MOST_STEPS_TO_GO {
             return Err(UsageError(format!(
                 "--times up to {} s on reference steps of {} s would take {steps:.3e} steps, \
-                 more than the {MOST_STEPS:.0e} a run may take",
+                 more than the {MOST_STEPS_TO_GO:.0e} a run may take",
                 format_g(last),
                 format_g(shortest)
             ))

@@ -3,14 +3,13 @@
 
 use super::same_file;
 use super::simulation_args::{failure, load, parse_seconds, Extent, Loaded, SimulationArgs};
-use crate::io::case::CaseError;
 use crate::io::checkpoint::{self, Checkpoint};
 use crate::io::fld;
 use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
 use crate::lab::chart;
 use crate::lab::diagnostics::{self, Diagnostics};
-use crate::lab::gauges::GaugeTable;
+use crate::lab::gauges::{self, GaugeTable};
 use crate::lab::machine::Machine;
 use crate::lab::progress::{Goal, Progress};
 use crate::lab::UsageError;
@@ -205,7 +204,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     let gauges_file = match (&gauge_folder, gauges.is_empty()) {
         (Some(folder), false) => {
             made.push(super::create_output_dir(folder)?);
-            let table = folder.join("gauges.csv");
+            let table = folder.join(gauges::TABLE_FILE);
             // A case run again writes over its last run's readings: said once they are.
             let replaces = table.exists();
             Some((OutputFile::create(&table)?, folder, replaces))
@@ -365,7 +364,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     if let Some((file, folder, replaces)) = gauges_file {
         file.commit(gauges.csv().as_bytes())?;
         if replaces {
-            let shown = folder.join("gauges.csv");
+            let shown = folder.join(gauges::TABLE_FILE);
             let shown = shown.display();
             eprintln!("fluid-lab: note: {shown} and its charts replaced an earlier run's");
         }
@@ -393,11 +392,11 @@ fn check_case_outputs(args: &SimulationArgs, used: bool) -> Result<(), Box<dyn E
     let Some(case) = &args.read else {
         return Ok(());
     };
-    let text = args.case_text.as_deref().unwrap_or_default();
-    let name = args.source().display().to_string();
     let at = |named: &str, key: &toml::Spanned<String>, why: String| -> Box<dyn Error> {
-        let message = format!("{named} = \"{}\" is {why}", key.get_ref());
-        Box::new(CaseError::at_span(text, &name, key.span(), message))
+        args.at_key(
+            key.span(),
+            format!("{named} = \"{}\" is {why}", key.get_ref()),
+        )
     };
     // The nearest of `path` and its folders that exists, if it is not a folder.
     let file_in_the_way = |path: &Path| {
@@ -453,15 +452,6 @@ fn check_case_outputs(args: &SimulationArgs, used: bool) -> Result<(), Box<dyn E
     Ok(())
 }
 
-/// The files a case's gauges write into its folder.
-const GAUGE_FILES: [&str; 5] = [
-    "gauges.csv",
-    "gauges-pressure.png",
-    "gauges-pressure.svg",
-    "gauges-surface.png",
-    "gauges-surface.svg",
-];
-
 /// Refuses a final state that is one of the files the case's gauges write (it would be
 /// written over): at `final_state` where the case names it (`from_case`), else as a usage
 /// error.
@@ -480,24 +470,21 @@ fn check_gauge_files(
         return Ok(());
     };
     let folder = Path::new(folder.get_ref());
-    let Some(name) = GAUGE_FILES.iter().find(|name| {
-        // The same file, or (its folder not made yet) the same path.
-        let file = folder.join(name);
-        same_file(output, &file) || output.components().eq(file.components())
-    }) else {
+    let charts = (gauges::CHART_NAMES.iter()).flat_map(|name| chart::files(folder, name));
+    let mut files = std::iter::once(folder.join(gauges::TABLE_FILE)).chain(charts);
+    // The same file, or (its folder not made yet) the same path.
+    let Some(file) =
+        files.find(|file| same_file(output, file) || output.components().eq(file.components()))
+    else {
         return Ok(());
     };
+    let name = file.file_name().unwrap_or_default().to_string_lossy();
     let message = format!(
         "the final state {} is the gauges' {name}: give it a file of its own",
         output.display()
     );
     match (from_case, &case.output.final_state) {
-        (true, Some(key)) => Err(Box::new(CaseError::at_span(
-            args.case_text.as_deref().unwrap_or_default(),
-            &args.source().display().to_string(),
-            key.span(),
-            message,
-        ))),
+        (true, Some(key)) => Err(args.at_key(key.span(), message)),
         _ => Err(UsageError(message).into()),
     }
 }

@@ -239,12 +239,17 @@ impl SimulationArgs {
             "{step} would take {steps:.3e} steps to {time}, more than the \
              {MOST_STEPS_TO_GO:.0e} a run to a time may take (give steps for a longer run)"
         );
-        let text = self.case_text.as_deref().unwrap_or_default();
-        let name = self.source().display().to_string();
         Err(match dt_key.or(end_key) {
-            Some(key) => Box::new(CaseError::at_span(text, &name, key.span(), message)),
+            Some(key) => self.at_key(key.span(), message),
             None => Box::new(UsageError(message)),
         })
+    }
+
+    /// The error `message` at the key of the case at byte span `span` of its text.
+    pub fn at_key(&self, span: Range<usize>, message: String) -> Box<dyn Error> {
+        let text = self.case_text.as_deref().unwrap_or_default();
+        let name = self.source().display().to_string();
+        Box::new(CaseError::at_span(text, &name, span, message))
     }
 
     /// The file the scene comes from: the case, or the input.
@@ -436,11 +441,7 @@ fn check_memory(case: &Case) -> Result<(), String> {
 pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     let source = args.source();
     let name = source.display().to_string();
-    // What is wrong with a case's scene, at the key that makes it so.
-    let at_key = |span: std::ops::Range<usize>, message: String| -> Box<dyn Error> {
-        let text = args.case_text.as_deref().unwrap_or_default();
-        Box::new(CaseError::at_span(text, &name, span, message))
-    };
+    // What is wrong with a case's scene is at the key that makes it so (`args.at_key`).
     let dynamics = args.water.dynamics(args.model())?;
     let method = Method {
         model: args.model(),
@@ -452,13 +453,14 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             let ppm = *spacing.get_ref();
             let regions = Region::of_case(&case.fluid);
             let domain = case.domain.simulated();
-            check_domain(&case.domain, method.model).map_err(|(span, why)| at_key(span, why))?;
-            check_memory(case).map_err(|why| at_key(spacing.span(), why))?;
+            check_domain(&case.domain, method.model)
+                .map_err(|(span, why)| args.at_key(span, why))?;
+            check_memory(case).map_err(|why| args.at_key(spacing.span(), why))?;
             let particles = scene::filled(ppm, case.fluid.seed, &regions, &domain)
-                .map_err(|error| at_key(spacing.span(), error))?;
+                .map_err(|error| args.at_key(spacing.span(), error))?;
             let simulation = Simulation::with_dynamics(ppm, domain, particles, method, dynamics)
                 .map_err(|error| {
-                    at_key(
+                    args.at_key(
                         spacing.span(),
                         format!("particles_per_m = {ppm} gives {error} for the model's cut-off"),
                     )
@@ -485,7 +487,7 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
         simulation
             .set_skin((fraction > 0.0).then_some(fraction * h))
             .map_err(|error| match from_case {
-                Some(skin) if *skin.get_ref() == fraction => at_key(
+                Some(skin) if *skin.get_ref() == fraction => args.at_key(
                     skin.span(),
                     format!("skin_cutoffs = {fraction} is too wide for the box ({error})"),
                 ),
@@ -558,12 +560,7 @@ impl Span {
             format_g(end)
         );
         Err(match key {
-            Some(key) => Box::new(CaseError::at_span(
-                args.case_text.as_deref().unwrap_or_default(),
-                &args.source().display().to_string(),
-                key.span(),
-                message,
-            )),
+            Some(key) => args.at_key(key.span(), message),
             None => Box::new(UsageError(message)),
         })
     }
@@ -612,9 +609,11 @@ pub enum Frames {
     EverySeconds(f64),
 }
 
-/// The most steps a run to a physical time may still need at its current adaptive step
-/// before it is taken to have collapsed ([`failure`]).
-const MOST_STEPS_TO_GO: f64 = 1e7;
+/// The most steps a run to a physical time may take: what it may still need at its
+/// current adaptive step before it is taken to have collapsed ([`failure`]), and the
+/// limit of every run whose steps are known before it starts (fixed steps, frames,
+/// stability's and accuracy's runs).
+pub const MOST_STEPS_TO_GO: f64 = 1e7;
 
 /// Why a run fails after `step`: a particle that is not finite (NaN or infinities are not
 /// drawn, exported or written as if they were a state), or, on the way to a physical

@@ -1,7 +1,7 @@
 //! `fluid-lab stability`: a scene over time steps and resolutions, each run watched until
 //! it fails; a CSV and the stability map.
 
-use super::simulation_args::{is_time_step, parse_courants, Courants};
+use super::simulation_args::{is_time_step, parse_courants, Courants, MOST_STEPS_TO_GO};
 use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
 use crate::lab::chart;
@@ -59,9 +59,6 @@ pub struct StabilityArgs {
     shortest_step: f64,
 }
 
-/// The most steps one run of the map may take (as a run to a time elsewhere).
-const MOST_STEPS: f64 = 1e7;
-
 /// One run of the map: its method, integrator, particles per metre and time-step rule.
 type Cell = (Method, Integrator, f64, TimeStep);
 
@@ -97,10 +94,10 @@ impl StabilityArgs {
             .chain(adaptive.then_some(self.shortest_step))
             .fold(f64::INFINITY, f64::min);
         let steps = self.duration / shortest;
-        if steps > MOST_STEPS {
+        if steps > MOST_STEPS_TO_GO {
             return refuse(format!(
                 "--duration {} s on steps of {} s would take {steps:.3e} steps a run, more \
-                 than the {MOST_STEPS:.0e} a run may take",
+                 than the {MOST_STEPS_TO_GO:.0e} a run may take",
                 format_g(self.duration),
                 format_g(shortest)
             ));

@@ -7,7 +7,6 @@ use super::simulation_args::{
     asked_time_step, failure, load, parse_courant, parse_seconds, parse_time_step, Extent, Loaded,
     SimulationArgs, WaterArgs,
 };
-use crate::io::case::CaseError;
 use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
@@ -460,21 +459,15 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
         let (key, _) = (keys.iter().zip(course))
             .find(|(key, course)| *key.get_ref() != *course)
             .expect("a key that differs");
-        let text = simulation.case_text.as_deref().unwrap_or_default();
-        return Err(CaseError::at_span(
-            text,
-            &shown.to_string(),
-            key.span(),
-            format!(
-                "a dam-break validation runs in the course's box, [{}] to [{}] m, under \
-                 gravity [{}] m/s^2 (leave [domain] out): its front is measured from that \
-                 box's low-x wall; run another tank with `fluid-lab run --case`",
-                join(BOX_MIN.to_array()),
-                join(BOX_MAX.to_array()),
-                join(GRAVITY.to_array()),
-            ),
-        )
-        .into());
+        let message = format!(
+            "a dam-break validation runs in the course's box, [{}] to [{}] m, under gravity \
+             [{}] m/s^2 (leave [domain] out): its front is measured from that box's low-x \
+             wall; run another tank with `fluid-lab run --case`",
+            join(BOX_MIN.to_array()),
+            join(BOX_MAX.to_array()),
+            join(GRAVITY.to_array()),
+        );
+        return Err(simulation.at_key(key.span(), message));
     }
     let [fill] = &case.fluid.boxes[..] else {
         return Err(format!("{shown}: a dam-break case has one box of fluid").into());
