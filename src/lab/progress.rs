@@ -2,6 +2,7 @@
 //! or Slurm log) a plain line at a steady interval of wall time, with the steps, the
 //! simulated time, the rate and the time left; nothing with `--quiet`.
 
+use crate::io::gformat::format_g;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::{IsTerminal, Write};
 use std::sync::OnceLock;
@@ -150,13 +151,14 @@ fn bar(goal: Goal) -> ProgressBar {
 fn line(goal: Goal, step: u64, time: f64, elapsed: Duration) -> String {
     let seconds = elapsed.as_secs_f64().max(1e-9);
     let rate = step as f64 / seconds;
-    let (done, of) = match goal {
-        Goal::Steps(steps) => (step as f64 / steps as f64, format!(" of {steps}")),
-        Goal::Until(end) => (time / end, String::new()),
-    };
-    let goal_time = match goal {
-        Goal::Until(end) => format!(" of {}", crate::io::gformat::format_g(end)),
-        Goal::Steps(_) => String::new(),
+    // The fraction done, and the goal after the steps or after the time.
+    let (done, of, goal_time) = match goal {
+        Goal::Steps(steps) => (
+            step as f64 / steps as f64,
+            format!(" of {steps}"),
+            String::new(),
+        ),
+        Goal::Until(end) => (time / end, String::new(), format!(" of {}", format_g(end))),
     };
     let left = match done {
         done if done > 0.0 => format!("about {} left", duration(seconds * (1.0 - done) / done)),
