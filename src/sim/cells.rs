@@ -549,8 +549,9 @@ impl CellOrder {
         self.sort_placing(grid, particles, false)
     }
 
-    /// As [`Self::sort`], but where this sort filters out lone particles (the last found
-    /// the particles sparse), it leaves them where they are stored
+    /// As [`Self::sort`], but where the last sort found the particles sparse (so that
+    /// this one filters out lone particles, unless the filter is off), it leaves them
+    /// where they are stored
     /// ([`Self::is_in_place`]): the order, keys and slot order are the same, the walls are
     /// per stored particle, and only the particles that may have a pair
     /// ([`Self::paired`]) need copying out for the pair passes. Returns whether the
@@ -632,7 +633,8 @@ impl CellOrder {
 
     fn finish(&mut self, ids: &[u32], may_stay: bool) -> bool {
         let n = self.cells.len();
-        let filtering = self.sparse && !self.unfiltered;
+        let sorting_sparse = self.sparse;
+        let filtering = sorting_sparse && !self.unfiltered;
         if filtering {
             self.instruction_set().run(FindLone {
                 filter: &mut self.lone_filter,
@@ -657,6 +659,8 @@ impl CellOrder {
         };
         let layout = self.layout;
         self.keys.clear();
+        // Room for the sentinels too, so that adding them never doubles the buffer.
+        self.keys.reserve_exact(paired + SENTINELS);
         let keys = self.order[..paired]
             .iter()
             .map(|&slot| layout.key(self.cells[slot as usize]));
@@ -668,7 +672,7 @@ impl CellOrder {
         let cells = n - paired + self.keys.chunk_by(|a, b| a == b).count();
         self.sparse = 2 * cells > n;
         self.keys.extend([u64::MAX; SENTINELS]);
-        self.in_place = may_stay && filtering;
+        self.in_place = may_stay && sorting_sparse;
         self.walls.bits.clear();
         if self.in_place {
             // The walls of the stored particles are those computed; the next sort
@@ -755,6 +759,9 @@ impl CellOrder {
                 self.counts[pass * radix + digit as usize] += 1;
             }
         }
+        // The buffers trade places: each leaves room for the sentinels.
+        self.spare_keys.clear();
+        self.spare_keys.reserve_exact(n + SENTINELS);
         self.spare_keys.resize(n, 0);
         self.spare_order.resize(n, 0);
         for pass in 0..passes as usize {
@@ -794,6 +801,37 @@ impl CellOrder {
     /// Where each slot's particle is stored: its index in the particles sorted.
     pub fn order(&self) -> &[u32] {
         &self.order
+    }
+
+    /// After a sort that left the particles in place, keeps only the slots of
+    /// [`Self::paired`] that `keep` marks (one per slot), in their order; the others
+    /// follow them, before the lone particles. The keys shrink to the kept slots.
+    ///
+    /// # Panics
+    /// If the last sort did not leave the particles in place, or `keep` is not one per
+    /// slot of [`Self::paired`].
+    pub fn keep_paired(&mut self, keep: &[bool]) {
+        assert!(
+            self.in_place,
+            "slots kept after a sort that moved particles"
+        );
+        let paired = self.paired().len();
+        assert_eq!(keep.len(), paired, "one mark per slot that may have a pair");
+        // Each slot written to the kept front, the cursor advancing only if kept.
+        self.spare_order.clear();
+        let mut kept = 0;
+        for (slot, &keep) in keep.iter().enumerate() {
+            let (stored, key) = (self.order[slot], self.keys[slot]);
+            self.order[kept] = stored;
+            self.keys[kept] = key;
+            kept += usize::from(keep);
+            if !keep {
+                self.spare_order.push(stored);
+            }
+        }
+        self.order[kept..paired].copy_from_slice(&self.spare_order);
+        self.keys.truncate(kept);
+        self.keys.extend([u64::MAX; SENTINELS]);
     }
 
     /// Where each particle that may have a pair is stored, in slot order: the front of
@@ -1346,6 +1384,47 @@ mod tests {
         assert_eq!(staying.keys(), moving.keys());
         assert_eq!(staying.walls(), moving.walls());
         assert!(!staying.is_in_place());
+    }
+
+    #[test]
+    fn kept_slots_go_first_in_their_order_and_the_others_follow_before_the_lone() {
+        let grid = grid();
+        // Mostly lone particles over metres, every tenth 2 mm from the one before.
+        let mut unit = uniform(0x9e37_79b9_7f4a_7c15);
+        let mut points: Vec<[f64; 3]> = Vec::new();
+        for k in 0..3003 {
+            let point = if k % 10 == 1 {
+                points[k - 1].map(|x| x + 0.002)
+            } else {
+                [0.0; 3].map(|_| unit() * 6.0 - 3.0)
+            };
+            points.push(point);
+        }
+        let stored = positions(&points);
+        // With the lone filter, and without it (every particle then sorted).
+        for filter in [Some(DEFAULT_FILTER_BLOCKS), None] {
+            let mut cells = CellOrder::resumed(true);
+            cells.set_lone_filter(filter);
+            assert!(!cells.sort_in_place(&grid, &stored));
+            assert!(cells.is_in_place(), "{filter:?}");
+            let (keys, order) = (cells.keys().to_vec(), cells.order().to_vec());
+            let paired = cells.paired().to_vec();
+            assert_eq!(paired.len() == points.len(), filter.is_none());
+            let keep: Vec<bool> = (0..paired.len()).map(|slot| slot % 3 != 1).collect();
+            cells.keep_paired(&keep);
+            let marked = |wanted: bool| {
+                let keep = &keep;
+                let slots = (0..paired.len()).filter(move |&slot| keep[slot] == wanted);
+                slots.map(|slot| (paired[slot], keys[slot])).unzip()
+            };
+            let (kept, kept_keys): (Vec<u32>, Vec<u64>) = marked(true);
+            let (others, _): (Vec<u32>, Vec<u64>) = marked(false);
+            assert_eq!(cells.paired(), kept);
+            assert_eq!(cells.keys()[..kept.len()], kept_keys);
+            assert_eq!(cells.keys()[kept.len()..], [u64::MAX; SENTINELS]);
+            assert_eq!(cells.order()[kept.len()..paired.len()], others);
+            assert_eq!(cells.order()[paired.len()..], order[paired.len()..]);
+        }
     }
 
     #[test]

@@ -12,6 +12,7 @@
 //! usual case of a particle far outside the box.
 
 use crate::sim::cells::{CellLayout, SENTINELS};
+use crate::sim::particles::AxisArrays;
 
 /// A set of candidate pairs: every slot of `first..first_end` with every slot of
 /// `second..second_end`, or, for a cell with itself (`first == second`), every pair of its
@@ -85,6 +86,10 @@ pub struct TileSearch {
     cell_starts: Vec<u32>,
     /// The keys near occupied cells, for scenes of mostly lone particles.
     near: NearKeys,
+    /// Which slots have a partner closer than a reach ([`Self::find_partnered`]).
+    partnered: Vec<bool>,
+    /// Each slot's number among those kept, then their count ([`Self::keep_partnered`]).
+    renumbered: Vec<u32>,
 }
 
 /// A filter of the keys within 1 of an occupied cell's key: bit `k % 64` of the word at
@@ -144,6 +149,8 @@ impl TileSearch {
             + bytes(&self.cell_keys)
             + bytes(&self.cell_starts)
             + bytes(&self.near.words)
+            + bytes(&self.partnered)
+            + bytes(&self.renumbered)
     }
 
     /// The tiles found last. A cell's tiles are consecutive: its own (if it holds two
@@ -162,6 +169,7 @@ impl TileSearch {
             cell_keys,
             cell_starts,
             near,
+            ..
         } = self;
         tiles.clear();
         let cells = cell_keys.len() - SENTINELS;
@@ -244,6 +252,65 @@ impl TileSearch {
                 }
             }
         }
+    }
+
+    /// Which of the `n` slots of positions `p` (in the order of the last
+    /// [`Self::find`]'s keys) have a partner closer than a reach: `r^2 < reach_squared`,
+    /// with r^2 = dx^2 + dy^2 + dz^2 of the differences later slot minus earlier, as the
+    /// pair passes compute it. Every such pair lies in the tiles, so the answer is exact:
+    /// it depends on the positions alone, not on how the tiles group them.
+    pub fn find_partnered(&mut self, p: &AxisArrays, n: usize, reach_squared: f64) -> &[bool] {
+        let [x, y, z] = p.each_ref().map(|axis| &axis[..n]);
+        self.partnered.clear();
+        self.partnered.resize(n, false);
+        let partnered = &mut self.partnered[..];
+        for tile in &self.tiles {
+            for i in tile.firsts() {
+                let mut any = false;
+                for j in tile.partners(i) {
+                    let (dx, dy, dz) = (x[j] - x[i], y[j] - y[i], z[j] - z[i]);
+                    let close = dx * dx + dy * dy + dz * dz < reach_squared;
+                    partnered[j] |= close;
+                    any |= close;
+                }
+                partnered[i] |= any;
+            }
+        }
+        &self.partnered
+    }
+
+    /// Keeps the tiles' pairs among the slots the last [`Self::find_partnered`] marked,
+    /// numbered as they are once the others are taken out of the order: the tiles that
+    /// [`Self::find`] finds on the kept slots' keys, without a second search.
+    pub fn keep_partnered(&mut self) {
+        let Self {
+            tiles,
+            partnered,
+            renumbered,
+            ..
+        } = self;
+        renumbered.clear();
+        let mut kept = 0;
+        for &partnered in partnered.iter() {
+            renumbered.push(kept);
+            kept += u32::from(partnered);
+        }
+        renumbered.push(kept);
+        let at = |slot: u32| renumbered[slot as usize];
+        tiles.retain_mut(|tile| {
+            let within_cell = tile.is_within_cell();
+            *tile = Tile {
+                first: at(tile.first),
+                first_end: at(tile.first_end),
+                second: at(tile.second),
+                second_end: at(tile.second_end),
+            };
+            if within_cell {
+                tile.first_end - tile.first > 1
+            } else {
+                tile.first_end > tile.first && tile.second_end > tile.second
+            }
+        });
     }
 
     /// The occupied cells of sorted `keys`: their keys and first slots, plus sentinels.
@@ -360,6 +427,46 @@ mod tests {
                 close > 100,
                 "spread {spread}: only {close} close pairs tested"
             );
+        }
+    }
+
+    #[test]
+    fn partners_are_found_exactly_and_kept_tiles_are_those_of_the_kept_slots() {
+        let params = Params::new(204.0);
+        let grid = Grid::new(params.h, &params.domain).unwrap();
+        for (spread, cluster) in [(0.12, 4), (5.0, 4), (50.0, 2)] {
+            let points = cloud(2000, spread, cluster);
+            let mut particles = Particles::zeroed(points.len());
+            particles.p = std::array::from_fn(|d| points.iter().map(|p| p[d]).collect());
+            let mut cells = CellOrder::default();
+            cells.sort(&grid, &particles);
+            let sorted = particles.permuted(cells.order());
+            let n = sorted.len();
+            let mut search = TileSearch::default();
+            search.find(cells.keys(), cells.layout());
+            let partnered = search.find_partnered(&sorted.p, n, params.h2).to_vec();
+            let r2 = |i: usize, j: usize| -> f64 {
+                let (i, j) = (i.min(j), i.max(j));
+                let d = sorted.p.each_ref().map(|axis| axis[j] - axis[i]);
+                d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+            };
+            for (i, &marked) in partnered.iter().enumerate() {
+                let close = (0..n).any(|j| j != i && r2(i, j) < params.h2);
+                assert_eq!(marked, close, "spread {spread}: slot {i}");
+            }
+            let count = partnered.iter().filter(|&&p| p).count();
+            assert!(count > 100 && count < n, "spread {spread}: {count} of {n}");
+            let kept_keys: Vec<u64> = cells.keys()[..n]
+                .iter()
+                .zip(&partnered)
+                .filter(|&(_, &kept)| kept)
+                .map(|(&key, _)| key)
+                .chain([u64::MAX; SENTINELS])
+                .collect();
+            let mut fresh = TileSearch::default();
+            fresh.find(&kept_keys, cells.layout());
+            search.keep_partnered();
+            assert_eq!(search.tiles(), fresh.tiles(), "spread {spread}");
         }
     }
 

@@ -110,6 +110,12 @@ impl Particles {
         gather_axes(&mut self.hv, &source.hv, order);
     }
 
+    /// The positions of `source`'s slots `order`, in that order (padded); the other
+    /// fields left as they were.
+    pub fn gather_positions(&mut self, source: &Particles, order: &[u32]) {
+        gather_axes(&mut self.p, &source.p, order);
+    }
+
     /// As [`Self::gather_kinematics`] without the half-step velocities, which the pair
     /// passes do not read: a copy for them alone (its `hv` empty, so that no step can
     /// read one by mistake).
