@@ -583,6 +583,37 @@ fn still_water_is_checked_against_hydrostatics() {
         "{}",
         stderr(&output)
     );
+    // The dam break's flags are refused, not ignored, before anything runs or is made.
+    let unmade = dir.path().join("unmade");
+    for (flag, value) in [
+        ("--until", "0.01"),
+        ("--until-t", "1"),
+        ("--models", "wcsph"),
+        ("--ppms", "100"),
+        ("--width", "0.02"),
+    ] {
+        let mut args = vec![
+            "validate".as_ref(),
+            "still-water".as_ref(),
+            "--case".as_ref(),
+        ];
+        args.extend([
+            path.as_os_str(),
+            "--output-dir".as_ref(),
+            unmade.as_os_str(),
+        ]);
+        args.extend([flag, value].map(std::ffi::OsStr::new));
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 2, "{flag}: {}", stderr(&output));
+        assert_eq!(
+            stderr(&output),
+            format!(
+                "fluid-lab: error: {flag} is the dam break's: validate still-water runs its \
+                 case's model, resolution and [run] until_s\n"
+            )
+        );
+        assert!(!unmade.exists(), "{flag}");
+    }
 }
 
 #[test]

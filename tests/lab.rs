@@ -759,6 +759,20 @@ fn a_dam_break_validation_runs_to_seconds_with_until_and_to_t_with_until_t() {
             .collect();
         (row[0], row[1])
     };
+    // A run that reaches no experimental point (the first is at T = 0.381) compares
+    // nothing: a failed validation, its outputs written.
+    let output = validate(&["--until-t", "0.3"]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(
+        stderr(&output).ends_with(
+            "fluid-lab: error: 1 of 1 runs failed: fluidanimate at 150 per m compared no \
+             front with an experiment (the first point is at T = 0.381: run to --until-t \
+             0.381 or later)\n"
+        ),
+        "{}",
+        stderr(&output)
+    );
+    assert!(dir.path().join("dam-break-errors.csv").is_file());
     // --until in seconds, as everywhere else.
     let output = validate(&["--until", "0.02"]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));

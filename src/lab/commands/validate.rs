@@ -56,27 +56,21 @@ pub struct ValidateArgs {
     /// the flags' (--until-t or --until, and --every, stay).
     #[arg(long, value_name = "FILE")]
     case: Option<PathBuf>,
-    /// Models to run.
-    #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = Model::ALL)]
-    models: Vec<Model>,
-    /// Particles per metre of the column, each run of every model.
-    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..,
-          default_values_t = [200.0, 300.0])]
-    ppms: Vec<f64>,
+    /// Models to run [default: every model].
+    #[arg(long, value_enum, value_delimiter = ',', num_args = 1..)]
+    models: Option<Vec<Model>>,
+    /// Particles per metre of the column, each run of every model [default: 200,300].
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
+    ppms: Option<Vec<f64>>,
     /// The column's width in metres (its height is twice it): a is the width of the
     /// particles' columns within it (a multiple of the spacing). The box's 0.13 m length
-    /// lets the front run to Z = 0.13 / a.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.03)]
-    width: f64,
+    /// lets the front run to Z = 0.13 / a [default: 0.03].
+    #[arg(long, allow_negative_numbers = true)]
+    width: Option<f64>,
     /// Run until the experiment's dimensionless time T = t sqrt(2 g / a) reaches this (at
-    /// most 1000).
-    #[arg(
-        long,
-        value_name = "T",
-        allow_negative_numbers = true,
-        default_value_t = 4.0
-    )]
-    until_t: f64,
+    /// most 1000) [default: 4].
+    #[arg(long, value_name = "T", allow_negative_numbers = true)]
+    until_t: Option<f64>,
     /// Run to this physical time in seconds instead (as --until everywhere else; at most
     /// 60).
     #[arg(long, value_name = "SECONDS", conflicts_with = "until_t", allow_negative_numbers = true, value_parser = parse_seconds)]
@@ -101,6 +95,43 @@ pub struct ValidateArgs {
     /// The weakly compressible model's choices (its runs only).
     #[command(flatten)]
     water: WaterArgs,
+}
+
+impl ValidateArgs {
+    /// The models to run.
+    fn models(&self) -> Vec<Model> {
+        self.models.clone().unwrap_or(Model::ALL.to_vec())
+    }
+
+    /// The resolutions to run each model at.
+    fn ppms(&self) -> Vec<f64> {
+        self.ppms.clone().unwrap_or(vec![200.0, 300.0])
+    }
+
+    /// The column's width (m).
+    fn width(&self) -> f64 {
+        self.width.unwrap_or(0.03)
+    }
+
+    /// The end in the experiment's T.
+    fn until_t(&self) -> f64 {
+        self.until_t.unwrap_or(4.0)
+    }
+
+    /// The first of the flags that only a dam break reads, if given.
+    fn dam_break_flag(&self) -> Option<&'static str> {
+        let given = [
+            ("--models", self.models.is_some()),
+            ("--ppms", self.ppms.is_some()),
+            ("--width", self.width.is_some()),
+            ("--until-t", self.until_t.is_some()),
+            ("--until", self.until.is_some()),
+        ];
+        given
+            .into_iter()
+            .find(|&(_, given)| given)
+            .map(|(flag, _)| flag)
+    }
 }
 
 /// The CSV columns of the fronts.
@@ -132,6 +163,14 @@ struct Validated {
 /// chart and a summary line per run.
 pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     match (args.experiment, &args.case) {
+        (Experiment::StillWater, _) if args.dam_break_flag().is_some() => {
+            let flag = args.dam_break_flag().expect("a flag");
+            return Err(UsageError(format!(
+                "{flag} is the dam break's: validate still-water runs its case's model, \
+                 resolution and [run] until_s"
+            ))
+            .into());
+        }
         (Experiment::StillWater, Some(case)) => {
             return still_water(case, &args.output_dir, stdout);
         }
@@ -148,8 +187,9 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         }
         (Experiment::DamBreak, None) => {}
     }
-    if !(args.until_t > 0.0 && args.until_t <= MOST_T) {
-        let t = format_g(args.until_t);
+    let until_t = args.until_t();
+    if !(until_t > 0.0 && until_t <= MOST_T) {
+        let t = format_g(until_t);
         let message = format!("--until-t {t} is not a T from 0 to {MOST_T}");
         return Err(UsageError(message).into());
     }
@@ -170,10 +210,11 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     let mut fronts = format!("{FRONTS_HEADER}\n");
     let mut errors = format!("{ERRORS_HEADER}\n");
     let mut runs = Vec::new();
-    for &model in &args.models {
-        for &ppm in &args.ppms {
+    let models = args.models();
+    for &model in &models {
+        for &ppm in &args.ppms() {
             let dam = DamBreak {
-                width: args.width,
+                width: args.width(),
                 ppm,
                 seed: args.seed,
             };
@@ -196,7 +237,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             let rule = rule_name(time_step);
             let started = Instant::now();
             // The end in the experiment's T: --until's seconds in this column's unit.
-            let until = args.until.map_or(args.until_t, |end| end / dam.time_unit());
+            let until = args.until.map_or(until_t, |end| end / dam.time_unit());
             let mut progress = Progress::towards(Goal::Until(until * dam.time_unit()))
                 .labelled(format!("{} at {ppm} per m", model.name()));
             let collapse =
@@ -292,18 +333,18 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     let rule = asked.map_or("each model's own time step".to_string(), rule_name);
     let footer = format!(
         "column a = {} m, 2a high, {rule}, {} kernel; {}, commit {}; {:.0} CPU s in all{}",
-        args.width,
+        args.width(),
         args.kernel.name(),
         machine.cpu_model,
         machine.commit,
         runs.iter().map(|run| run.seconds).sum::<f64>(),
-        match args.models.contains(&Model::Wcsph) {
+        match models.contains(&Model::Wcsph) {
             true => format!("; wcsph: {}", args.water.settings()?.describe()),
             false => String::new(),
         }
     );
     let charts = std::iter::once(front_chart(&runs, &footer)).chain(
-        args.models
+        models
             .iter()
             .filter_map(|&model| convergence_chart(&runs, model, &footer)),
     );
@@ -312,14 +353,24 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             writeln!(stdout, "wrote {}", path.display())?;
         }
     }
-    // A validation is a test: its outputs are written, and a run that failed fails it.
+    // A validation is a test: its outputs are written, and a run that failed, or that
+    // reached no experimental point to compare, fails it.
+    let first_t = EXPERIMENTS
+        .iter()
+        .flat_map(|experiment| experiment.points.iter().map(|&(t, _)| t))
+        .fold(f64::INFINITY, f64::min);
     let failed = runs.iter().filter_map(|run| {
-        let (t, failure) = run.collapse.failure.as_ref()?;
-        Some(format!(
-            "{} at {} per m failed at T = {t:.3} ({failure})",
-            run.model.name(),
-            run.ppm
-        ))
+        let name = format!("{} at {} per m", run.model.name(), run.ppm);
+        if let Some((t, failure)) = run.collapse.failure.as_ref() {
+            return Some(format!("{name} failed at T = {t:.3} ({failure})"));
+        }
+        let compared = run.comparisons.iter().any(|c| c.z_model.is_some());
+        (!compared).then(|| {
+            format!(
+                "{name} compared no front with an experiment (the first point is at \
+                 T = {first_t}: run to --until-t {first_t} or later)"
+            )
+        })
     });
     verdict(String::new(), failed.collect(), runs.len(), "runs", "; ")
 }
@@ -499,9 +550,9 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
         )
         .into());
     }
-    args.models = vec![simulation.model()];
-    args.ppms = vec![ppm];
-    args.width = dam.width;
+    args.models = Some(vec![simulation.model()]);
+    args.ppms = Some(vec![ppm]);
+    args.width = Some(dam.width);
     args.seed = dam.seed;
     args.kernel = simulation.kernel();
     args.dt = simulation.dt;
