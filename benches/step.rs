@@ -19,6 +19,7 @@ use criterion::profiler::Profiler;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use fluid::io::fld;
 use fluid::lab::scene;
+use fluid::sim::cells::CellOrder;
 use fluid::sim::clusters::PairStructure;
 use fluid::sim::isa::InstructionSet;
 use fluid::sim::neighbours::TileSearch;
@@ -171,9 +172,9 @@ fn state_floor(c: &mut Criterion) {
 
 /// Stage 1's parts on the course model's scattered states, per particle: the cell order
 /// (cells, the lone filter, the radix sort of the particles it keeps, the walls), moving
-/// the particles into it or leaving them in place (as a step does), the gather of the
-/// state into that order or of the kept particles alone, and the tile search over the
-/// kept particles.
+/// the particles into it or leaving them in place (as a step does), the exact partner
+/// test, the gather of the state into that order or of the particles with a partner
+/// alone, and the tile search over the particles the filter keeps and over those.
 fn stage_one_parts(c: &mut Criterion) {
     for input in ["small.fld", "large.fld"] {
         let scattered = state(input, Model::Course, Kernel::Simd, SCATTERED_STEPS);
@@ -217,12 +218,38 @@ fn stage_one_parts(c: &mut Criterion) {
             let mut placed = Particles::default();
             b.iter(|| placed.gather_kinematics(particles, sorted.order(), GRAVITY))
         });
-        // What a step that leaves lone particles in place moves instead: the particles
-        // that may have a pair into a compact copy in cell order, then every particle's
-        // acceleration and density set as for one without a partner, and the copied
-        // ones' own put back.
+        // A step that leaves the particles in place keeps those with a partner closer
+        // than h: the sorted ones' positions gathered, their tiles found, each pair's
+        // distance tested, the kept slots and tiles renumbered.
+        let mut staying = scattered.cells().clone();
+        staying.sort_in_place(&grid, particles);
+        let h2 = scattered.params().h2;
+        let keep = |cells: &mut CellOrder, search: &mut TileSearch, placed: &mut Particles| {
+            placed.gather_positions(particles, cells.paired());
+            search.find(cells.keys(), cells.layout());
+            let partnered = search.find_partnered(&placed.p, cells.paired().len(), h2);
+            cells.keep_paired(partnered);
+            search.keep_partnered();
+        };
+        group.bench_function("partner-test", |b| {
+            let (mut search, mut placed) = (TileSearch::default(), Particles::default());
+            b.iter_batched_ref(
+                || staying.clone(),
+                |cells| keep(cells, &mut search, &mut placed),
+                BatchSize::LargeInput,
+            )
+        });
+        let mut kept = staying.clone();
+        keep(
+            &mut kept,
+            &mut TileSearch::default(),
+            &mut Particles::default(),
+        );
+        // What it moves instead of every particle: those kept into a compact copy in
+        // cell order, then every particle's acceleration and density set as for one
+        // without a partner, and the copied ones' own put back.
         group.bench_function("gather-paired", |b| {
-            let paired = sorted.paired();
+            let paired = kept.paired();
             let n = particles.len();
             let mut placed = Particles::default();
             let (mut a, mut rho) = (particles.a.clone(), particles.rho.clone());
@@ -240,10 +267,14 @@ fn stage_one_parts(c: &mut Criterion) {
                 }
             })
         });
-        group.bench_function("tile-search", |b| {
-            let mut search = TileSearch::default();
-            b.iter(|| search.find(sorted.keys(), sorted.layout()))
-        });
+        // The tile search over the particles the lone filter keeps (inside the partner
+        // test), and over those with a partner.
+        for (name, cells) in [("tile-search", &sorted), ("tile-search-kept", &kept)] {
+            group.bench_function(name, |b| {
+                let mut search = TileSearch::default();
+                b.iter(|| search.find(cells.keys(), cells.layout()))
+            });
+        }
         group.finish();
     }
 }
