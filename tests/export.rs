@@ -370,7 +370,7 @@ fn render_refuses_unknown_outputs_and_empty_ranges() {
     let small = input("small");
     let jpeg = dir.path().join("x.jpg");
     let output = run_lab(&["render", small.to_str().unwrap(), jpeg.to_str().unwrap()]);
-    assert_eq!(exit_code(&output), 1);
+    assert_eq!(exit_code(&output), 2);
     assert_eq!(
         stderr(&output),
         format!(

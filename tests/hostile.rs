@@ -1168,3 +1168,80 @@ fn a_tiny_gauge_interval_reads_every_step_and_a_failed_run_says_nothing_of_repla
         ),
     );
 }
+
+#[test]
+fn bad_flag_values_found_after_parsing_are_usage_errors_that_leave_nothing() {
+    // Issue 47: values clap cannot check alone (a list's order, an extension, a flag
+    // that only some scenes take) exit 2 in one line, as clap's own errors do.
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let small = input("small").to_str().unwrap().to_string();
+    let cases: [(Vec<String>, String); 6] = [
+        (
+            vec![
+                "validate".into(),
+                "dam-break".into(),
+                "--ppms".into(),
+                "0".into(),
+            ],
+            "fluid-lab: error: invalid value '0' for '--ppms <PPMS>...': 0 is not a positive, \
+             finite number of particles per metre"
+                .into(),
+        ),
+        (
+            vec!["stability".into(), "--ppms".into(), "100,-1".into()],
+            "fluid-lab: error: invalid value '-1' for '--ppms <PPMS>...': -1 is not a \
+             positive, finite number of particles per metre"
+                .into(),
+        ),
+        (
+            vec![
+                "sweep".into(),
+                "--idle-seconds".into(),
+                "nan".into(),
+                small.clone(),
+            ],
+            "fluid-lab: error: invalid value 'nan' for '--idle-seconds <IDLE_SECONDS>': nan is \
+             not a duration from 0 to 86400 seconds"
+                .into(),
+        ),
+        (
+            vec![
+                "accuracy".into(),
+                small.clone(),
+                "--times".into(),
+                "0.002,0.001".into(),
+            ],
+            "fluid-lab: error: --times needs ascending, positive, finite times".into(),
+        ),
+        (
+            vec!["render".into(), small.clone(), at("x.jpg")],
+            format!(
+                "fluid-lab: error: {}: the output must end in .png or .gif",
+                at("x.jpg")
+            ),
+        ),
+        (
+            vec![
+                "scene".into(),
+                "dam-break".into(),
+                at("c.fld"),
+                "--particles".into(),
+                "10".into(),
+            ],
+            "fluid-lab: error: --particles sets the size of random-cloud and corner-block only; \
+             dam-break follows from --ppm"
+                .into(),
+        ),
+    ];
+    for (mut args, message) in cases {
+        if ["validate", "stability", "accuracy"].contains(&args[0].as_str()) {
+            args.extend(["--output-dir".into(), at("out")]);
+        }
+        if args[0] == "sweep" {
+            args.extend(["--output".into(), at("sweep.csv")]);
+        }
+        assert_refused(&run_lab(&args), 2, &message);
+        assert!(entries(dir.path()).is_empty(), "{args:?} left files");
+    }
+}

@@ -618,7 +618,7 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         "--output-dir".as_ref(),
         dir.path().as_os_str(),
     ]);
-    assert_eq!(exit_code(&bad), 1);
+    assert_eq!(exit_code(&bad), 2);
     let unparsable = run_lab(&["accuracy", "x.fld", "--output-dir", "o", "--budget=0h"]);
     assert_eq!(exit_code(&unparsable), 2);
     assert!(stderr(&unparsable).contains("0h is not a positive error"));

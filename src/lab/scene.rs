@@ -46,6 +46,11 @@ impl SceneKind {
             SceneKind::CornerBlock => "corner-block",
         }
     }
+
+    /// Whether a particle count sets the scene's size (else it follows from ppm).
+    pub fn takes_particle_count(self) -> bool {
+        matches!(self, SceneKind::RandomCloud | SceneKind::CornerBlock)
+    }
 }
 
 /// A region of fluid of a lattice scene (the fills of a case file).
@@ -235,8 +240,7 @@ pub fn generate(
     particles: Option<usize>,
 ) -> Result<Particles, String> {
     check_ppm(ppm, &Domain::COURSE)?;
-    let needs_count = matches!(kind, SceneKind::RandomCloud | SceneKind::CornerBlock);
-    if particles.is_some() && !needs_count {
+    if particles.is_some() && !kind.takes_particle_count() {
         return Err(format!(
             "--particles sets the size of random-cloud and corner-block only; {} follows from ppm",
             kind.name()

@@ -6,6 +6,7 @@ use super::simulation_args::{
 use crate::io::export::Snapshot;
 use crate::io::output::OutputFile;
 use crate::lab::render::{self, Animation, Colouring};
+use crate::lab::UsageError;
 use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::error::Error;
@@ -68,7 +69,7 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
     args.span
         .take_case(args.simulation.read.as_ref(), args.every);
     let output = &needed(args.output.take(), "output (.png or .gif)")?;
-    let picture = Picture::of(output)?;
+    let picture = Picture::of(output).map_err(UsageError)?;
     let extent = args.simulation.extent(args.span.until)?;
     args.span.check(extent, &args.simulation)?;
     let series = args.span.is_series(args.every);

@@ -3,6 +3,7 @@
 use crate::io::fld;
 use crate::io::output::OutputFile;
 use crate::lab::scene::{self, SceneKind};
+use crate::lab::UsageError;
 use clap::Args;
 use std::error::Error;
 use std::path::PathBuf;
@@ -37,6 +38,14 @@ const CASE_UNTIL: f64 = 0.5;
 
 /// Generates the scene and writes it as a `.fld` file.
 pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
+    if args.particles.is_some() && !args.kind.takes_particle_count() {
+        return Err(UsageError(format!(
+            "--particles sets the size of random-cloud and corner-block only; {} follows from \
+             --ppm",
+            args.kind.name()
+        ))
+        .into());
+    }
     let output = OutputFile::create(&args.output)?;
     if args.case_file {
         // Only a case whose scene can be made: the scene's own checks first.

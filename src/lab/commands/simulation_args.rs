@@ -703,6 +703,16 @@ pub fn parse_seconds(text: &str) -> Result<f64, String> {
     }
 }
 
+/// Parses particles per metre: finite and positive.
+pub fn parse_particles_per_metre(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(ppm) if ppm.is_finite() && ppm > 0.0 => Ok(ppm),
+        _ => Err(format!(
+            "{text} is not a positive, finite number of particles per metre"
+        )),
+    }
+}
+
 /// Parses a positive, finite time step.
 pub fn parse_time_step(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {

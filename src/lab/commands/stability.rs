@@ -1,7 +1,9 @@
 //! `fluid-lab stability`: a scene over time steps and resolutions, each run watched until
 //! it fails; a CSV and the stability map.
 
-use super::simulation_args::{is_time_step, parse_courants, Courants, MOST_STEPS_TO_GO};
+use super::simulation_args::{
+    is_time_step, parse_courants, parse_particles_per_metre, Courants, MOST_STEPS_TO_GO,
+};
 use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
 use crate::lab::chart;
@@ -41,7 +43,8 @@ pub struct StabilityArgs {
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = [Integrator::Leapfrog])]
     integrators: Vec<Integrator>,
     /// Particles per metre of the scene.
-    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., default_values_t = [100.0, 150.0, 200.0, 300.0])]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..,
+          default_values_t = [100.0, 150.0, 200.0, 300.0], value_parser = parse_particles_per_metre)]
     ppms: Vec<f64>,
     /// Time steps, as multiples of the course's 1e-3 s.
     #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]

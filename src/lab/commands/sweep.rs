@@ -33,7 +33,7 @@ pub struct SweepArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = RangedI64ValueParser::<usize>::new().range(1..))]
     repeats: usize,
     /// Seconds of each idle-baseline window.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = parse_idle_seconds)]
     idle_seconds: f64,
     /// The program measured, run as `PROGRAM ITERATIONS INPUT /dev/null` [default: the
     /// `fluid` beside this binary].
@@ -48,11 +48,18 @@ pub struct SweepArgs {
     perf: PathBuf,
 }
 
+/// Parses the seconds of an idle window: finite, 0 or more, at most a day.
+fn parse_idle_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(seconds) if (0.0..=86_400.0).contains(&seconds) => Ok(seconds),
+        _ => Err(format!("{text} is not a duration from 0 to 86400 seconds")),
+    }
+}
+
 impl SweepArgs {
     /// The sweep these arguments ask for: the program checked, energy detected here.
     fn sweep(&self) -> Result<Sweep, Box<dyn Error>> {
-        let idle = Duration::try_from_secs_f64(self.idle_seconds)
-            .map_err(|_| format!("--idle-seconds {} is not a duration", self.idle_seconds))?;
+        let idle = Duration::from_secs_f64(self.idle_seconds);
         let program = match &self.program {
             Some(program) => program_path(program.clone())?,
             None => {

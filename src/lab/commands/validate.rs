@@ -4,8 +4,8 @@
 
 use super::create_output_dir;
 use super::simulation_args::{
-    asked_time_step, failure, load, parse_courant, parse_seconds, parse_time_step, Extent, Loaded,
-    SimulationArgs, WaterArgs,
+    asked_time_step, failure, load, parse_courant, parse_particles_per_metre, parse_seconds,
+    parse_time_step, Extent, Loaded, SimulationArgs, WaterArgs,
 };
 use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
@@ -60,7 +60,8 @@ pub struct ValidateArgs {
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1..)]
     models: Option<Vec<Model>>,
     /// Particles per metre of the column, each run of every model [default: 200,300].
-    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..,
+          value_parser = parse_particles_per_metre)]
     ppms: Option<Vec<f64>>,
     /// The column's width in metres (its height is twice it): a is the width of the
     /// particles' columns within it (a multiple of the spacing). The box's 0.13 m length
