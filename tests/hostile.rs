@@ -1245,3 +1245,47 @@ fn bad_flag_values_found_after_parsing_are_usage_errors_that_leave_nothing() {
         assert!(entries(dir.path()).is_empty(), "{args:?} left files");
     }
 }
+
+#[test]
+fn tiny_times_print_in_short_scientific_form_not_hundreds_of_digits() {
+    // Issue 47: a rate per simulated second of 1e-300 s, and a dam-break sample at that
+    // time, printed with every digit of their fixed-point forms.
+    let small = input("small");
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--steps".as_ref(),
+        "2".as_ref(),
+        "--dt".as_ref(),
+        "1e-300".as_ref(),
+        "--quiet".as_ref(),
+        small.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let line = stdout(&output);
+    let rate = line
+        .split_whitespace()
+        .find_map(|field| field.strip_prefix("seconds_per_simulated_s="))
+        .expect("a rate");
+    assert!(rate.len() <= 12 && rate.contains('e'), "{line}");
+    assert!(rate.parse::<f64>().unwrap() > 1e290, "{line}");
+    let dir = tempfile::tempdir().unwrap();
+    let output = run_lab(&[
+        "validate".as_ref(),
+        "dam-break".as_ref(),
+        "--models".as_ref(),
+        "fluidanimate".as_ref(),
+        "--ppms".as_ref(),
+        "100".as_ref(),
+        "--until".as_ref(),
+        "1e-300".as_ref(),
+        "--quiet".as_ref(),
+        "--output-dir".as_ref(),
+        dir.path().as_os_str(),
+    ]);
+    // It compares nothing (a failed validation), and writes its fronts all the same.
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    let fronts = std::fs::read_to_string(dir.path().join("dam-break.csv")).unwrap();
+    let last: Vec<&str> = fronts.lines().last().unwrap().split(',').collect();
+    assert_eq!(last[6], "1e-300", "{fronts}");
+    assert!(fronts.lines().all(|line| line.len() < 300), "{fronts}");
+}

@@ -45,6 +45,28 @@ fn format_g_with(x: f64, precision: i32) -> String {
     }
 }
 
+/// Formats `x` with the fewest digits that read back as the same f64, as Rust's `{}`
+/// does, but in scientific form (`1e-300`, `2.5e20`) where plain digits would run long:
+/// magnitudes below 1e-5 or from 1e16. How CSV files and timing lines write a number.
+pub fn format_shortest(x: f64) -> String {
+    let magnitude = x.abs();
+    if magnitude != 0.0 && magnitude.is_finite() && !(1e-5..1e16).contains(&magnitude) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+/// Formats a positive rate with three decimals (`9.540`), or in scientific form with
+/// three (`2.516e296`) from 1e6 on, where the decimals would run to hundreds of digits.
+pub fn format_rate(x: f64) -> String {
+    if x.abs() < 1e6 {
+        format!("{x:.3}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
 /// Removes trailing zeros of a fraction, then a trailing decimal point.
 fn trim_fraction(digits: &str) -> &str {
     if digits.contains('.') {
@@ -56,7 +78,34 @@ fn trim_fraction(digits: &str) -> &str {
 
 #[cfg(test)]
 mod tests {
-    use super::{format_g, format_g_exact};
+    use super::{format_g, format_g_exact, format_rate, format_shortest};
+
+    #[test]
+    fn rates_keep_three_decimals_and_a_short_form() {
+        assert_eq!(format_rate(9.54), "9.540");
+        assert_eq!(format_rate(999_999.0), "999999.000");
+        assert_eq!(format_rate(2.5164e296), "2.516e296");
+    }
+
+    #[test]
+    fn shortest_form_reads_back_and_stays_short() {
+        for (x, text) in [
+            (0.25, "0.25"),
+            (0.0, "0"),
+            (1e-5, "0.00001"),
+            (1e-300, "1e-300"),
+            (-2.5e20, "-2.5e20"),
+            (123456.789, "123456.789"),
+            (f64::NAN, "NaN"),
+        ] {
+            assert_eq!(format_shortest(x), text);
+        }
+        for x in [1e-300, 3.0e-7, 0.1 + 0.2, 1.7976931348623157e308, 5e-324] {
+            let text = format_shortest(x);
+            assert!(text.len() <= 24, "{text}");
+            assert_eq!(text.parse::<f64>().unwrap(), x);
+        }
+    }
 
     #[test]
     fn exact_form_tells_neighbouring_f32_apart() {

@@ -5,6 +5,7 @@ use super::same_file;
 use super::simulation_args::{failure, load, parse_seconds, Extent, Loaded, SimulationArgs};
 use crate::io::checkpoint::{self, Checkpoint};
 use crate::io::fld;
+use crate::io::gformat::format_rate;
 use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
 use crate::lab::chart;
@@ -336,7 +337,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         builds.push_str(&format!(" gauge_seconds={gauge_seconds:.6}"));
     }
     let per_simulated_second = if simulated > 0.0 {
-        format!("{:.3}", seconds / simulated)
+        format_rate(seconds / simulated)
     } else {
         String::from("none")
     };

@@ -7,7 +7,7 @@ use super::simulation_args::{
     asked_time_step, failure, load, parse_courant, parse_particles_per_metre, parse_seconds,
     parse_time_step, Extent, Loaded, SimulationArgs, WaterArgs,
 };
-use crate::io::gformat::format_g;
+use crate::io::gformat::{format_g, format_rate, format_shortest};
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
@@ -253,24 +253,24 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
                 dam.column_width()
             );
             for sample in &collapse.samples {
-                fronts += &format!(
-                    "{cells},{},{},{},{},{},{},{}\n",
-                    sample.step,
+                let numbers = [
                     sample.time,
                     sample.t,
                     sample.front,
                     sample.z,
                     sample.mean_density_error,
-                    sample.max_density_error
-                );
+                    sample.max_density_error,
+                ]
+                .map(format_shortest);
+                fronts += &format!("{cells},{},{}\n", sample.step, numbers.join(","));
             }
             for comparison in &comparisons {
-                let optional = |value: Option<f64>| value.map_or(String::new(), |v| v.to_string());
+                let optional = |value: Option<f64>| value.map_or(String::new(), format_shortest);
                 errors += &format!(
                     "{cells},{},{},{},{},{}\n",
                     comparison.experiment,
-                    comparison.t,
-                    comparison.z_experiment,
+                    format_shortest(comparison.t),
+                    format_shortest(comparison.z_experiment),
                     optional(comparison.z_model),
                     optional(comparison.relative_error())
                 );
@@ -286,7 +286,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             let (densest_compared, densest) = (densest(SUMMARY_T), densest(f64::INFINITY));
             let simulated = simulation.time();
             let per_simulated_second = match simulated > 0.0 {
-                true => format!("{:.3}", seconds / simulated),
+                true => format_rate(seconds / simulated),
                 false => "none".to_string(),
             };
             let agreement: String = EXPERIMENTS
