@@ -225,6 +225,17 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "until_s = 0.5\nspeed = 1",
             "unknown field `speed`",
         ),
+        // A key or a table given twice, named.
+        (
+            "seed = 0",
+            "seed = 0\nseed = 1",
+            "duplicate key `seed`: each key once in its table",
+        ),
+        (
+            "[model]",
+            "[fluid]\n[model]",
+            "duplicate table [fluid]: each table once",
+        ),
         // Types in the case's words, not Rust's.
         (
             "particles_per_m = 400.0",

@@ -388,7 +388,21 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
             .next()
             .unwrap_or("not a case")
             .trim();
-        error_at(error.span(), in_case_words(message))
+        let mut message = in_case_words(message);
+        // "duplicate key": which one (the text at the span: a key, or a table's name
+        // after its opening bracket).
+        if let Some(span) = error.span().filter(|_| message == "duplicate key") {
+            let table = text
+                .get(..span.start)
+                .is_some_and(|before| before.ends_with('['));
+            let name = text.get(span).unwrap_or("").trim();
+            message = match (table, name.is_empty()) {
+                (_, true) => message,
+                (true, false) => format!("duplicate table [{name}]: each table once"),
+                (false, false) => format!("duplicate key `{name}`: each key once in its table"),
+            };
+        }
+        error_at(error.span(), message)
     })?;
     case.check()
         .map_err(|(span, message)| error_at(Some(span), message))?;
