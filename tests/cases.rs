@@ -225,6 +225,12 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "until_s = 0.5\nspeed = 1",
             "unknown field `speed`",
         ),
+        // A whole number past the largest a key takes.
+        (
+            "seed = 0",
+            "seed = 99999999999999999999",
+            "the whole number 99999999999999999999 is too large: at most 18446744073709551615",
+        ),
         // A key or a table given twice, named.
         (
             "seed = 0",

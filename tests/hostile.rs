@@ -1289,3 +1289,49 @@ fn tiny_times_print_in_short_scientific_form_not_hundreds_of_digits() {
     assert_eq!(last[6], "1e-300", "{fronts}");
     assert!(fronts.lines().all(|line| line.len() < 300), "{fronts}");
 }
+
+#[test]
+fn a_dam_break_validation_refuses_a_step_too_short_to_end_and_never_hangs() {
+    // Issue 47 (a second hostile pass): --dt 1e-300 ran for ever, silent.
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("fixed");
+    let validate = |step: &[&str], folder: &Path| {
+        let mut args = vec![
+            "validate".as_ref(),
+            "dam-break".as_ref(),
+            "--models".as_ref(),
+            "fluidanimate".as_ref(),
+            "--ppms".as_ref(),
+            "100".as_ref(),
+            "--until-t".as_ref(),
+            "0.5".as_ref(),
+            "--quiet".as_ref(),
+            "--output-dir".as_ref(),
+            folder.as_os_str(),
+        ];
+        args.extend(step.iter().map(OsStr::new));
+        run_lab(&args)
+    };
+    // A fixed step: refused before anything runs or is made.
+    let output = validate(&["--dt", "1e-300"], &folder);
+    assert_refused(
+        &output,
+        2,
+        "fluid-lab: error: a time step of 1e-300 s would take 1.956e298 steps to the end \
+         (0.0195615 s) of fluidanimate at 100 per m, more than the 1e7 a run may take",
+    );
+    assert!(!folder.exists());
+    // An adaptive one: the run fails at its first step, its outputs written.
+    let folder = dir.path().join("adaptive");
+    let output = validate(&["--adaptive", "1e-300"], &folder);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(
+        stderr(&output).ends_with(
+            "fluid-lab: error: 1 of 1 runs failed: fluidanimate at 100 per m failed at T = \
+             0.000 (the adaptive step fell below the limit)\n"
+        ),
+        "{}",
+        stderr(&output)
+    );
+    assert!(folder.join("dam-break.csv").is_file());
+}

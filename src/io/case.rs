@@ -421,8 +421,18 @@ fn in_case_words(message: &str) -> String {
             words = format!("a list of {count} {items}, {expected}");
         }
     }
-    // "`99999999999999999999` as i128": past the largest whole number a key takes.
-    words = words.replace(" as i128", "");
+    // "integer `99999999999999999999` as i128, expected u64": a whole number past the
+    // largest the key takes.
+    if let Some(rest) = words.strip_prefix("invalid type: integer `") {
+        if let Some((number, expected)) = rest.split_once("` as i128, expected ") {
+            let largest = match expected {
+                "u32" => u32::MAX.to_string(),
+                "i64" => i64::MAX.to_string(),
+                _ => u64::MAX.to_string(),
+            };
+            return format!("the whole number {number} is too large: at most {largest}");
+        }
+    }
     // "a table with 13 elements": a table.
     if let Some(at) = words.find("a table with ") {
         let rest = &words[at + "a table with ".len()..];
@@ -893,7 +903,7 @@ mod tests {
             ("unknown field `speed`", "unknown field `speed`"),
             (
                 "invalid type: integer `99999999999999999999` as i128, expected u64",
-                "invalid type: the whole number `99999999999999999999`, expected a whole number, 0 or more",
+                "the whole number 99999999999999999999 is too large: at most 18446744073709551615",
             ),
             (
                 "invalid length 1, expected a table with 13 elements",

@@ -141,13 +141,15 @@ pub struct Collapse {
 /// Runs `simulation` (the column of `dam`, placed) until the experiment's T reaches
 /// `until`, sampling the front at step 0 and every `every` steps. The run stops at the
 /// first failure of [`Checks`] (non-finite values, particles out of the box, energy
-/// growth): a model that blows up is reported, not followed.
+/// growth) or at an adaptive step shorter than `shortest` seconds: a model that blows up
+/// is reported, not followed.
 pub fn collapse(
     simulation: &mut Simulation,
     dam: &DamBreak,
     until: f64,
     every: u64,
     progress: &mut Progress,
+    shortest: f64,
 ) -> Collapse {
     let unit = dam.time_unit();
     let checks = Checks::from(&Vitals::of(simulation));
@@ -172,7 +174,9 @@ pub fn collapse(
         simulation.step_towards(end);
         step += 1;
         progress.show(step, simulation.time());
-        if let Some(failure) = checks.failure(&Vitals::of(simulation)) {
+        let collapsed =
+            diagnostics::step_collapsed(simulation, shortest).then_some(Failure::StepCollapsed);
+        if let Some(failure) = checks.failure(&Vitals::of(simulation)).or(collapsed) {
             return Collapse {
                 samples,
                 failure: Some((simulation.time() / unit, failure)),
@@ -376,7 +380,7 @@ mod tests {
             Simulation::with_method(150.0, dam.particles().unwrap(), method).unwrap();
         let goal = crate::lab::progress::Goal::Until(dam.time_unit());
         let mut progress = Progress::towards(goal);
-        let collapse = collapse(&mut simulation, &dam, 1.0, 5, &mut progress);
+        let collapse = collapse(&mut simulation, &dam, 1.0, 5, &mut progress, 0.0);
         assert_eq!(collapse.failure, None);
         let (first, last) = (collapse.samples[0], *collapse.samples.last().unwrap());
         assert!((first.z - 1.0).abs() < 0.1, "{first:?}");

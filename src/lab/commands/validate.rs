@@ -5,7 +5,7 @@
 use super::create_output_dir;
 use super::simulation_args::{
     asked_time_step, failure, load, parse_courant, parse_particles_per_metre, parse_seconds,
-    parse_time_step, Extent, Loaded, SimulationArgs, WaterArgs,
+    parse_time_step, Extent, Loaded, SimulationArgs, WaterArgs, MOST_STEPS_TO_GO,
 };
 use crate::io::gformat::{format_g, format_rate, format_shortest};
 use crate::io::output::OutputFile;
@@ -200,6 +200,35 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             format!("--until {end} is more than the {MOST_SECONDS} s a dam break may run");
         return Err(UsageError(message).into());
     }
+    let asked = asked_time_step(args.adaptive, args.dt);
+    let models = args.models();
+    // A fixed step that would take more steps than any run to a time may: refused before
+    // anything is made.
+    for &model in &models {
+        for &ppm in &args.ppms() {
+            let TimeStep::Fixed(dt) = asked.unwrap_or(model.default_time_step()) else {
+                continue;
+            };
+            let unit = DamBreak {
+                width: args.width(),
+                ppm,
+                seed: args.seed,
+            }
+            .time_unit();
+            let end = args.until.unwrap_or(until_t * unit);
+            let steps = (end / dt).ceil();
+            if steps > MOST_STEPS_TO_GO {
+                return Err(UsageError(format!(
+                    "a time step of {} s would take {steps:.3e} steps to the end ({} s) of \
+                     {} at {ppm} per m, more than the {MOST_STEPS_TO_GO:.0e} a run may take",
+                    format_g(dt),
+                    format_g(end),
+                    model.name()
+                ))
+                .into());
+            }
+        }
+    }
     let _folder = create_output_dir(&args.output_dir)?;
     let fronts_path = args.output_dir.join("dam-break.csv");
     let errors_path = args.output_dir.join("dam-break-errors.csv");
@@ -207,11 +236,9 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         OutputFile::create(&fronts_path)?,
         OutputFile::create(&errors_path)?,
     );
-    let asked = asked_time_step(args.adaptive, args.dt);
     let mut fronts = format!("{FRONTS_HEADER}\n");
     let mut errors = format!("{ERRORS_HEADER}\n");
     let mut runs = Vec::new();
-    let models = args.models();
     for &model in &models {
         for &ppm in &args.ppms() {
             let dam = DamBreak {
@@ -241,8 +268,16 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             let until = args.until.map_or(until_t, |end| end / dam.time_unit());
             let mut progress = Progress::towards(Goal::Until(until * dam.time_unit()))
                 .labelled(format!("{} at {ppm} per m", model.name()));
-            let collapse =
-                validation::collapse(&mut simulation, &dam, until, args.every, &mut progress);
+            // An adaptive step that would take more steps than a run may fails it.
+            let shortest = until * dam.time_unit() / MOST_STEPS_TO_GO;
+            let collapse = validation::collapse(
+                &mut simulation,
+                &dam,
+                until,
+                args.every,
+                &mut progress,
+                shortest,
+            );
             progress.finish();
             let seconds = started.elapsed().as_secs_f64();
             let comparisons = validation::compare(&collapse, &dam);
