@@ -1335,3 +1335,36 @@ fn a_dam_break_validation_refuses_a_step_too_short_to_end_and_never_hangs() {
     );
     assert!(folder.join("dam-break.csv").is_file());
 }
+
+#[test]
+fn a_signal_removes_the_empty_folders_a_command_made_for_its_outputs() {
+    // Issue 47 (a second hostile pass): a failure removed them, a signal did not.
+    let dir = tempfile::tempdir().unwrap();
+    let args: Vec<&OsStr> = [
+        "validate",
+        "dam-break",
+        "--models",
+        "wcsph",
+        "--ppms",
+        "400",
+        "--output-dir",
+        "made/inner",
+    ]
+    .map(OsStr::new)
+    .to_vec();
+    for signal in [libc::SIGTERM, libc::SIGINT] {
+        let mut validate = spawn(env!("CARGO_BIN_EXE_fluid-lab"), &args, dir.path(), 0o022);
+        let inner = dir.path().join("made/inner");
+        wait_until("the output folder", || inner.is_dir());
+        // Well into the run, its outputs not yet written.
+        std::thread::sleep(Duration::from_millis(300));
+        // SAFETY: kill sends a signal to our own child.
+        assert_eq!(unsafe { libc::kill(validate.id() as i32, signal) }, 0);
+        assert_eq!(reap(&mut validate).signal(), Some(signal));
+        assert!(
+            entries(dir.path()).is_empty(),
+            "{signal}: {:?}",
+            entries(dir.path())
+        );
+    }
+}

@@ -1,9 +1,10 @@
 //! What happens when a signal ends the process: the temporary files of unfinished
-//! outputs are removed and a measured child process gets the signal too, then the process
-//! ends as the signal's default would (the shell sees 128 + its number).
+//! outputs are removed, then the folders a command made for its outputs if they are still
+//! empty, and a measured child process gets the signal too; then the process ends as the
+//! signal's default would (the shell sees 128 + its number).
 //!
 //! The handler is async-signal-safe: it reads fixed tables (no allocation, no lock),
-//! calls `unlink` and `kill`, and ends the process. It is installed, once, for each of
+//! calls `unlink`, `rmdir` and `kill`, and ends the process. It is installed, once, for each of
 //! [`ENDING`] that the process does not ignore (under `nohup`, SIGHUP stays ignored).
 
 use std::cell::UnsafeCell;
@@ -32,7 +33,12 @@ const PATH_MAX: usize = 4096;
 
 const FREE: u8 = 0;
 const FILLING: u8 = 1;
+/// A temporary file, removed on a signal.
 const READY: u8 = 2;
+/// A folder made for outputs, removed on a signal if empty.
+const READY_FOLDER: u8 = 3;
+/// The deepest nesting of registered folders the handler removes, innermost first.
+const FOLDER_PASSES: usize = 8;
 
 /// One registered path: its state, and the path with a final NUL.
 struct Slot {
@@ -51,7 +57,7 @@ static TABLE: [Slot; SLOTS] = [const {
     }
 }; SLOTS];
 
-/// A registered temporary file, unregistered when dropped.
+/// A registered temporary file or made folder, unregistered when dropped.
 #[derive(Debug)]
 pub struct Pending(Option<usize>);
 
@@ -59,6 +65,16 @@ impl Pending {
     /// Registers `path` for removal on a signal (when the table has room and the path
     /// fits; otherwise the file is only removed on drop).
     pub fn register(path: &Path) -> Self {
+        Self::register_as(path, READY)
+    }
+
+    /// Registers the folder `path` for removal on a signal if it is empty then (when the
+    /// table has room and the path fits).
+    pub fn register_folder(path: &Path) -> Self {
+        Self::register_as(path, READY_FOLDER)
+    }
+
+    fn register_as(path: &Path, ready: u8) -> Self {
         install_handlers();
         let bytes = path.as_os_str().as_bytes();
         if bytes.len() > PATH_MAX || bytes.contains(&0) {
@@ -73,7 +89,7 @@ impl Pending {
                 let buffer = unsafe { &mut *slot.path.get() };
                 buffer[..bytes.len()].copy_from_slice(bytes);
                 buffer[bytes.len()] = 0;
-                slot.state.store(READY, Ordering::Release);
+                slot.state.store(ready, Ordering::Release);
                 return Pending(Some(index));
             }
         }
@@ -137,8 +153,9 @@ impl Drop for Forwarding {
     }
 }
 
-/// The handler: passes the signal to the child, removes every registered file, then acts
-/// as the signal's default.
+/// The handler: passes the signal to the child, removes every registered file, then every
+/// registered folder that is empty (innermost first, in passes, as each emptied parent
+/// can go next), then acts as the signal's default.
 fn on_signal(signal: libc::c_int) {
     let child = CHILD.load(Ordering::Acquire);
     if child > 0 {
@@ -149,6 +166,15 @@ fn on_signal(signal: libc::c_int) {
         if slot.state.load(Ordering::Acquire) == READY {
             // SAFETY: a READY slot holds a NUL-terminated path; unlink only reads it.
             unsafe { libc::unlink(slot.path.get().cast()) };
+        }
+    }
+    for _ in 0..FOLDER_PASSES {
+        for slot in TABLE.iter().rev() {
+            if slot.state.load(Ordering::Acquire) == READY_FOLDER {
+                // SAFETY: a READY_FOLDER slot holds a NUL-terminated path; rmdir only
+                // reads it, and removes nothing but an empty folder.
+                unsafe { libc::rmdir(slot.path.get().cast()) };
+            }
         }
     }
     let _ = signal_hook::low_level::emulate_default_handler(signal);

@@ -17,6 +17,7 @@ pub mod stability;
 pub mod sweep;
 pub mod validate;
 
+use crate::io::signals::Pending;
 use std::path::{Path, PathBuf};
 
 /// Creates `dir` (and its parents) for a subcommand's output files; the error names it.
@@ -33,8 +34,15 @@ pub fn create_output_dir(dir: &Path) -> Result<MadeFolder, String> {
         .map(Path::to_path_buf)
         .collect();
     missing.reverse();
-    // Made before the folders are: a failure part way removes those it made.
-    let made = MadeFolder { made: missing };
+    // Made before the folders are: a failure part way removes those it made, and so does
+    // a signal.
+    let registered = missing
+        .iter()
+        .map(|folder| Pending::register_folder(folder));
+    let made = MadeFolder {
+        registered: registered.collect(),
+        made: missing,
+    };
     std::fs::create_dir_all(dir).map_err(|error| format!("cannot create {shown}: {error}"))?;
     Ok(made)
 }
@@ -45,12 +53,15 @@ pub fn create_output_dir(dir: &Path) -> Result<MadeFolder, String> {
 #[derive(Debug)]
 pub struct MadeFolder {
     made: Vec<PathBuf>,
+    /// The same folders, registered for removal on a signal while this lives.
+    registered: Vec<Pending>,
 }
 
 impl MadeFolder {
     /// Keeps the folders made, empty or not (for what writes into them later).
     pub fn keep(mut self) {
         self.made.clear();
+        self.registered.clear();
     }
 }
 
