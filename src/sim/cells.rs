@@ -1323,12 +1323,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_sort_in_place_orders_as_a_sort_whose_particles_are_moved() {
-        let grid = grid();
-        // Particles over metres, every tenth 2 mm from the one before; they move between
-        // sorts.
-        let mut unit = uniform(0x2545_f491_4f6c_dd1d);
+    /// 3003 points spread over 6 m (from `seed`), every tenth 2 mm from the one before.
+    fn scattered_with_pairs(seed: u64) -> Vec<[f64; 3]> {
+        let mut unit = uniform(seed);
         let mut points: Vec<[f64; 3]> = Vec::new();
         for k in 0..3003 {
             let point = if k % 10 == 1 {
@@ -1338,6 +1335,15 @@ mod tests {
             };
             points.push(point);
         }
+        points
+    }
+
+    #[test]
+    fn a_sort_in_place_orders_as_a_sort_whose_particles_are_moved() {
+        let grid = grid();
+        // Particles over metres, every tenth 2 mm from the one before; they move between
+        // sorts.
+        let points = scattered_with_pairs(0x2545_f491_4f6c_dd1d);
         let n = points.len();
         let mut stored = positions(&points);
         let (mut moving, mut staying) = (CellOrder::resumed(true), CellOrder::resumed(true));
@@ -1390,16 +1396,7 @@ mod tests {
     fn kept_slots_go_first_in_their_order_and_the_others_follow_before_the_lone() {
         let grid = grid();
         // Mostly lone particles over metres, every tenth 2 mm from the one before.
-        let mut unit = uniform(0x9e37_79b9_7f4a_7c15);
-        let mut points: Vec<[f64; 3]> = Vec::new();
-        for k in 0..3003 {
-            let point = if k % 10 == 1 {
-                points[k - 1].map(|x| x + 0.002)
-            } else {
-                [0.0; 3].map(|_| unit() * 6.0 - 3.0)
-            };
-            points.push(point);
-        }
+        let points = scattered_with_pairs(0x9e37_79b9_7f4a_7c15);
         let stored = positions(&points);
         // With the lone filter, and without it (every particle then sorted).
         for filter in [Some(DEFAULT_FILTER_BLOCKS), None] {
