@@ -943,6 +943,32 @@ fn side_files_must_be_files_of_their_own_and_special_files_are_not_resumed() {
         before,
         "the input is untouched"
     );
+    // Nor the program it measures (issue 47, a second hostile pass: it was written over).
+    let program = own.with_file_name("measured.sh");
+    std::fs::write(&program, "#!/bin/sh\nexit 0\n").unwrap();
+    std::fs::set_permissions(&program, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let output = run_lab(&[
+        "sweep".as_ref(),
+        "--iterations".as_ref(),
+        "0".as_ref(),
+        "--repeats".as_ref(),
+        "1".as_ref(),
+        "--idle-seconds".as_ref(),
+        "0".as_ref(),
+        "--program".as_ref(),
+        program.as_os_str(),
+        "--output".as_ref(),
+        program.as_os_str(),
+        "--".as_ref(),
+        own.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1);
+    assert!(
+        stderr(&output).contains("is the program measured"),
+        "{}",
+        stderr(&output)
+    );
+    assert_eq!(std::fs::read(&program).unwrap(), b"#!/bin/sh\nexit 0\n");
     assert!(!out.exists());
     let output = run_lab(&[
         "run".as_ref(),

@@ -86,6 +86,14 @@ impl SweepArgs {
             )
             .into());
         }
+        if same_file(&program, &self.output) {
+            return Err(format!(
+                "--output {} is the program measured, {}",
+                self.output.display(),
+                program.display()
+            )
+            .into());
+        }
         let sources = Sources {
             perf: self.perf.clone(),
             ..Sources::default()
