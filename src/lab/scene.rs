@@ -48,8 +48,20 @@ impl SceneKind {
     }
 
     /// Whether a particle count sets the scene's size (else it follows from ppm).
-    pub fn takes_particle_count(self) -> bool {
+    fn takes_particle_count(self) -> bool {
         matches!(self, SceneKind::RandomCloud | SceneKind::CornerBlock)
+    }
+
+    /// Refuses a particle count for a scene whose size follows from ppm.
+    pub fn check_particle_count(self, particles: Option<usize>) -> Result<(), String> {
+        match particles.is_some() && !self.takes_particle_count() {
+            true => Err(format!(
+                "--particles sets the size of random-cloud and corner-block only; {} follows \
+                 from --ppm",
+                self.name()
+            )),
+            false => Ok(()),
+        }
     }
 }
 
@@ -240,12 +252,7 @@ pub fn generate(
     particles: Option<usize>,
 ) -> Result<Particles, String> {
     check_ppm(ppm, &Domain::COURSE)?;
-    if particles.is_some() && !kind.takes_particle_count() {
-        return Err(format!(
-            "--particles sets the size of random-cloud and corner-block only; {} follows from ppm",
-            kind.name()
-        ));
-    }
+    kind.check_particle_count(particles)?;
     let [nx, ny, nz] = lattice_dims(ppm, &Domain::COURSE).map(|n| n as f64);
     let count = match (kind, particles) {
         (SceneKind::RandomCloud, None) => (0.3 * nx * ny * nz) as usize,

@@ -38,14 +38,10 @@ const CASE_UNTIL: f64 = 0.5;
 
 /// Generates the scene and writes it as a `.fld` file.
 pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
-    if args.particles.is_some() && !args.kind.takes_particle_count() {
-        return Err(UsageError(format!(
-            "--particles sets the size of random-cloud and corner-block only; {} follows from \
-             --ppm",
-            args.kind.name()
-        ))
-        .into());
-    }
+    // Before anything is made, and as a usage error (generate checks it too).
+    args.kind
+        .check_particle_count(args.particles)
+        .map_err(UsageError)?;
     let output = OutputFile::create(&args.output)?;
     if args.case_file {
         // Only a case whose scene can be made: the scene's own checks first.

@@ -213,10 +213,9 @@ impl SimulationArgs {
         let (Extent::Until(end), TimeStep::Fixed(dt)) = (extent, self.time_step()) else {
             return Ok(extent);
         };
-        let steps = (end / dt).ceil();
-        if steps <= MOST_STEPS_TO_GO {
+        let Some(steps) = steps_beyond_limit(end, dt) else {
             return Ok(extent);
-        }
+        };
         // Each of the two named as it was given: a case's key, a flag, or the model's.
         let case = self.read.as_ref();
         fn given(key: Option<&toml::Spanned<f64>>, value: f64) -> Option<&toml::Spanned<f64>> {
@@ -614,6 +613,13 @@ pub enum Frames {
 /// limit of every run whose steps are known before it starts (fixed steps, frames,
 /// stability's and accuracy's runs).
 pub const MOST_STEPS_TO_GO: f64 = 1e7;
+
+/// The steps a run to `end` (s) on fixed steps of `dt` takes, if more than
+/// [`MOST_STEPS_TO_GO`].
+pub fn steps_beyond_limit(end: f64, dt: f64) -> Option<f64> {
+    let steps = (end / dt).ceil();
+    (steps > MOST_STEPS_TO_GO).then_some(steps)
+}
 
 /// Why a run fails after `step`: a particle that is not finite (NaN or infinities are not
 /// drawn, exported or written as if they were a state), or, on the way to a physical

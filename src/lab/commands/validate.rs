@@ -5,7 +5,8 @@
 use super::create_output_dir;
 use super::simulation_args::{
     asked_time_step, failure, load, parse_courant, parse_particles_per_metre, parse_seconds,
-    parse_time_step, Extent, Loaded, SimulationArgs, WaterArgs, MOST_STEPS_TO_GO,
+    parse_time_step, steps_beyond_limit, Extent, Loaded, SimulationArgs, WaterArgs,
+    MOST_STEPS_TO_GO,
 };
 use crate::io::gformat::{format_g, format_rate, format_shortest};
 use crate::io::output::OutputFile;
@@ -163,15 +164,18 @@ struct Validated {
 /// Runs every model at every resolution against the experiment and writes the CSVs, the
 /// chart and a summary line per run.
 pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    let still_water_flag = match args.experiment {
+        Experiment::StillWater => args.dam_break_flag(),
+        Experiment::DamBreak => None,
+    };
+    if let Some(flag) = still_water_flag {
+        return Err(UsageError(format!(
+            "{flag} is the dam break's: validate still-water runs its case's model, \
+             resolution and [run] until_s"
+        ))
+        .into());
+    }
     match (args.experiment, &args.case) {
-        (Experiment::StillWater, _) if args.dam_break_flag().is_some() => {
-            let flag = args.dam_break_flag().expect("a flag");
-            return Err(UsageError(format!(
-                "{flag} is the dam break's: validate still-water runs its case's model, \
-                 resolution and [run] until_s"
-            ))
-            .into());
-        }
         (Experiment::StillWater, Some(case)) => {
             return still_water(case, &args.output_dir, stdout);
         }
@@ -216,8 +220,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             }
             .time_unit();
             let end = args.until.unwrap_or(until_t * unit);
-            let steps = (end / dt).ceil();
-            if steps > MOST_STEPS_TO_GO {
+            if let Some(steps) = steps_beyond_limit(end, dt) {
                 return Err(UsageError(format!(
                     "a time step of {} s would take {steps:.3e} steps to the end ({} s) of \
                      {} at {ppm} per m, more than the {MOST_STEPS_TO_GO:.0e} a run may take",
@@ -531,8 +534,8 @@ fn join(vector: [f64; 3]) -> String {
 /// Takes the dam break of the case at `path` in place of the flags': its one box of fluid,
 /// the column (a wide and 2a high against the low-x wall, through the box's depth), gives
 /// the width, its lattice the resolution and seed; its model, kernel, settings and time
-/// step replace the flags'. `--until-t` (or `--until`), `--every` and `--output-dir` stay the command
-/// line's.
+/// step replace the flags'. `--until-t` (or `--until`), `--every` and `--output-dir` stay
+/// the command line's.
 fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<dyn Error>> {
     let mut simulation = SimulationArgs::of_case(path);
     simulation.read_case(&mut None)?;

@@ -181,9 +181,10 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     /// What [`Self::interact`] leaves a particle with no partner closer than the cut-off
     /// (`params.h`), where that is the same for every such particle; `None` (the default)
     /// where it depends on the particle. Where given, the driver may leave such particles
-    /// where they are and run [`Self::interact`] on a compact copy of the others ([`Context::particles`]: fewer
-    /// than all, and [`Context::walls`] then per stored particle, not per slot of the
-    /// copy), so a model that gives it must not read the walls in its pair passes.
+    /// where they are and run [`Self::interact`] on a compact copy of the others
+    /// ([`Context::particles`]: fewer than all, and [`Context::walls`] then per stored
+    /// particle, not per slot of the copy), so a model that gives it must not read the
+    /// walls in its pair passes.
     fn partnerless(&self, _params: &Params) -> Option<Partnerless> {
         None
     }
