@@ -3,20 +3,20 @@
 //! in pairs): the floor, each pass's arithmetic alone over pairs packed beforehand
 //! (`floor/...`), beside the parts of a step that find and fetch the pairs, the neighbour
 //! lists' build (`lists/build`), and each pass over the lists (`lists/densities`,
-//! `lists/accelerations`) on every instruction set this CPU runs. `perf/README.md`
-//! tabulates them.
+//! `lists/accelerations`) on every instruction set this CPU runs, on the half lists and
+//! (`-rows`) on the full lists' rows, across particles. `perf/README.md` tabulates them.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use fluid::io::fld;
 use fluid::sim::isa::InstructionSet;
 use fluid::sim::kernel::floor::PackedPairs;
-use fluid::sim::lists::NeighbourLists;
+use fluid::sim::lists::{ListLayout, NeighbourLists};
 use fluid::sim::stages::Stage;
 use fluid::{Kernel, Method, Model, Simulation};
 use std::path::Path;
 
 /// The stable model on `large.fld` with `kernel`, placed and its densities computed.
-fn placed(kernel: Kernel, isa: InstructionSet) -> Simulation {
+fn placed(kernel: Kernel, isa: InstructionSet, layout: ListLayout) -> Simulation {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/in/large.fld");
     let bytes = std::fs::read(&path).expect("bundled input");
     let scene = fld::parse(&bytes, "large.fld").expect("valid input");
@@ -26,13 +26,14 @@ fn placed(kernel: Kernel, isa: InstructionSet) -> Simulation {
     };
     let mut sim = Simulation::with_method(scene.ppm.into(), scene.particles, method).unwrap();
     sim.set_instruction_set(isa);
+    sim.set_list_layout(Some(layout));
     sim.run_stage(Stage::Reposition);
     sim
 }
 
 fn roofline(c: &mut Criterion) {
     for kernel in [Kernel::Simd, Kernel::Simd8, Kernel::Mixed] {
-        let mut sim = placed(kernel, InstructionSet::detected());
+        let mut sim = placed(kernel, InstructionSet::detected(), ListLayout::Half);
         sim.run_stage(Stage::IncrementDensities);
         sim.run_stage(Stage::TransformDensities);
         let params = *sim.params();
@@ -57,13 +58,19 @@ fn roofline(c: &mut Criterion) {
         group.finish();
         let mut group = c.benchmark_group("lists");
         group.throughput(Throughput::Elements(packed.len() as u64));
-        for isa in InstructionSet::ALL.into_iter().filter(|i| i.is_available()) {
-            let name = |part: &str| format!("{part}/{}/{}", kernel.name(), isa.name());
-            let mut before = placed(kernel, isa);
+        let layouts = [(ListLayout::Half, ""), (ListLayout::Rows, "-rows")];
+        for (isa, (layout, suffix)) in InstructionSet::ALL
+            .into_iter()
+            .filter(|i| i.is_available())
+            .flat_map(|isa| layouts.map(|layout| (isa, layout)))
+        {
+            let name = |part: &str| format!("{part}{suffix}/{}/{}", kernel.name(), isa.name());
+            let mut before = placed(kernel, isa, layout);
             if kernel == Kernel::Simd8 {
                 let (tiles, particles) = (before.tiles(), before.particles());
                 let mut lists = NeighbourLists::default();
                 lists.set_instruction_set(isa);
+                lists.set_layout(layout);
                 let h = params.h;
                 group.bench_function(name("build"), |b| {
                     b.iter(|| {

@@ -1,5 +1,6 @@
 //! The `fluid` binary reproduces the course reference outputs byte for byte and prints the
-//! seven parameter lines of SPEC.md section 1.
+//! seven parameter lines of SPEC.md section 1; so does the library on both layouts of the
+//! neighbour lists, whichever this CPU's instruction set picks.
 
 mod common;
 
@@ -50,6 +51,39 @@ fn small_matches_the_references_for_1_to_5_steps() {
 #[test]
 fn large_matches_the_references_for_1_to_5_steps() {
     check_references("large", LARGE_REPORT);
+}
+
+#[test]
+fn both_list_layouts_reproduce_the_reference_outputs() {
+    use fluid::io::fld;
+    use fluid::sim::lists::ListLayout;
+    use fluid::{Kernel, Method, Model, Simulation};
+    for name in ["small", "large"] {
+        let scene = fld::read(&input(name)).unwrap();
+        for (kernel, layout) in [Kernel::Simd, Kernel::Simd8]
+            .into_iter()
+            .flat_map(|k| [ListLayout::Half, ListLayout::Rows].map(|l| (k, l)))
+        {
+            let method = Method {
+                model: Model::Course,
+                kernel,
+            };
+            let particles = scene.particles.clone();
+            let mut sim = Simulation::with_method(scene.ppm.into(), particles, method).unwrap();
+            sim.set_list_layout(Some(layout));
+            for steps in 1..=5 {
+                sim.run(1);
+                let lists = sim.lists();
+                assert!(lists.is_some() || steps > 1, "the first step is dense");
+                let rows = lists.map(|lists| lists.rows().is_some());
+                assert!(rows.is_none_or(|rows| rows == (layout == ListLayout::Rows)));
+                let bytes = fld::encode(scene.ppm, sim.particles()).unwrap();
+                let expected = std::fs::read(reference_output(name, steps)).unwrap();
+                let what = format!("{name}-{steps} on {kernel:?} and {layout:?}");
+                assert!(bytes == expected, "{what}");
+            }
+        }
+    }
 }
 
 #[test]

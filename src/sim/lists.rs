@@ -11,6 +11,9 @@
 //! `sim::isa`); the density and acceleration passes of the same
 //! placement share it. The last group of a list reads the slots after its end (the next
 //! lists', then [`TAIL`] zeros), which the loops mask.
+//!
+//! Where the passes run across particles ([`ListLayout::Rows`]), the build then mirrors
+//! the half lists into [`Rows`]: every slot's full list, 8 slots to a block.
 
 use crate::sim::isa::{Gathers, InstructionSet, OnInstructionSet};
 use crate::sim::neighbours::Tile;
@@ -49,6 +52,38 @@ pub struct NeighbourLists {
     narrowed: [Vec<f32>; 3],
     /// The build's candidates of one cell.
     candidates: Candidates,
+    /// Every slot's full list as rows, where the passes run across particles.
+    rows: Rows,
+    /// Whether the build also writes [`Rows`].
+    layout: ListLayout,
+    /// Whether `rows` are of the last build.
+    rows_built: bool,
+}
+
+/// How the course models' SIMD passes read the lists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ListLayout {
+    /// The half lists, one particle at a time, its partners in the lanes (each pair once,
+    /// its terms written to the partner too).
+    Half,
+    /// The full lists in [`Rows`], a particle per lane (each pair twice, nothing written
+    /// to a partner).
+    #[default]
+    Rows,
+}
+
+impl ListLayout {
+    /// The layout whose passes are faster on `isa`: [`ListLayout::Rows`] on AVX-512,
+    /// where the prototype `ivec-pairs` measured them at 0.75x the half lists' time
+    /// (Intel); [`ListLayout::Half`] elsewhere, where evaluating each pair twice costs
+    /// more than the partners' writes it saves (on AMD's Zen 1, whose 128-bit units and
+    /// divider bound the passes: `perf/README.md`, round five).
+    pub fn for_instruction_set(isa: InstructionSet) -> ListLayout {
+        match isa {
+            InstructionSet::Avx512 => ListLayout::Rows,
+            InstructionSet::Avx2 | InstructionSet::Portable => ListLayout::Half,
+        }
+    }
 }
 
 impl NeighbourLists {
@@ -67,6 +102,7 @@ impl NeighbourLists {
         assert!(tiles.iter().all(|tile| tile.second_end as usize <= slots));
         self.slots = slots;
         self.starts.clear();
+        self.rows_built = false;
         let built = self.isa.run(Build {
             lists: self,
             tiles,
@@ -78,8 +114,30 @@ impl NeighbourLists {
             self.starts.clear();
             self.partners.clear();
             self.partners.shrink_to_fit();
+            self.rows = Rows::default();
+        } else if self.layout == ListLayout::Rows {
+            let mut rows = std::mem::take(&mut self.rows);
+            rows.mirror(self);
+            self.rows = rows;
+            self.rows_built = true;
         }
         built
+    }
+
+    /// How the passes read the lists (from the next build on).
+    pub fn set_layout(&mut self, layout: ListLayout) {
+        self.rows_built &= layout == self.layout;
+        self.layout = layout;
+    }
+
+    /// How the passes read the lists.
+    pub fn layout(&self) -> ListLayout {
+        self.layout
+    }
+
+    /// The full lists as rows, if the last build wrote them ([`ListLayout::Rows`]).
+    pub fn rows(&self) -> Option<&Rows> {
+        self.rows_built.then_some(&self.rows)
     }
 
     /// The instruction set the lists are built and run with.
@@ -131,6 +189,131 @@ impl NeighbourLists {
             + self.narrowed.iter().map(bytes).sum::<usize>()
             + self.candidates.p.iter().map(bytes).sum::<usize>()
             + bytes(&self.candidates.slots)
+            + self.rows.heap_bytes()
+    }
+}
+
+/// Slots per block of [`Rows`]: the lanes of an `f64x8` register, two `f64x4` ones.
+pub const ROW: usize = 8;
+
+/// Every slot's *full* list (the partners before it, in slot order, then its half list)
+/// in the layout GROMACS' and SELL-C's kernels read across particles: the slots in
+/// blocks of [`ROW`], and block b's row m holding the m-th partner of each of its slots,
+/// so that a register holds a partner of each of [`ROW`] particles. A block has as many
+/// rows as its longest list; a shorter list, and a slot past the last, is padded with
+/// [`Rows::far`], the slot count, which names no particle (the passes give it a record
+/// far from everything).
+#[derive(Debug, Clone, Default)]
+pub struct Rows {
+    /// Where each block's rows start, then the end of the last.
+    starts: Vec<u32>,
+    /// The rows.
+    entries: Vec<[u32; ROW]>,
+    /// Each slot's partners (then 0 to the end of the last block).
+    lengths: Vec<u32>,
+    /// The build's copy of each slot's earlier partners, in slot order.
+    earlier: Vec<u32>,
+    /// Where each slot's earlier partners end in `earlier`, after the build.
+    earlier_starts: Vec<u32>,
+    /// The slots covered.
+    slots: usize,
+}
+
+impl Rows {
+    /// Writes the rows of `half`'s lists: each pair in both of its slots' lists.
+    fn mirror(&mut self, half: &NeighbourLists) {
+        let n = half.slots;
+        self.slots = n;
+        let Rows {
+            starts,
+            entries,
+            lengths,
+            earlier,
+            earlier_starts,
+            ..
+        } = self;
+        // Each slot's earlier partners, in slot order: the half lists transposed.
+        earlier_starts.clear();
+        earlier_starts.resize(n + 1, 0);
+        for &i in &half.partners[..half.pairs()] {
+            earlier_starts[i as usize + 1] += 1;
+        }
+        for i in 0..n {
+            earlier_starts[i + 1] += earlier_starts[i];
+        }
+        earlier.clear();
+        earlier.resize(half.pairs(), 0);
+        for j in 0..n {
+            for &i in half.partners(j) {
+                let at = &mut earlier_starts[i as usize];
+                earlier[*at as usize] = j as u32;
+                *at += 1;
+            }
+        }
+        // The cursors now stand at each slot's end: its start is the one before.
+        let earlier_of = |i: usize| {
+            let start = if i == 0 { 0 } else { earlier_starts[i - 1] };
+            &earlier[start as usize..earlier_starts[i] as usize]
+        };
+        lengths.clear();
+        lengths.extend((0..n).map(|i| (earlier_of(i).len() + half.range(i).len()) as u32));
+        lengths.resize(n.next_multiple_of(ROW), 0);
+        // The rows, block by block, in order.
+        starts.clear();
+        entries.clear();
+        for (block, block_lengths) in lengths.chunks_exact(ROW).enumerate() {
+            let first = entries.len();
+            starts.push(first as u32);
+            let width = block_lengths.iter().max().copied().unwrap_or(0) as usize;
+            entries.resize(first + width, [n as u32; ROW]);
+            let rows = &mut entries[first..];
+            for slot in block * ROW..n.min(block * ROW + ROW) {
+                let list = earlier_of(slot).iter().chain(half.partners(slot));
+                for (row, &partner) in rows.iter_mut().zip(list) {
+                    row[slot % ROW] = partner;
+                }
+            }
+        }
+        starts.push(entries.len() as u32);
+    }
+
+    /// The padding slot: the slot count.
+    pub fn far(&self) -> u32 {
+        self.slots as u32
+    }
+
+    /// The blocks of [`ROW`] slots (the last may be partial).
+    pub fn blocks(&self) -> usize {
+        self.starts.len().saturating_sub(1)
+    }
+
+    /// The rows of block `block`.
+    #[inline(always)]
+    pub fn rows(&self, block: usize) -> &[[u32; ROW]] {
+        &self.entries[self.starts[block] as usize..self.starts[block + 1] as usize]
+    }
+
+    /// The full list of `slot`, in order.
+    pub fn list(&self, slot: usize) -> impl Iterator<Item = u32> + '_ {
+        let rows = self.rows(slot / ROW);
+        rows[..self.lengths[slot] as usize]
+            .iter()
+            .map(move |row| row[slot % ROW])
+    }
+
+    /// The entries held, padding included.
+    pub fn entries(&self) -> usize {
+        self.entries.len() * ROW
+    }
+
+    /// The bytes its buffers hold on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        use crate::sim::heap_bytes as bytes;
+        bytes(&self.starts)
+            + bytes(&self.entries)
+            + bytes(&self.lengths)
+            + bytes(&self.earlier)
+            + bytes(&self.earlier_starts)
     }
 }
 
@@ -391,6 +574,53 @@ mod tests {
                 .iter()
                 .all(|&j| j == 0));
         }
+    }
+
+    #[test]
+    fn the_rows_hold_each_slots_earlier_partners_in_order_then_its_later_ones() {
+        let ppm = 200.0;
+        let (particles, search) = block(ppm, 9);
+        // A count that leaves the last block partial.
+        let n = particles.len() - 3;
+        assert_ne!(n % ROW, 0);
+        let tiles: Vec<Tile> = search
+            .tiles()
+            .iter()
+            .filter(|tile| tile.second_end as usize <= n && (tile.first_end as usize) <= n)
+            .copied()
+            .collect();
+        let mut lists = NeighbourLists::default();
+        lists
+            .build(&tiles, &particles.p, n, Params::new(ppm).h)
+            .unwrap();
+        let rows = lists.rows().expect("rows by default");
+        assert_eq!((rows.far() as usize, rows.blocks()), (n, n.div_ceil(ROW)));
+        let mut earlier = vec![Vec::new(); n];
+        for j in 0..n {
+            for &i in lists.partners(j) {
+                earlier[i as usize].push(j as u32);
+            }
+        }
+        let mut padded = 0;
+        for slot in 0..n {
+            let full: Vec<u32> = rows.list(slot).collect();
+            let expected: Vec<u32> = earlier[slot]
+                .iter()
+                .chain(lists.partners(slot))
+                .copied()
+                .collect();
+            assert!(full == expected, "slot {slot}");
+            let lane = rows.rows(slot / ROW).iter().map(|row| row[slot % ROW]);
+            let padding: Vec<u32> = lane.skip(full.len()).collect();
+            assert!(padding.iter().all(|&j| j == rows.far()));
+            padded += padding.len();
+        }
+        assert_eq!(
+            rows.entries(),
+            2 * lists.pairs() + padded + rows.rows(n / ROW).len() * (ROW - n % ROW)
+        );
+        lists.set_layout(ListLayout::Half);
+        assert!(lists.rows().is_none());
     }
 
     #[test]

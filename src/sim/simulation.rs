@@ -9,7 +9,7 @@ use crate::sim::cells::{CellOrder, SENTINELS};
 use crate::sim::clusters::{Clusters, PairStructure};
 use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::isa::InstructionSet;
-use crate::sim::lists::NeighbourLists;
+use crate::sim::lists::{ListLayout, NeighbourLists};
 use crate::sim::method::Method;
 use crate::sim::model::{Context, Dynamics, Partnerless};
 use crate::sim::neighbours::{Tile, TileSearch};
@@ -79,6 +79,8 @@ pub struct Simulation {
     /// The neighbour lists of the current placement, if built ([`Self::build_lists`]).
     lists: NeighbourLists,
     lists_built: bool,
+    /// The lists' layout where the model reads rows, if not the instruction set's.
+    list_layout: Option<ListLayout>,
     /// Counts the placements and kernel changes ([`Context::placement`]).
     placement: u64,
     /// Buffer reused by the reordering; where a placement leaves the particles in place,
@@ -207,6 +209,7 @@ impl Simulation {
             clusters_built: false,
             lists: NeighbourLists::default(),
             lists_built: false,
+            list_layout: None,
             placement: 0,
             spare: Particles::default(),
             time_step,
@@ -535,6 +538,17 @@ impl Simulation {
         self.cells.set_instruction_set(isa);
     }
 
+    /// Runs the SIMD passes of a model that reads rows ([`Dynamics::reads_rows`]) over
+    /// the lists in `layout` from the next build on, or (`None`) in the instruction
+    /// set's ([`ListLayout::for_instruction_set`], the default). The reference outputs
+    /// hold on either; only the order of the sums differs.
+    pub fn set_list_layout(&mut self, layout: Option<ListLayout>) {
+        if let Some(skin) = &mut self.skin {
+            skin.expire();
+        }
+        self.list_layout = layout;
+    }
+
     /// Filters out lone particles in stage 1 with a table of `blocks_per_particle` blocks
     /// per particle, or never (`None`): see [`CellOrder::set_lone_filter`]. Only the work
     /// changes, never a result.
@@ -861,6 +875,12 @@ impl Simulation {
         let reach = self.params.h + skin;
         let particles = placed(&self.cells, &self.particles, &self.spare);
         let (tiles, n) = (self.search.tiles(), particles.len());
+        let layout = match self.list_layout {
+            _ if !self.dynamics.reads_rows() => ListLayout::Half,
+            Some(layout) => layout,
+            None => ListLayout::for_instruction_set(self.lists.instruction_set()),
+        };
+        self.lists.set_layout(layout);
         self.lists_built = self.lists.build(tiles, &particles.p, n, reach).is_ok();
     }
 

@@ -25,6 +25,7 @@
 //! on clusters only those clusters for those particles, without testing the others
 //! again. The lists hold only such pairs already (within the skin, where kept).
 
+mod across;
 mod clustered;
 pub mod floor;
 mod listed;
@@ -341,7 +342,10 @@ impl PairPass for Densities<'_> {
     fn lanes<L: Lanes>(self) {
         self.close.clear();
         match (self.lists, self.clusters) {
-            (Some(lists), _) => listed::increment_densities::<L>(self, lists),
+            (Some(lists), _) => match lists.rows() {
+                Some(rows) => across::increment_densities::<L>(self, rows),
+                None => listed::increment_densities::<L>(self, lists),
+            },
             (None, Some(clusters)) => clustered::increment_densities::<L>(self, clusters),
             (None, None) => simd::increment_densities::<L>(self),
         }
@@ -403,7 +407,10 @@ impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
     }
     fn lanes<L: Lanes>(self) {
         match (self.lists, self.clusters) {
-            (Some(lists), _) => listed::transfer_accelerations::<L, FLUIDANIMATE>(self, lists),
+            (Some(lists), _) => match lists.rows() {
+                Some(rows) => across::transfer_accelerations::<L, FLUIDANIMATE>(self, rows),
+                None => listed::transfer_accelerations::<L, FLUIDANIMATE>(self, lists),
+            },
             (None, Some(clusters)) => {
                 clustered::transfer_accelerations::<L, FLUIDANIMATE>(self, clusters)
             }
@@ -427,6 +434,7 @@ impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
 mod tests {
     use crate::sim::clusters::PairStructure;
     use crate::sim::kernel::Kernel;
+    use crate::sim::lists::ListLayout;
     use crate::sim::method::Method;
     use crate::sim::model::Model;
     use crate::sim::params::BOX_MIN;
@@ -513,10 +521,15 @@ mod tests {
     #[test]
     fn every_instruction_set_runs_the_list_loops_to_the_same_bits() {
         // The lists' build and passes on AVX-512, AVX2 and plain Rust, where this CPU runs
-        // them, on every SIMD kernel: the same lists, the same sums in the same order.
+        // them, on every SIMD kernel and both layouts: the same lists, the same sums in
+        // the same order.
         use crate::sim::isa::InstructionSet;
         let ppm = 292.0;
-        for kernel in [Kernel::Simd, Kernel::Simd8, Kernel::Mixed] {
+        let layouts = [ListLayout::Half, ListLayout::Rows];
+        for (kernel, layout) in [Kernel::Simd, Kernel::Simd8, Kernel::Mixed]
+            .into_iter()
+            .flat_map(|kernel| layouts.map(|layout| (kernel, layout)))
+        {
             let step = |isa| {
                 let method = Method {
                     model: Model::Fluidanimate,
@@ -524,8 +537,10 @@ mod tests {
                 };
                 let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
                 sim.set_instruction_set(isa);
+                sim.set_list_layout(Some(layout));
                 sim.run(2);
-                assert!(sim.lists().is_some(), "a dense block runs on lists");
+                let lists = sim.lists().expect("a dense block runs on lists");
+                assert_eq!(lists.rows().is_some(), layout == ListLayout::Rows);
                 sim.particles().clone()
             };
             let portable = step(InstructionSet::Portable);
@@ -533,8 +548,58 @@ mod tests {
                 .into_iter()
                 .filter(|isa| isa.is_available());
             for isa in available {
-                assert!(step(isa) == portable, "{kernel:?} on {}", isa.name());
+                let what = format!("{kernel:?} on {layout:?} and {}", isa.name());
+                assert!(step(isa) == portable, "{what}");
             }
+        }
+    }
+
+    /// Stages 1-5 of `model` with `kernel` on the lists in `layout`, on a dense block.
+    fn listed_pair_stages(model: Model, kernel: Kernel, layout: ListLayout) -> Particles {
+        let ppm = 292.0;
+        let method = Method { model, kernel };
+        let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
+        sim.set_list_layout(Some(layout));
+        for stage in [
+            Stage::Reposition,
+            Stage::IncrementDensities,
+            Stage::TransformDensities,
+            Stage::TransferAccelerations,
+        ] {
+            sim.run_stage(stage);
+        }
+        let lists = sim.lists().expect("a dense block runs on lists");
+        assert_eq!(lists.rows().is_some(), layout == ListLayout::Rows);
+        sim.particles().clone()
+    }
+
+    #[test]
+    fn the_passes_across_particles_sum_the_half_lists_terms_in_another_order() {
+        // Each pair's terms are the same numbers on either layout (on rows, each
+        // particle's own, the partner's the exact negation): only the order of the sums
+        // differs, within a few ulps of the largest term.
+        for (model, kernel) in [Model::Course, Model::Fluidanimate]
+            .into_iter()
+            .flat_map(|model| [Kernel::Simd, Kernel::Simd8, Kernel::Mixed].map(|k| (model, k)))
+        {
+            let half = listed_pair_stages(model, kernel, ListLayout::Half);
+            let rows = listed_pair_stages(model, kernel, ListLayout::Rows);
+            // The mixed kernel's terms are f32: its sums' order moves them by more.
+            let tolerance = if kernel == Kernel::Mixed { 1e-6 } else { 1e-12 };
+            let n = half.len();
+            let density_error = (0..n)
+                .map(|s| (rows.rho[s] - half.rho[s]).abs() / half.rho[s])
+                .fold(0.0, f64::max);
+            let largest = (0..n)
+                .map(|s| half.acceleration(s).length())
+                .fold(0.0, f64::max);
+            let acceleration_error = (0..n)
+                .map(|s| (rows.acceleration(s) - half.acceleration(s)).length() / largest)
+                .fold(0.0, f64::max);
+            let what = format!("{model:?} on {kernel:?}: {density_error:e} {acceleration_error:e}");
+            assert!(density_error < tolerance, "{what}");
+            assert!(acceleration_error < tolerance, "{what}");
+            assert!(acceleration_error > 0.0, "{what}: the same order");
         }
     }
 

@@ -117,6 +117,8 @@ pub(crate) trait Lanes {
     fn accumulate(sum: &mut Self::Sum, terms: Self::V);
     /// The total of a sum's lanes.
     fn total(sum: Self::Sum) -> f64;
+    /// A sum's lanes, each on its own (the first `LANES` of 8).
+    fn lanes(sum: Self::Sum) -> [f64; 8];
 }
 
 /// Where a group's lanes live in the arrays: each lane's place ([`Places`], contiguous
@@ -429,6 +431,12 @@ macro_rules! f64_lanes {
             fn total(sum: $type) -> f64 {
                 sum.reduce_add()
             }
+
+            #[inline(always)]
+            fn lanes(sum: $type) -> [f64; 8] {
+                let lanes = sum.to_array();
+                std::array::from_fn(|k| lanes[k % $lanes])
+            }
         }
     };
 }
@@ -620,6 +628,12 @@ impl Lanes for MixedF32x8 {
     #[inline(always)]
     fn total(sum: [f64x4; 2]) -> f64 {
         (sum[0] + sum[1]).reduce_add()
+    }
+
+    #[inline(always)]
+    fn lanes(sum: [f64x4; 2]) -> [f64; 8] {
+        let [low, high] = sum.map(f64x4::to_array);
+        std::array::from_fn(|k| if k < 4 { low[k] } else { high[k - 4] })
     }
 }
 
