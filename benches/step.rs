@@ -20,8 +20,8 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughpu
 use fluid::io::fld;
 use fluid::lab::scene;
 use fluid::sim::cells::CellOrder;
-use fluid::sim::clusters::PairStructure;
 use fluid::sim::isa::InstructionSet;
+use fluid::sim::lists::PairStructure;
 use fluid::sim::neighbours::TileSearch;
 use fluid::sim::params::GRAVITY;
 use fluid::sim::stages::{self, Stage};

@@ -14,8 +14,8 @@
 # Usage: scripts/pair-cost.sh [--steps N] [--every K] [--model M] [--pairs S] [INPUT] [KERNEL ...]
 #        defaults: --steps 1000 --every 10 --model fluidanimate --pairs lists
 #                  data/in/large.fld simd simd8 mixed scalar
-# (--pairs clusters or --pairs tiles runs the SIMD kernels of every model on clusters of
-# 4 or on whole neighbour cells instead of neighbour lists; see `fluid-lab run --help`.
+# (--pairs tiles runs the SIMD kernels of every model on whole neighbour cells instead of
+# neighbour lists; see `fluid-lab run --help`.
 # On lists the useful fraction is that of the lists' lanes, rounded up per particle.)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -67,7 +67,7 @@ const SIM_LAYERS: [&[&str]; 9] = [
     &["params", "isa"],
     &["particles", "grid"],
     &["timestep", "cells"],
-    &["neighbours", "clusters", "skin", "stages"],
+    &["neighbours", "skin", "stages"],
     &["lists"],
     &["kernel"],
     &["model"],

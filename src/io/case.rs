@@ -820,8 +820,8 @@ impl ModelSettings {
 
     /// The names and the numbers' ranges (the model's own checks come when it is made).
     fn check(&self) -> Result<(), Fault> {
-        use crate::sim::clusters::PairStructure;
         use crate::sim::kernel::Kernel;
+        use crate::sim::lists::PairStructure;
         use crate::sim::model::wcsph::WallFriction;
         use crate::sim::model::Model;
         use crate::sim::timestep::Integrator;

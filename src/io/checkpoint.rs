@@ -24,8 +24,8 @@
 //! the case; version 7 before the box and gravity) are refused, with a message that says
 //! so.
 
-use crate::sim::clusters::PairStructure;
 use crate::sim::kernel::Kernel;
+use crate::sim::lists::PairStructure;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
 use crate::sim::params::Domain;

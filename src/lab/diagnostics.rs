@@ -174,7 +174,7 @@ fn csv_number(x: f64) -> String {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct PairCounts {
     /// Pairs the tiles hold as candidates (every partner of every first slot of every
-    /// tile: what the scalar kernel tests; the SIMD kernels' lanes on clusters are
+    /// tile: what the scalar kernel tests; the SIMD kernels' lanes are
     /// `Simulation::pair_lanes`).
     pub tested: u64,
     /// Those closer than h at the current positions.

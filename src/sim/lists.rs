@@ -20,6 +20,31 @@ use crate::sim::neighbours::Tile;
 use crate::sim::particles::{AxisArrays, PADDING};
 use wide::f32x16;
 
+/// The neighbour structure the SIMD pair loops run on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
+pub enum PairStructure {
+    /// The tiles of whole neighbour cells (`sim::neighbours`), for comparison: what the
+    /// scalar and reference kernels and scattered scenes run on either way.
+    Tiles,
+    /// Each particle's list of partners within the cut-off (`sim::lists`), on dense
+    /// scenes, for every model on the simd, simd8 and mixed kernels (tiles elsewhere).
+    #[default]
+    Lists,
+}
+
+impl PairStructure {
+    /// Every structure.
+    pub const ALL: [PairStructure; 2] = [PairStructure::Tiles, PairStructure::Lists];
+
+    /// Its name on the command line and in checkpoints.
+    pub fn name(self) -> &'static str {
+        match self {
+            PairStructure::Tiles => "tiles",
+            PairStructure::Lists => "lists",
+        }
+    }
+}
+
 /// Entries after the last list, so that a group of 8 read from any list's start stays in
 /// the array.
 pub const TAIL: usize = 8;

@@ -14,7 +14,6 @@
 //! models below the driver ([`simulation`]).
 
 pub mod cells;
-pub mod clusters;
 pub mod grid;
 pub mod isa;
 pub mod kernel;

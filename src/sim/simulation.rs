@@ -5,11 +5,10 @@
 //! computes between placing the particles and advancing the clock is the model's
 //! ([`crate::sim::model::Dynamics`]); the driver names none.
 
-use crate::sim::cells::{CellOrder, SENTINELS};
-use crate::sim::clusters::{Clusters, PairStructure};
+use crate::sim::cells::CellOrder;
 use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::isa::InstructionSet;
-use crate::sim::lists::{ListLayout, NeighbourLists};
+use crate::sim::lists::{ListLayout, NeighbourLists, PairStructure};
 use crate::sim::method::Method;
 use crate::sim::model::{Context, Dynamics, Partnerless};
 use crate::sim::neighbours::{Tile, TileSearch};
@@ -73,9 +72,6 @@ pub struct Simulation {
     search: TileSearch,
     /// The neighbour structure the SIMD pair loops run on.
     structure: PairStructure,
-    /// The clusters of the current placement, if built ([`Self::build_clusters`]).
-    clusters: Clusters,
-    clusters_built: bool,
     /// The neighbour lists of the current placement, if built ([`Self::build_lists`]).
     lists: NeighbourLists,
     lists_built: bool,
@@ -160,7 +156,7 @@ impl Simulation {
     /// The state after stage 1 of a step, as a trace records it: `particles` in any order
     /// with every field kept, and `blocks` the block stage 1 gave each of them (which the
     /// wall stages use even after the particles have moved); placed as stage 1 places
-    /// them (on clusters where a step would run on them).
+    /// them.
     pub fn after_stage_one(
         params: Params,
         grid: Grid,
@@ -205,8 +201,6 @@ impl Simulation {
             cells: CellOrder::default(),
             search: TileSearch::default(),
             structure: PairStructure::default(),
-            clusters: Clusters::default(),
-            clusters_built: false,
             lists: NeighbourLists::default(),
             lists_built: false,
             list_layout: None,
@@ -280,15 +274,12 @@ impl Simulation {
             + self.spare.heap_bytes()
             + self.cells.heap_bytes()
             + self.search.heap_bytes()
-            + self.clusters.heap_bytes()
             + self.lists.heap_bytes()
             + self.dynamics.heap_bytes()
             + self.skin.as_ref().map_or(0, Skin::heap_bytes)
     }
 
-    /// The tiles of candidate pairs of the current step (not searched for where the
-    /// step's pair passes run on clusters: empty or of an earlier placement then, but in
-    /// [`Self::with_fresh_densities`]'s copies). Like the lists and clusters, they index
+    /// The tiles of candidate pairs of the current step. Like the lists, they index
     /// the particles as placed: [`Self::particles`], or the compact copy of those that
     /// may have a pair where a step left them in place ([`CellOrder::is_in_place`]);
     /// [`Self::with_fresh_densities`] gives a copy placed in cell order.
@@ -302,23 +293,13 @@ impl Simulation {
         self.lists_built.then_some(&self.lists)
     }
 
-    /// The clusters of the current placement, where its pair passes run on them.
-    #[cfg(test)]
-    pub(crate) fn clusters(&self) -> Option<&Clusters> {
-        self.clusters_built.then_some(&self.clusters)
-    }
-
     /// The pair lanes a pass over every candidate of the current placement evaluates on
     /// the run's kernel and structure (a SIMD kernel's masked lanes included): on the
-    /// clusters, 16 per cluster pair (each cluster with itself and with each cluster of
-    /// its windows); on the tiles, each first slot's partner range rounded up to whole
+    /// tiles, each first slot's partner range rounded up to whole
     /// groups of the kernel's lanes (1 per pair on the scalar and reference kernels).
     /// On the lists, each slot's list rounded up to whole groups of the kernel's lanes.
     /// The density pass of the course models is such a pass.
     pub fn pair_lanes(&self) -> u64 {
-        if self.clusters_built {
-            return self.clusters.candidate_lanes();
-        }
         let lanes = self.method.kernel.lanes();
         if self.lists_built {
             let groups: usize = (0..self.lists.slots())
@@ -372,10 +353,9 @@ impl Simulation {
             // copy's kernel: kept until the skin goes stale, and what a resume of the
             // copy's checkpoint rebuilds.
             copy.find_neighbours_as_built();
-        } else if copy.clusters_built || copy.lists_built {
+        } else if copy.lists_built {
             // Until the next step places them, the copy's passes run on the tiles of
             // the same cell order.
-            copy.clusters_built = false;
             copy.lists_built = false;
             copy.find_tiles();
         }
@@ -504,7 +484,7 @@ impl Simulation {
         self.time_step = time_step;
     }
 
-    /// Reuses the cell order and lists (or tiles, or clusters) from step to step with a
+    /// Reuses the cell order and lists (or tiles) from step to step with a
     /// skin `width` metres wide ([`crate::sim::skin`]), or (`None`) rebuilds them every
     /// step; a simulation starts with its model's ([`Dynamics::default_skin`]). Takes
     /// effect at the next step, which builds them.
@@ -582,8 +562,7 @@ impl Simulation {
     }
 
     /// A copy whose densities are those of the current positions (stage 1 and the model's
-    /// density stages run on the copy), with the copy's cell order and tiles (found even
-    /// where its pair passes run on clusters): for looking at a state without disturbing
+    /// density stages run on the copy), with the copy's cell order and tiles: for looking at a state without disturbing
     /// the run. A model whose densities are states of their own is placed (stage 1), its
     /// densities those it predicts for the current time (the velocity Verlet keeps them at
     /// the half step).
@@ -592,10 +571,6 @@ impl Simulation {
         copy.reposition();
         let (dynamics, mut context) = copy.model_and_context();
         dynamics.refresh_densities(&mut context);
-        if copy.clusters_built {
-            // For counting its pairs.
-            copy.find_tiles();
-        }
         copy
     }
 
@@ -692,7 +667,6 @@ impl Simulation {
             params: &self.params,
             kernel: self.method.kernel,
             tiles: self.search.tiles(),
-            clusters: self.clusters_built.then_some(&self.clusters),
             lists: self.lists_built.then_some(&self.lists),
             walls: self.cells.walls(),
             placement: self.placement,
@@ -743,10 +717,6 @@ impl Simulation {
                 // The lists of an earlier step still hold every pair closer than h.
                 self.reset_for_pairs();
                 self.cells.refresh_walls(&self.grid, &self.particles);
-                if self.clusters_built {
-                    // Kept with the cell order, with their lists.
-                    self.clusters.repack(&self.particles);
-                }
                 return;
             }
             Some(skin) => self.cells.sort_on(skin.grid(), &self.grid, &self.particles),
@@ -766,7 +736,7 @@ impl Simulation {
                 self.spare
                     .gather_for_pairs(&self.particles, paired, gravity);
             }
-            (self.lists_built, self.clusters_built) = (false, false);
+            self.lists_built = false;
             return;
         }
         if moved {
@@ -834,18 +804,13 @@ impl Simulation {
         }
     }
 
-    /// The neighbour structure of the placement: its lists or clusters where the pair
-    /// passes run on them ([`Self::build_lists`], [`Self::build_clusters`]), else its
-    /// tiles.
+    /// The neighbour structure of the placement: its lists where the pair passes run on
+    /// them ([`Self::build_lists`]), else its tiles.
     fn find_neighbours(&mut self) {
         let on_lanes = self.method.kernel.runs_on_lanes() && !self.cells.is_sparse();
-        let on_lists = self.structure == PairStructure::Lists;
-        self.lists_built = on_lanes && on_lists;
-        self.clusters_built = on_lanes && !on_lists && self.structure != PairStructure::Tiles;
+        self.lists_built = on_lanes && self.structure == PairStructure::Lists;
         if self.lists_built {
             self.build_lists();
-        } else if self.clusters_built {
-            self.build_clusters();
         } else {
             self.find_tiles();
         }
@@ -882,17 +847,6 @@ impl Simulation {
         };
         self.lists.set_layout(layout);
         self.lists_built = self.lists.build(tiles, &particles.p, n, reach).is_ok();
-    }
-
-    /// Clusters of the placement's cell order at the current positions.
-    fn build_clusters(&mut self) {
-        let keys = self.cells.keys();
-        let paired = &keys[..keys.len() - SENTINELS];
-        let layout = self.cells.layout();
-        let skin = self.skin.as_ref().map_or(0.0, Skin::width);
-        let reach = self.params.h + skin;
-        let particles = placed(&self.cells, &self.particles, &self.spare);
-        self.clusters.build(paired, layout, particles, reach);
     }
 
     /// Stage 2: accelerations to gravity, and densities to zero unless they are states.
@@ -1086,50 +1040,23 @@ mod tests {
         })
     }
 
-    /// The candidate pairs of slots of `sim`'s clusters where its pair passes run on
-    /// them (each cluster's pairs among its particles and with the clusters of its
-    /// windows), else of its tiles.
+    /// The candidate pairs of slots of `sim`'s lists where its pair passes run on them,
+    /// else of its tiles.
     fn candidate_pairs(sim: &Simulation) -> Vec<(usize, usize)> {
-        use crate::sim::clusters::{CLUSTER, EMPTY};
-        if sim.lists_built {
-            let lists = &sim.lists;
-            let listed = (0..lists.slots())
-                .flat_map(|i| lists.partners(i).iter().map(move |&j| (i, j as usize)));
-            return listed.collect();
-        }
-        if !sim.clusters_built {
+        if !sim.lists_built {
             return tile_pairs(sim).collect();
         }
-        let clusters = &sim.clusters;
-        let slots = |k: usize| -> Vec<usize> {
-            let places = &clusters.places()[k * CLUSTER..(k + 1) * CLUSTER];
-            places
-                .iter()
-                .filter(|&&slot| slot != EMPTY)
-                .map(|&slot| slot as usize)
-                .collect()
-        };
-        let mut candidates = Vec::new();
-        for own in 0..clusters.empty_cluster() {
-            let mine = slots(own);
-            for (at, &i) in mine.iter().enumerate() {
-                candidates.extend(mine[at + 1..].iter().map(|&j| (i, j)));
-            }
-            for k in clusters.candidates(own) {
-                let theirs = slots(k);
-                for &i in &mine {
-                    candidates.extend(theirs.iter().map(|&j| (i, j)));
-                }
-            }
-        }
-        candidates
+        let lists = &sim.lists;
+        (0..lists.slots())
+            .flat_map(|i| lists.partners(i).iter().map(move |&j| (i, j as usize)))
+            .collect()
     }
 
     /// Steps `particles` 60 times with lists kept with a skin of 0.3 h (the pair loops
     /// on `structure`) and with tiles rebuilt every step; checks at every step that the
-    /// kept tiles or clusters hold every pair closer than h, and returns the builds and
+    /// kept tiles or lists hold every pair closer than h, and returns the builds and
     /// the largest distance between the runs; panics if the last step was asked to run
-    /// on clusters of a dense scene and did not.
+    /// on lists of a dense scene and did not.
     fn run_with_and_without_a_skin(particles: Particles, structure: PairStructure) -> (u64, f64) {
         let method = Method {
             model: Model::Fluidanimate,
@@ -1163,10 +1090,6 @@ mod tests {
         let largest = largest_distance(&sim, &rebuilt);
         assert!(sim.heap_bytes() > rebuilt.heap_bytes());
         let dense = !sim.cells.is_sparse();
-        assert_eq!(
-            sim.clusters_built,
-            structure == PairStructure::Clusters && dense
-        );
         assert_eq!(sim.lists_built, structure == PairStructure::Lists && dense);
         (sim.skin().unwrap().builds(), largest)
     }
@@ -1456,8 +1379,8 @@ mod tests {
     }
 
     #[test]
-    fn a_copy_for_another_kernel_keeps_every_pair_of_kept_clusters() {
-        // On clusters with a skin, then copied for the scalar kernel (tiles only) while
+    fn a_copy_for_another_kernel_keeps_every_pair_of_kept_lists() {
+        // On lists with a skin, then copied for the scalar kernel (tiles only) while
         // the skin is fresh: the copy's next steps find the same pairs on the tiles of
         // the same cell order.
         let method = |kernel| Method {
@@ -1466,10 +1389,10 @@ mod tests {
         };
         let mut sim =
             Simulation::with_method(150.0, splashing_block(), method(Kernel::Simd)).unwrap();
-        sim.set_pair_structure(PairStructure::Clusters);
+        sim.set_pair_structure(PairStructure::Lists);
         sim.set_skin(Some(0.3 * sim.params().h)).unwrap();
         sim.step();
-        assert!(sim.clusters_built);
+        assert!(sim.lists_built);
         let mut copy = sim.clone_with_method(method(Kernel::Scalar)).unwrap();
         for _ in 0..2 {
             sim.step();
@@ -1515,12 +1438,8 @@ mod tests {
         // The lists go stale now and then, not every step.
         let block = splashing_block();
         // The same pairs, the same physics: only the order of the sums differs, on the
-        // tiles, on clusters with their windows kept and on the neighbour lists kept.
-        for structure in [
-            PairStructure::Tiles,
-            PairStructure::Clusters,
-            PairStructure::Lists,
-        ] {
+        // tiles and on the neighbour lists kept.
+        for structure in PairStructure::ALL {
             let (builds, largest) = run_with_and_without_a_skin(block.clone(), structure);
             assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
             assert!(largest < 1e-9, "{structure:?}: {largest}");
@@ -1541,11 +1460,9 @@ mod tests {
                 cloud.p[axis][slot] = cloud.p[axis][partner] + 0.006;
             }
         }
-        for structure in [PairStructure::Clusters, PairStructure::Lists] {
-            let (builds, largest) = run_with_and_without_a_skin(cloud.clone(), structure);
-            assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
-            assert!(largest < 1e-9, "{largest}");
-        }
+        let (builds, largest) = run_with_and_without_a_skin(cloud, PairStructure::Lists);
+        assert!(builds > 1 && builds < 40, "{builds} builds in 60 steps");
+        assert!(largest < 1e-9, "{largest}");
     }
 
     /// Steps `start` `steps` times, and resumes a copy from the checkpointed state
@@ -1620,14 +1537,12 @@ mod tests {
         assert!(cloud.cells().is_sparse());
         assert!(!cloud.skin().unwrap().kept().sorted_sparse);
         assert_resumes_bit_for_bit(&cloud, 6);
-        // Kept clusters and tiles; a skin expired by a change of structure, and one set
-        // but not yet built.
-        for structure in [PairStructure::Clusters, PairStructure::Tiles] {
-            let mut other = wcsph.clone();
-            other.set_pair_structure(structure);
-            assert!(other.skin().unwrap().is_stale_by_build());
-            assert_resumes_bit_for_bit(&other, 12);
-        }
+        // Kept tiles; a skin expired by a change of structure, and one set but not yet
+        // built.
+        let mut other = wcsph.clone();
+        other.set_pair_structure(PairStructure::Tiles);
+        assert!(other.skin().unwrap().is_stale_by_build());
+        assert_resumes_bit_for_bit(&other, 12);
         let mut unbuilt = wcsph.clone();
         unbuilt.set_skin(Some(0.1 * unbuilt.params().h)).unwrap();
         assert_resumes_bit_for_bit(&unbuilt, 12);

@@ -1,5 +1,5 @@
 //! Neighbour lists reused with a skin (Verlet lists): the cell order and tiles (and the
-//! neighbour lists within h + skin, or clusters with windows found at h + skin) are built
+//! neighbour lists within h + skin) are built
 //! on cells of at least h + skin, and kept while no particle has moved more than half the
 //! skin since the build. Two particles closer than h now were then closer than h + skin,
 //! so in the same or adjacent cells of the build: the kept tiles hold every pair closer

@@ -10,8 +10,8 @@ use crate::lab::machine;
 use crate::lab::progress::{Goal, Progress};
 use crate::lab::scene::{self, Region};
 use crate::lab::UsageError;
-use crate::sim::clusters::PairStructure;
 use crate::sim::kernel::Kernel;
+use crate::sim::lists::PairStructure;
 use crate::sim::method::Method;
 use crate::sim::model::wcsph::{Settings, WallFriction};
 use crate::sim::model::{Dynamics, Model, Wcsph};
@@ -60,7 +60,7 @@ pub struct SimulationArgs {
     /// shorter of sqrt(h/|a|) and h/(c_0+|hv|) (C about 0.2, its default).
     #[arg(long, allow_negative_numbers = true, value_name = "C", conflicts_with = "dt", value_parser = parse_courant)]
     pub adaptive: Option<f64>,
-    /// Reuse the cell order and neighbour lists (or tiles, or clusters) with a skin this
+    /// Reuse the cell order and neighbour lists (or tiles) with a skin this
     /// many cut-offs wide, rebuilding them when a particle has moved half the skin (the
     /// pairs closer than the cut-off stay exactly those of a rebuild every step); 0
     /// rebuilds them every step. Default: the weakly compressible model 0.05, whose

@@ -1,6 +1,5 @@
 //! The pair loops, the hot part of a time step, over the neighbour structures (the tiles
-//! of the neighbour search; on dense scenes, the SIMD loops over the neighbour lists, or
-//! on clusters where asked):
+//! of the neighbour search; on dense scenes, the SIMD loops over the neighbour lists):
 //! each model's pair terms are passes ([`PairPass`]: the course models' density and
 //! acceleration stages 3-5, [`Densities`] and [`Accelerations`], and the weakly
 //! compressible model's [`WeaklyCompressible`]), and [`Kernel::run`] maps a kernel to its
@@ -11,25 +10,19 @@
 //! by the densities' reciprocals rather than dividing by their product: the reference
 //! outputs depend on neither (SPEC.md section 5; every one holds byte for byte). [`Kernel::Reference`] sums each
 //! particle's terms in id order with compensated summation, for accuracy measurements.
-//! A fifth, [`Kernel::Mixed`], computes the pair terms in f32 lanes: on tiles, the SIMD
-//! loop with each pair's differences taken in f64 and narrowed; on the course models'
-//! clusters, its own loops (`narrowed`: a cluster pair per 16-lane register, with what the
-//! terms read narrowed once per placement, positions relative to each cluster's first
-//! particle; a particle's sums over a cluster's partners in f32, its totals in f64); sums
-//! by particle in f64. Less exact (within 5e-7 relative on a dense step), a workbench
-//! method.
+//! A fifth, [`Kernel::Mixed`], computes the pair terms in f32 lanes, the SIMD loops with
+//! each pair's differences taken in f64 and narrowed; sums by particle in f64. Less exact
+//! (within 5e-7 relative on a dense step), a workbench method.
 //!
-//! On tiles and clusters the density loop also records where the pairs closer than h are
+//! On tiles the density loop also records where the pairs closer than h are
 //! ([`ClosePairs`]): the acceleration loop, over the same positions, visits only those
-//! tiles and, on the SIMD kernels, only those groups of partners (a lane-width each), or
-//! on clusters only those clusters for those particles, without testing the others
-//! again. The lists hold only such pairs already (within the skin, where kept).
+//! tiles and, on the SIMD kernels, only those groups of partners (a lane-width each),
+//! without testing the others again. The lists hold only such pairs already (within the
+//! skin, where kept).
 
 mod across;
-mod clustered;
 pub mod floor;
 mod listed;
-mod narrowed;
 mod reference;
 mod scalar;
 mod simd;
@@ -39,7 +32,6 @@ pub(crate) use simd::Lanes;
 use simd::{F64x4, F64x8, MixedF32x8};
 pub use wcsph::{NearWalls, Rates, State, WcsphConstants, WeaklyCompressible};
 
-use crate::sim::clusters::Clusters;
 use crate::sim::isa::Record;
 use crate::sim::lists::NeighbourLists;
 use crate::sim::neighbours::Tile;
@@ -57,12 +49,10 @@ pub enum Kernel {
     /// As the simd kernel, eight partners at a time in `wide::f64x8` lanes (one AVX-512
     /// register; two AVX2 registers elsewhere).
     Simd8,
-    /// Mixed precision: the pair terms in f32 lanes, the sums by particle in f64. On tiles (and for
-    /// the weakly compressible model) eight partners at a time, each pair's differences
-    /// computed in f64 and narrowed; on the course models' clusters a cluster of 4 against
-    /// a cluster of 4 in 16 lanes, positions narrowed once per placement relative to each
-    /// cluster's first particle. Not held to the reference outputs (within 5e-7 relative on
-    /// a dense step); a workbench method.
+    /// Mixed precision: the pair terms in f32 lanes, the sums by particle in f64: eight
+    /// partners (or particles) at a time, each pair's differences computed in f64 and
+    /// narrowed. Not held to the reference outputs (within 5e-7 relative on a dense step);
+    /// a workbench method.
     Mixed,
     /// Each particle's sums on their own, over its partners in id order, with compensated
     /// (Neumaier) summation: the reference trajectory for accuracy measurements (slow).
@@ -119,8 +109,8 @@ impl Kernel {
         }
     }
 
-    /// Whether the kernel has loops on neighbour lists and [`Clusters`] (the SIMD
-    /// kernels; the others run on the tiles only).
+    /// Whether the kernel has loops on neighbour lists (the SIMD kernels; the others run
+    /// on the tiles only).
     pub fn runs_on_lanes(self) -> bool {
         self.lanes() > 1
     }
@@ -132,7 +122,7 @@ impl Kernel {
             Kernel::Scalar => pass.scalar(),
             Kernel::Simd => pass.lanes::<F64x4>(),
             Kernel::Simd8 => pass.lanes::<F64x8>(),
-            Kernel::Mixed => pass.mixed(),
+            Kernel::Mixed => pass.lanes::<MixedF32x8>(),
             Kernel::Reference => pass.reference(),
         }
     }
@@ -154,13 +144,6 @@ pub(crate) trait PairPass {
     fn scalar(self);
     /// A lane-width of partners at a time, on lanes `L`.
     fn lanes<L: Lanes>(self);
-    /// The mixed kernel: on [`MixedF32x8`] lanes unless the pass has loops of its own.
-    fn mixed(self)
-    where
-        Self: Sized,
-    {
-        self.lanes::<MixedF32x8>();
-    }
     /// Each particle's terms on their own, in id order, with compensated sums.
     fn reference(self);
 }
@@ -179,101 +162,37 @@ pub struct ClosePairs {
     /// [`Tile::partners`], L the kernel's lanes) hold such a pair; bit 63 stands for every
     /// group from the 63rd on. The SIMD kernels keep all tiles of a cell with any such pair.
     pub groups: Vec<u64>,
-    /// On [`Clusters`]: for each cluster, in order, the clusters of its list holding a
-    /// partner closer than h to one of its particles (on the f64 kernels each entry also
-    /// holds, in its top bits, which of its particles have one).
-    pub clusters: Vec<u32>,
-    /// Where each cluster's entries start in [`Self::clusters`], then their end.
-    pub starts: Vec<u32>,
 }
 
 impl ClosePairs {
     /// The bytes its buffers hold on the heap.
     pub fn heap_bytes(&self) -> usize {
-        crate::sim::heap_bytes(&self.tiles)
-            + crate::sim::heap_bytes(&self.groups)
-            + crate::sim::heap_bytes(&self.clusters)
-            + crate::sim::heap_bytes(&self.starts)
+        crate::sim::heap_bytes(&self.tiles) + crate::sim::heap_bytes(&self.groups)
     }
 
     fn clear(&mut self) {
         self.tiles.clear();
         self.groups.clear();
-        self.clusters.clear();
-        self.starts.clear();
     }
 }
 
-/// The per-place copies the loops on [`Clusters`] read and sum into (reused from step to
-/// step): velocities and densities by place, and the sums of densities and
-/// accelerations, added back to the particles' slots at the end of a pass; and the
-/// densities' reciprocals of the SIMD acceleration loops.
+/// The copies the SIMD loops read (reused from step to step): over the lists, a record
+/// per slot of what a pass reads of a partner; on the tiles, the densities' reciprocals.
 #[derive(Debug, Clone, Default)]
 pub struct Packed {
-    /// Velocities by place.
-    v: AxisArrays,
-    /// Densities by place (the density pass's sums, then the densities).
-    rho: Vec<f64>,
-    /// The densities' reciprocals (by place on [`Clusters`], else by slot).
+    /// The densities' reciprocals by slot, of the acceleration loops on the tiles.
     inverse_rho: Vec<f64>,
-    /// On [`Clusters`], while the acceleration pass lists them: for each particle of a
-    /// cluster, the clusters recorded with a partner closer than h to it (in the weakly
-    /// compressible pass, a particle's clusters with a partner within the support).
-    per_particle: Vec<u32>,
-    /// Accelerations by place.
-    a: AxisArrays,
-    /// The weakly compressible model's p / rho^2 by place.
-    pressure_terms: Vec<f64>,
-    /// The weakly compressible model's density rates by place.
-    rates: Vec<f64>,
-    /// The mixed kernel's values narrowed once per placement.
-    narrowed: Narrowed,
-    /// On [`NeighbourLists`], a record per slot of what the pass reads of a partner:
-    /// positions (and the densities or, in the density pass, the partners' sums).
+    /// A record per slot of what the pass reads of a partner: positions (and the
+    /// densities or, in the density pass, the partners' sums).
     records: Vec<Record>,
-    /// On [`NeighbourLists`], velocities and the densities' reciprocals by slot.
+    /// Velocities and the densities' reciprocals by slot.
     velocities: Vec<Record>,
-}
-
-/// What the mixed kernel's loops on [`Clusters`] read, narrowed to f32: per cluster, a
-/// register of 16 lanes holding its 4 particles' values in each run of 4 lanes, as a
-/// partner cluster meets them (`kernel::narrowed`).
-#[derive(Debug, Clone, Default)]
-struct Narrowed {
-    /// Positions relative to their cluster's first particle (infinite at empty places).
-    p: [Vec<wide::f32x16>; 3],
-    /// Velocities.
-    v: [Vec<wide::f32x16>; 3],
-    /// Densities less the rest density.
-    excess: Vec<wide::f32x16>,
-    /// The densities' reciprocals.
-    inverse_rho: Vec<wide::f32x16>,
-}
-
-impl Narrowed {
-    /// The bytes its buffers hold on the heap.
-    fn heap_bytes(&self) -> usize {
-        self.p
-            .iter()
-            .chain(&self.v)
-            .chain([&self.excess, &self.inverse_rho])
-            .map(crate::sim::heap_bytes)
-            .sum()
-    }
 }
 
 impl Packed {
     /// The bytes its buffers hold on the heap.
     pub fn heap_bytes(&self) -> usize {
-        let axes = |arrays: &AxisArrays| arrays.iter().map(crate::sim::heap_bytes).sum::<usize>();
-        axes(&self.v)
-            + crate::sim::heap_bytes(&self.rho)
-            + crate::sim::heap_bytes(&self.inverse_rho)
-            + crate::sim::heap_bytes(&self.per_particle)
-            + axes(&self.a)
-            + crate::sim::heap_bytes(&self.pressure_terms)
-            + crate::sim::heap_bytes(&self.rates)
-            + self.narrowed.heap_bytes()
+        crate::sim::heap_bytes(&self.inverse_rho)
             + crate::sim::heap_bytes(&self.records)
             + crate::sim::heap_bytes(&self.velocities)
     }
@@ -295,21 +214,10 @@ impl<'a> Candidates<'a> {
             Candidates::Close(close) => &close.tiles,
         }
     }
-
-    /// The clusters a density pass recorded, if it ran on clusters of `clusters`' count
-    /// (`Close` of the same placement: the driver and the model make sure of that).
-    fn recorded_on(&self, clusters: &Clusters) -> Option<&'a ClosePairs> {
-        match *self {
-            Candidates::Close(close) if close.starts.len() == clusters.empty_cluster() + 1 => {
-                Some(close)
-            }
-            _ => None,
-        }
-    }
 }
 
 /// Stage 3: adds (h^2 - r^2)^3 to both raw density sums of every candidate pair (of
-/// `tiles`, or of `clusters` where given) closer than h, and records in `close` (cleared
+/// `tiles`, or of `lists` where given) closer than h, and records in `close` (cleared
 /// first) where such pairs are.
 #[derive(Debug)]
 pub struct Densities<'a> {
@@ -317,10 +225,8 @@ pub struct Densities<'a> {
     pub params: &'a Params,
     /// The candidate pairs.
     pub tiles: &'a [Tile],
-    /// The clusters of the same placement, which the SIMD kernels run on where given.
-    pub clusters: Option<&'a Clusters>,
     /// The neighbour lists of the same placement, which the SIMD kernels run on where
-    /// given (before clusters).
+    /// given.
     pub lists: Option<&'a NeighbourLists>,
     /// Positions.
     pub p: &'a AxisArrays,
@@ -330,7 +236,7 @@ pub struct Densities<'a> {
     pub rho: &'a mut [f64],
     /// Where pairs closer than h are, for [`Candidates::Close`].
     pub close: &'a mut ClosePairs,
-    /// The copies by place, on [`Clusters`].
+    /// The copies the loops over the lists read.
     pub packed: &'a mut Packed,
 }
 
@@ -341,22 +247,12 @@ impl PairPass for Densities<'_> {
     }
     fn lanes<L: Lanes>(self) {
         self.close.clear();
-        match (self.lists, self.clusters) {
-            (Some(lists), _) => match lists.rows() {
+        match self.lists {
+            Some(lists) => match lists.rows() {
                 Some(rows) => across::increment_densities::<L>(self, rows),
                 None => listed::increment_densities::<L>(self, lists),
             },
-            (None, Some(clusters)) => clustered::increment_densities::<L>(self, clusters),
-            (None, None) => simd::increment_densities::<L>(self),
-        }
-    }
-    fn mixed(self) {
-        match (self.lists, self.clusters) {
-            (None, Some(clusters)) => {
-                self.close.clear();
-                narrowed::increment_densities(self, clusters);
-            }
-            _ => self.lanes::<MixedF32x8>(),
+            None => simd::increment_densities::<L>(self),
         }
     }
     fn reference(self) {
@@ -382,10 +278,8 @@ pub struct Accelerations<'a, const FLUIDANIMATE: bool> {
     pub params: &'a Params,
     /// The candidate pairs.
     pub candidates: Candidates<'a>,
-    /// The clusters of the same placement, which the SIMD kernels run on where given.
-    pub clusters: Option<&'a Clusters>,
     /// The neighbour lists of the same placement, which the SIMD kernels run on where
-    /// given (before clusters).
+    /// given.
     pub lists: Option<&'a NeighbourLists>,
     /// Positions.
     pub p: &'a AxisArrays,
@@ -397,7 +291,7 @@ pub struct Accelerations<'a, const FLUIDANIMATE: bool> {
     pub id: &'a [u32],
     /// Accelerations, added to.
     pub a: &'a mut AxisArrays,
-    /// The copies by place, on [`Clusters`].
+    /// The copies the loops over the lists read.
     pub packed: &'a mut Packed,
 }
 
@@ -406,23 +300,12 @@ impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
         scalar::transfer_accelerations(self);
     }
     fn lanes<L: Lanes>(self) {
-        match (self.lists, self.clusters) {
-            (Some(lists), _) => match lists.rows() {
+        match self.lists {
+            Some(lists) => match lists.rows() {
                 Some(rows) => across::transfer_accelerations::<L, FLUIDANIMATE>(self, rows),
                 None => listed::transfer_accelerations::<L, FLUIDANIMATE>(self, lists),
             },
-            (None, Some(clusters)) => {
-                clustered::transfer_accelerations::<L, FLUIDANIMATE>(self, clusters)
-            }
-            (None, None) => simd::transfer_accelerations::<L, FLUIDANIMATE>(self),
-        }
-    }
-    fn mixed(self) {
-        match (self.lists, self.clusters) {
-            (None, Some(clusters)) => {
-                narrowed::transfer_accelerations::<FLUIDANIMATE>(self, clusters)
-            }
-            _ => self.lanes::<MixedF32x8>(),
+            None => simd::transfer_accelerations::<L, FLUIDANIMATE>(self),
         }
     }
     fn reference(self) {
@@ -432,9 +315,9 @@ impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
 
 #[cfg(test)]
 mod tests {
-    use crate::sim::clusters::PairStructure;
     use crate::sim::kernel::Kernel;
     use crate::sim::lists::ListLayout;
+    use crate::sim::lists::PairStructure;
     use crate::sim::method::Method;
     use crate::sim::model::Model;
     use crate::sim::params::BOX_MIN;
@@ -469,11 +352,7 @@ mod tests {
         let ppm = 292.0;
         // The weakly compressible model's kernels are compared in `wcsph`'s tests; the
         // SIMD kernels run on every structure.
-        let structures = [
-            PairStructure::Lists,
-            PairStructure::Clusters,
-            PairStructure::Tiles,
-        ];
+        let structures = PairStructure::ALL;
         for (model, structure) in [Model::Course, Model::Fluidanimate]
             .into_iter()
             .flat_map(|model| structures.map(|structure| (model, structure)))
@@ -600,72 +479,6 @@ mod tests {
             assert!(density_error < tolerance, "{what}");
             assert!(acceleration_error < tolerance, "{what}");
             assert!(acceleration_error > 0.0, "{what}: the same order");
-        }
-    }
-
-    #[test]
-    fn the_mixed_loops_on_clusters_find_every_pair_with_or_without_the_density_pass_s_list() {
-        // The acceleration pass of the mixed kernel on clusters, after its density pass
-        // (the clusters it recorded) and alone (every cluster of the windows, positions
-        // narrowed by the pass itself): the same terms, up to the order of the sums.
-        use super::{Accelerations, Candidates, ClosePairs, Densities, Packed};
-        let ppm = 292.0;
-        let method = Method {
-            model: Model::Fluidanimate,
-            kernel: Kernel::Mixed,
-        };
-        let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
-        sim.set_pair_structure(PairStructure::Clusters);
-        sim.run_stage(Stage::Reposition);
-        let clusters = sim.clusters().expect("a dense block runs on clusters");
-        let placed = sim.particles();
-        let params = sim.params();
-        let (mut close, mut packed) = (ClosePairs::default(), Packed::default());
-        let mut rho = vec![0.0; placed.rho.len()];
-        Kernel::Mixed.run(Densities {
-            params,
-            tiles: sim.tiles(),
-            clusters: Some(clusters),
-            lists: None,
-            p: &placed.p,
-            id: &placed.id,
-            rho: &mut rho,
-            close: &mut close,
-            packed: &mut packed,
-        });
-        let n = placed.len();
-        super::transform_densities(params, &mut rho[..n]);
-        assert!(!close.clusters.is_empty());
-        let accelerations = |candidates: Candidates, packed: &mut Packed| {
-            let mut a = placed.a.clone();
-            for axis in &mut a {
-                axis.fill(0.0);
-            }
-            Kernel::Mixed.run(Accelerations::<true> {
-                params,
-                candidates,
-                clusters: Some(clusters),
-                lists: None,
-                p: &placed.p,
-                v: &placed.v,
-                rho: &rho,
-                id: &placed.id,
-                a: &mut a,
-                packed,
-            });
-            a
-        };
-        let listed = accelerations(Candidates::Close(&close), &mut packed);
-        let alone = accelerations(Candidates::All(&[]), &mut Packed::default());
-        let largest = (0..n)
-            .map(|s| crate::sim::particles::vector_at(&listed, s).length())
-            .fold(0.0, f64::max);
-        assert!(largest > 0.0);
-        for slot in 0..n {
-            for axis in 0..3 {
-                let difference = (listed[axis][slot] - alone[axis][slot]).abs();
-                assert!(difference <= 1e-6 * largest, "slot {slot}: {difference}");
-            }
         }
     }
 }

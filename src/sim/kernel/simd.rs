@@ -55,10 +55,6 @@ pub(crate) trait Lanes {
     fn max(a: Self::V, b: Self::V) -> Self::V;
     /// The lane-wise square root.
     fn sqrt(a: Self::V) -> Self::V;
-    /// Whether each lane of a mask is set, a bit per lane from the lowest.
-    fn bitmask(mask: Self::V) -> u32;
-    /// A mask of the lanes `from..to`.
-    fn lanes_between(from: usize, to: usize) -> Self::V;
     /// The lanes of `values` at `at`.
     ///
     /// # Safety
@@ -66,14 +62,6 @@ pub(crate) trait Lanes {
     unsafe fn load(values: &[f64], at: impl Site) -> Self::V;
     /// The first half of the lanes `halves.0[0]`, the second `halves.0[1]`.
     fn halves(halves: Halves) -> Self::V;
-    /// On 8 lanes, each half holding the same cluster of 4 places: a mask of the places
-    /// after place `after[h]` of it in half `h` (unused on 4 lanes).
-    fn after_in_halves(after: [usize; 2]) -> Self::V;
-    /// The sum of the two halves in the first half, zeros in the second (used on 8
-    /// lanes).
-    fn fold_halves(v: Self::V) -> Self::V;
-    /// The totals of a sum's two halves (used on 8 lanes).
-    fn half_totals(sum: Self::Sum) -> [f64; 2];
     /// `center - ` the lanes of `values` at `at`, subtracted in f64 (a center per half).
     ///
     /// # Safety
@@ -121,22 +109,14 @@ pub(crate) trait Lanes {
     fn lanes(sum: Self::Sum) -> [f64; 8];
 }
 
-/// Where a group's lanes live in the arrays: each lane's place ([`Places`], contiguous
-/// runs; a `usize`, the lanes from it; [`Slots`], a neighbour list's slots).
+/// Where a group's lanes live in the arrays: each lane's place (a `usize`, the lanes from
+/// it; [`Slots`], a neighbour list's slots).
 pub(crate) trait Site: Copy {
     /// Whether no two lanes share a place, so that a group is read and written back
     /// whole (else lane after lane, each adding to what the one before wrote).
     const DISTINCT: bool;
     /// The place of lane `lane`.
     fn place(&self, lane: usize) -> usize;
-}
-
-impl Site for Places {
-    const DISTINCT: bool = true;
-    #[inline(always)]
-    fn place(&self, lane: usize) -> usize {
-        self.0[lane / 4] + lane % 4
-    }
 }
 
 impl Site for usize {
@@ -155,28 +135,7 @@ impl Site for Slots {
     }
 }
 
-/// Where a group of lanes lives in an array: the first place of each run of 4 lanes (a
-/// cluster's places; a group of 8 lanes reads two runs, a group of 4 the first). A
-/// `usize` stands for contiguous places from it; [`Places::fours`] for two clusters
-/// apart.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Places([usize; 2]);
-
-impl Places {
-    /// The lanes 0..4 at `first..first + 4`, the lanes 4..8 at `second..second + 4`.
-    pub(super) fn fours(first: usize, second: usize) -> Self {
-        Places([first, second])
-    }
-}
-
-impl From<usize> for Places {
-    fn from(at: usize) -> Self {
-        Places([at, at + 4])
-    }
-}
-
-/// A value for each half of a register's lanes: one particle's in both (from an `f64`),
-/// or two particles' (the clusters' paired layout on 8 lanes).
+/// A value for each half of a register's lanes: one particle's in both (from an `f64`).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Halves(pub(crate) [f64; 2]);
 
@@ -321,18 +280,6 @@ macro_rules! f64_lanes {
             }
 
             #[inline(always)]
-            fn bitmask(mask: $type) -> u32 {
-                mask.to_bitmask()
-            }
-
-            #[inline(always)]
-            fn lanes_between(from: usize, to: usize) -> $type {
-                let lanes = <$type>::new(std::array::from_fn(|k| k as f64));
-                lanes.simd_ge(<$type>::splat(from as f64))
-                    & lanes.simd_lt(<$type>::splat(to as f64))
-            }
-
-            #[inline(always)]
             unsafe fn load(values: &[f64], at: impl Site) -> $type {
                 // SAFETY: guaranteed by the caller.
                 <$type>::from(unsafe { read::<$lanes>(values, at) })
@@ -341,38 +288,6 @@ macro_rules! f64_lanes {
             #[inline(always)]
             fn halves(halves: Halves) -> $type {
                 <$type>::new(by_halves(halves))
-            }
-
-            #[inline(always)]
-            fn after_in_halves(after: [usize; 2]) -> $type {
-                let half = $lanes / 2;
-                <$type>::new(std::array::from_fn(|lane| {
-                    if lane % half > after[lane / half] {
-                        f64::from_bits(u64::MAX)
-                    } else {
-                        0.0
-                    }
-                }))
-            }
-
-            #[inline(always)]
-            fn fold_halves(v: $type) -> $type {
-                let lanes = v.to_array();
-                let half = $lanes / 2;
-                <$type>::new(std::array::from_fn(|lane| {
-                    if lane < half {
-                        lanes[lane] + lanes[lane + half]
-                    } else {
-                        0.0
-                    }
-                }))
-            }
-
-            #[inline(always)]
-            fn half_totals(sum: $type) -> [f64; 2] {
-                let lanes = sum.to_array();
-                let half = $lanes / 2;
-                [lanes[..half].iter().sum(), lanes[half..].iter().sum()]
             }
 
             #[inline(always)]
@@ -530,47 +445,8 @@ impl Lanes for MixedF32x8 {
     }
 
     #[inline(always)]
-    fn bitmask(mask: f32x8) -> u32 {
-        mask.to_bitmask()
-    }
-
-    #[inline(always)]
-    fn lanes_between(from: usize, to: usize) -> f32x8 {
-        let lanes = f32x8::new(std::array::from_fn(|k| k as f32));
-        lanes.simd_ge(f32x8::splat(from as f32)) & lanes.simd_lt(f32x8::splat(to as f32))
-    }
-
-    #[inline(always)]
     fn halves(halves: Halves) -> f32x8 {
         narrow(by_halves(halves))
-    }
-
-    #[inline(always)]
-    fn after_in_halves(after: [usize; 2]) -> f32x8 {
-        f32x8::new(std::array::from_fn(|lane| {
-            if lane % 4 > after[lane / 4] {
-                f32::from_bits(u32::MAX)
-            } else {
-                0.0
-            }
-        }))
-    }
-
-    #[inline(always)]
-    fn fold_halves(v: f32x8) -> f32x8 {
-        let lanes = v.to_array();
-        f32x8::new(std::array::from_fn(|lane| {
-            if lane < 4 {
-                lanes[lane] + lanes[lane + 4]
-            } else {
-                0.0
-            }
-        }))
-    }
-
-    #[inline(always)]
-    fn half_totals(sum: [f64x4; 2]) -> [f64; 2] {
-        sum.map(f64x4::reduce_add)
     }
 
     #[inline(always)]
@@ -803,7 +679,7 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
     /// # Safety
     /// Every place `at` names is within every array.
     #[inline(always)]
-    pub(super) unsafe fn group(&self, first: &First, at: Places, lanes: L::V) -> Option<[L::V; 3]> {
+    pub(super) unsafe fn group(&self, first: &First, at: usize, lanes: L::V) -> Option<[L::V; 3]> {
         // SAFETY: guaranteed by the caller.
         let offset = |values: &[f64], center| unsafe { L::offsets(values, at, center) };
         let d = [
@@ -922,7 +798,7 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
             L::first(end - j)
         };
         // SAFETY: guaranteed by the caller.
-        if let Some(da) = unsafe { self.group(first, j.into(), lanes) } {
+        if let Some(da) = unsafe { self.group(first, j, lanes) } {
             for axis in 0..3 {
                 L::accumulate(&mut sum[axis], da[axis]);
                 // SAFETY: guaranteed by the caller.

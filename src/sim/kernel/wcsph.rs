@@ -1,5 +1,5 @@
 //! The weakly compressible model's pair loop ([`crate::sim::model::wcsph`]): in one pass
-//! over the candidate pairs (of the tiles, or of the clusters), each pair's pressure and
+//! over the candidate pairs (of the tiles, or of the neighbour lists), each pair's pressure and
 //! viscosity acceleration and its density rates (the continuity equation and the
 //! delta-SPH diffusion), added to both particles. A particle
 //! within one support radius of a wall also meets the mirror images of its partners
@@ -16,17 +16,15 @@
 //! floor holds water at rest.
 //!
 //! Four implementations: [`scalar`] (one pair at a time), [`lanes`] (a lane-width of
-//! partners at a time over the tiles, on any [`Lanes`]), [`clustered`] (the same lanes
-//! over [`Clusters`], on dense scenes) and [`reference`] (each particle's terms summed on
-//! their own in id order with compensated sums). All share [`pair`]'s formulas; the lanes
+//! partners at a time over the tiles, on any [`Lanes`]), [`listed`] (the same lanes over
+//! the [`NeighbourLists`], on dense scenes) and [`reference`] (each particle's terms
+//! summed on their own in id order with compensated sums). All share [`pair`]'s formulas; the lanes
 //! take one division per group where [`pair`] takes four (the viscosity's and the
 //! diffusion's quotients from one reciprocal), which moves the last bits only.
 
-use super::clustered::unpack_add;
 use super::reference::Neumaier;
-use super::simd::{assert_padded, slots_used, Lanes, Places, Site};
-use super::{Packed, PairPass};
-use crate::sim::clusters::{Clusters, CLUSTER, EMPTY};
+use super::simd::{assert_padded, slots_used, Lanes, Site};
+use super::PairPass;
 use crate::sim::isa::Slots;
 use crate::sim::lists::NeighbourLists;
 use crate::sim::neighbours::Tile;
@@ -116,17 +114,15 @@ impl NearWalls {
 
 /// The weakly compressible model's one pair pass: adds every pair's (and wall image's)
 /// acceleration and density rates to `rates`, over the tiles or, where given, the
-/// clusters.
+/// neighbour lists.
 #[derive(Debug)]
 pub struct WeaklyCompressible<'a> {
     /// The pair terms' constants.
     pub constants: &'a WcsphConstants,
     /// The candidate pairs.
     pub tiles: &'a [Tile],
-    /// The clusters of the same placement, which the SIMD kernels run on where given.
-    pub clusters: Option<&'a Clusters>,
     /// The neighbour lists of the same placement (within the support), which the SIMD
-    /// kernels run on where given (before clusters).
+    /// kernels run on where given.
     pub lists: Option<&'a NeighbourLists>,
     /// What the pass reads.
     pub state: State<'a>,
@@ -134,8 +130,6 @@ pub struct WeaklyCompressible<'a> {
     pub id: &'a [u32],
     /// What the pass adds to.
     pub rates: Rates<'a>,
-    /// The copies by place, on [`Clusters`].
-    pub packed: &'a mut Packed,
 }
 
 impl PairPass for WeaklyCompressible<'_> {
@@ -143,10 +137,9 @@ impl PairPass for WeaklyCompressible<'_> {
         scalar(self);
     }
     fn lanes<L: Lanes>(self) {
-        match (self.lists, self.clusters) {
-            (Some(lists), _) => listed::<L>(self, lists),
-            (None, Some(clusters)) => clustered::<L>(self, clusters),
-            (None, None) => lanes::<L>(self),
+        match self.lists {
+            Some(lists) => listed::<L>(self, lists),
+            None => lanes::<L>(self),
         }
     }
     fn reference(self) {
@@ -671,17 +664,6 @@ impl<'a, L: Lanes> Pairs<'a, L> {
         }
     }
 
-    /// The lanes of `at` (of `lanes`) within the support of `first`, a bit each.
-    ///
-    /// # Safety
-    /// Every place of `at` is within the positions.
-    #[inline(always)]
-    unsafe fn close(&self, first: &First, at: impl Site, lanes: L::V) -> u32 {
-        // SAFETY: guaranteed by the caller.
-        let (_, r2) = unsafe { self.offsets(first, at, 0) };
-        L::bitmask(L::lt(r2, self.support2) & lanes)
-    }
-
     /// The offsets of `first` from the partners at `at`, or from their images across the
     /// walls of `set` (0: the partners themselves), and their squares' sum: one formula
     /// for the distance filter and the pair terms.
@@ -860,144 +842,11 @@ pub(super) fn listed<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists)
     self_images(constants, state, n, rates);
 }
 
-/// The pair loop on `L` lanes, over `clusters`, on copies by place of what the pass
-/// reads and adds to. Each particle of a cluster first finds, by distance alone, the
-/// clusters of its windows holding a partner within the support (a lane-width of
-/// consecutive places at a time: a window's clusters are consecutive), then meets the
-/// places after it in its own cluster and those clusters, as many per register as it
-/// holds (1 on 4 lanes, 2 on 8), so that the pair terms, bound by their square root and
-/// division, run on few lanes without a partner. An image of a partner is within the
-/// support only if the partner is ([`crate::sim::kernel::wcsph`]), so the same clusters
-/// serve the images. Empty places lie beyond every support, as do their images.
-pub(super) fn clustered<L: Lanes>(pass: WeaklyCompressible, clusters: &Clusters) {
-    let WeaklyCompressible {
-        constants,
-        state,
-        id,
-        mut rates,
-        packed,
-        ..
-    } = pass;
-    let Packed {
-        v,
-        rho,
-        pressure_terms,
-        a,
-        rates: density_rates,
-        per_particle: found,
-        ..
-    } = packed;
-    let empty = clusters.empty_cluster();
-    for (packed, source) in v.iter_mut().zip(state.v) {
-        clusters.pack(source, |_| 0.0, packed);
-    }
-    // An empty place's density only has to be a number: its lanes are masked.
-    clusters.pack(state.rho, |_| 1.0, rho);
-    clusters.pack(state.pressure_terms, |_| 0.0, pressure_terms);
-    for sums in a.iter_mut().chain([&mut *density_rates]) {
-        sums.clear();
-        sums.resize((empty + 1) * CLUSTER, 0.0);
-    }
-    let p = clusters.positions();
-    let needed = (empty + 1) * CLUSTER;
-    let per_register = L::LANES / CLUSTER;
-    assert!(per_register == 1 || per_register == 2);
-    let reads = [
-        &p[0],
-        &p[1],
-        &p[2],
-        &v[0],
-        &v[1],
-        &v[2],
-        &*rho,
-        &*pressure_terms,
-    ];
-    let sums = [&a[0], &a[1], &a[2], &*density_rates];
-    assert!(reads.iter().chain(&sums).all(|a| a.len() >= needed));
-    let packed_state = State {
-        p,
-        v,
-        rho,
-        pressure_terms,
-    };
-    let pairs = Pairs::<L>::new(constants, packed_state);
-    let [ax, ay, az] = a;
-    let mut targets = [&mut ax[..], ay, az, density_rates];
-    let places = clusters.places();
-    for own in 0..empty {
-        let windows = clusters.windows(own);
-        let base = own * CLUSTER;
-        // Its own cluster, each cluster of its windows, and a spare register's worth.
-        let most = 1
-            + windows
-                .iter()
-                .map(|&[b, e]| (e - b) as usize)
-                .sum::<usize>()
-            + per_register;
-        if found.len() < most {
-            found.resize(most, 0);
-        }
-        for place in base..base + CLUSTER {
-            if places[place] == EMPTY {
-                break;
-            }
-            let first = First::of(constants, &packed_state, place);
-            // The clusters with a partner within the support, written without a branch:
-            // each at the end, which advances only past those that hold one.
-            found[0] = own as u32;
-            let mut count = 1;
-            for &[begin, end] in windows {
-                for k in (begin..end).step_by(per_register) {
-                    let lanes = L::lanes_between(0, (end - k) as usize * CLUSTER);
-                    // SAFETY: k < end <= empty, so the places of k and k + 1 are within
-                    // (empty + 1) * CLUSTER, which every array holds (asserted).
-                    let close = unsafe { pairs.close(&first, k as usize * CLUSTER, lanes) };
-                    for c in 0..per_register {
-                        found[count] = k + c as u32;
-                        count += usize::from(close >> (c * CLUSTER) & 0b1111 != 0);
-                    }
-                }
-            }
-            // An odd count's spare half holds the empty cluster.
-            found[count] = empty as u32;
-            let mut sums = [L::ZERO_SUM; 4];
-            for (index, clusters) in found[..count + per_register - 1]
-                .chunks_exact(per_register)
-                .enumerate()
-            {
-                let at = Places::fours(
-                    clusters[0] as usize * CLUSTER,
-                    clusters[per_register - 1] as usize * CLUSTER,
-                );
-                // In its own cluster, the places after it.
-                let lanes = if index == 0 {
-                    L::lanes_between(place - base + 1, L::LANES)
-                } else {
-                    L::all()
-                };
-                // SAFETY: every cluster of `found` is at most the empty one, whose places
-                // every array holds (asserted).
-                unsafe { pairs.visit(&first, at, lanes, &mut sums, &mut targets) };
-            }
-            for (target, sum) in targets.iter_mut().zip(sums) {
-                target[place] += L::total(sum);
-            }
-        }
-    }
-    let n = id.len();
-    let rates = &mut rates;
-    let [x, y, z] = &mut *rates.a;
-    for (target, sums) in [&mut x[..], y, z, rates.rho].into_iter().zip(targets) {
-        unpack_add(places, sums, target);
-    }
-    self_images(constants, state, n, rates);
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::clusters::PairStructure;
     use crate::sim::kernel::Kernel;
+    use crate::sim::lists::PairStructure;
     use crate::sim::method::Method;
     use crate::sim::model::wcsph::{Settings, WallFriction};
     use crate::sim::model::{Model, Wcsph};
@@ -1035,7 +884,7 @@ mod tests {
     }
 
     /// The pair loop of `kernel` on `particles` (densities as given, velocities their
-    /// hv), placed in cell order, on `structure` where the kernel runs on clusters:
+    /// hv), placed in cell order, on `structure` where the kernel runs on lists:
     /// accelerations and density rates by particle id.
     fn pass(
         kernel: Kernel,
@@ -1052,12 +901,6 @@ mod tests {
         sim.set_pair_structure(structure);
         sim.run_stage(Stage::Reposition);
         let on_lanes = kernel.runs_on_lanes();
-        let on_clusters = structure == PairStructure::Clusters && on_lanes;
-        assert_eq!(
-            sim.clusters().is_some(),
-            on_clusters,
-            "{kernel:?} on {structure:?}"
-        );
         let on_lists = structure == PairStructure::Lists && on_lanes;
         assert_eq!(
             sim.lists().is_some(),
@@ -1090,7 +933,6 @@ mod tests {
         kernel.run(WeaklyCompressible {
             constants: &model.constants,
             tiles: sim.tiles(),
-            clusters: sim.clusters(),
             lists: sim.lists(),
             state,
             id: &placed.id,
@@ -1098,7 +940,6 @@ mod tests {
                 a: &mut a,
                 rho: &mut rates,
             },
-            packed: &mut Packed::default(),
         });
         let (mut by_id_a, mut by_id_rate) = (vec![DVec3::ZERO; n], vec![0.0; n]);
         for (slot, (&id, &rate)) in placed.id.iter().zip(&rates).enumerate() {
@@ -1153,12 +994,7 @@ mod tests {
                 (Kernel::Reference, 1e-12),
                 (Kernel::Mixed, 5e-6),
             ] {
-                let structures = [
-                    PairStructure::Tiles,
-                    PairStructure::Clusters,
-                    PairStructure::Lists,
-                ];
-                for structure in structures {
+                for structure in PairStructure::ALL {
                     let other = pass(kernel, structure, &model, ppm, &particles);
                     let (da, drate) = difference(&scalar, &other);
                     println!(
@@ -1200,7 +1036,7 @@ mod tests {
 
     /// The laminar viscous accelerations of `particles` (at rest density: no pressure)
     /// with the walls `walls`, viscosity `nu` and no artificial viscosity, on the SIMD
-    /// kernel over clusters, of the particles `inside` takes: (position, velocity,
+    /// kernel over lists, of the particles `inside` takes: (position, velocity,
     /// acceleration) each.
     fn laminar(
         ppm: f64,
@@ -1216,13 +1052,7 @@ mod tests {
             ..Settings::default()
         };
         let model = Wcsph::with_settings(settings, ppm, 10.0);
-        let (a, _) = pass(
-            Kernel::Simd,
-            PairStructure::Clusters,
-            &model,
-            ppm,
-            particles,
-        );
+        let (a, _) = pass(Kernel::Simd, PairStructure::Lists, &model, ppm, particles);
         (0..particles.len())
             .filter(|&slot| inside(particles.position(slot)))
             .map(|slot| {
@@ -1357,8 +1187,8 @@ mod tests {
         });
         assert!(moved, "the explicit images are near a wall");
         [Kernel::Scalar, Kernel::Simd].map(|kernel| {
-            let with_images = pass(kernel, PairStructure::Clusters, &model, ppm, &particles);
-            let (a, rate) = pass(kernel, PairStructure::Clusters, &model, ppm, &explicit);
+            let with_images = pass(kernel, PairStructure::Lists, &model, ppm, &particles);
+            let (a, rate) = pass(kernel, PairStructure::Lists, &model, ppm, &explicit);
             let block = (a[..n].to_vec(), rate[..n].to_vec());
             difference(&with_images, &block)
         })

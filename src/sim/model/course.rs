@@ -26,7 +26,7 @@ pub struct Course<const FLUIDANIMATE: bool> {
     close: ClosePairs,
     /// The placement ([`Context::placement`]) that pass ran on.
     found_on: Option<u64>,
-    /// The copies by place of the passes on clusters.
+    /// The copies the SIMD passes read.
     packed: Packed,
 }
 
@@ -144,7 +144,6 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
             params,
             kernel,
             tiles,
-            clusters,
             lists,
             walls,
             placement,
@@ -159,7 +158,6 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
                 kernel.run(Densities {
                     params,
                     tiles,
-                    clusters,
                     lists,
                     p,
                     id,
@@ -184,7 +182,6 @@ impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
                 kernel.run(Accelerations::<FLUIDANIMATE> {
                     params,
                     candidates,
-                    clusters,
                     lists,
                     p,
                     v,
@@ -332,8 +329,8 @@ mod tests {
 
     #[test]
     fn the_acceleration_pass_visits_only_the_close_pairs_of_its_placement() {
-        use crate::sim::clusters::PairStructure;
         use crate::sim::kernel::Kernel;
+        use crate::sim::lists::PairStructure;
         use crate::sim::method::Method;
         use crate::sim::model::Model;
         use crate::sim::params::BOX_MIN;
@@ -351,7 +348,7 @@ mod tests {
             let mut sim =
                 Simulation::with_method(204.0, particles.clone(), Method { model, kernel })
                     .unwrap();
-            // On the tiles (the passes on clusters are held to the reference outputs in
+            // On the tiles (the passes on lists are held to the reference outputs in
             // `tests/lab.rs` and to the tiles in `Simulation`'s kept-list test).
             sim.set_pair_structure(PairStructure::Tiles);
             sim.run_stage(Stage::Reposition);
@@ -362,7 +359,6 @@ mod tests {
                     params: sim.params(),
                     kernel,
                     tiles: sim.tiles(),
-                    clusters: None,
                     lists: None,
                     walls: sim.cells().walls(),
                     placement,

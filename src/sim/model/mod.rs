@@ -14,7 +14,6 @@ pub use course::Course;
 pub use wcsph::Wcsph;
 
 use crate::sim::cells::Walls;
-use crate::sim::clusters::Clusters;
 use crate::sim::kernel::Kernel;
 use crate::sim::lists::NeighbourLists;
 use crate::sim::neighbours::Tile;
@@ -88,9 +87,6 @@ pub struct Context<'a> {
     pub kernel: Kernel,
     /// The tiles of candidate pairs.
     pub tiles: &'a [Tile],
-    /// The clusters of the same placement, where the driver built them (a dense scene,
-    /// a kernel on lanes, clusters asked for).
-    pub clusters: Option<&'a Clusters>,
     /// The neighbour lists of the same placement, where the driver built them (a dense
     /// scene, a kernel on lanes, lists asked for).
     pub lists: Option<&'a NeighbourLists>,

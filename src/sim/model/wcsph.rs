@@ -36,7 +36,7 @@
 
 use super::{Context, Dynamics};
 use crate::sim::cells::Walls;
-use crate::sim::kernel::{Packed, Rates, State, WcsphConstants, WeaklyCompressible};
+use crate::sim::kernel::{Rates, State, WcsphConstants, WeaklyCompressible};
 use crate::sim::params::{Domain, Params, FLUID_DENSITY};
 use crate::sim::particles::{AxisArrays, Particles, PADDING};
 use crate::sim::stages::{self, Stage};
@@ -238,8 +238,6 @@ pub struct Wcsph {
     /// (empty before the first step, and under the leapfrog): a state of the run,
     /// which checkpoints keep.
     last_rates: Vec<f64>,
-    /// The copies by place of the pair pass on clusters.
-    packed: Packed,
 }
 
 impl Wcsph {
@@ -470,7 +468,6 @@ impl Dynamics for Wcsph {
         context.kernel.run(WeaklyCompressible {
             constants: &self.constants,
             tiles: context.tiles,
-            clusters: context.clusters,
             lists: context.lists,
             state: State {
                 p,
@@ -483,7 +480,6 @@ impl Dynamics for Wcsph {
                 a,
                 rho: &mut self.rates,
             },
-            packed: &mut self.packed,
         });
     }
 
@@ -537,7 +533,6 @@ impl Dynamics for Wcsph {
             + crate::sim::heap_bytes(&self.densities)
             + crate::sim::heap_bytes(&self.last_rates)
             + axes
-            + self.packed.heap_bytes()
     }
 }
 
