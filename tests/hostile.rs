@@ -1107,7 +1107,7 @@ fn limits_that_would_run_for_ever_or_overflow_are_refused_in_one_line() {
     let folder = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let gif = folder("x.gif");
     let (vd, sd, ad, ex) = (folder("vd"), folder("sd"), folder("ad"), folder("ex"));
-    let refused: [(Vec<&str>, &str); 7] = [
+    let refused: [(Vec<&str>, &str); 8] = [
         (
             vec!["render", small, &gif, "--steps", "1", "--delay-ms", "4294967295"],
             "fluid-lab: error: invalid value '4294967295' for '--delay-ms <DELAY_MS>': 4294967295 is not in 0..=655350",
@@ -1131,6 +1131,12 @@ fn limits_that_would_run_for_ever_or_overflow_are_refused_in_one_line() {
         (
             vec!["accuracy", small, "--output-dir", &ad, "--dt-factors", "1", "--adaptive", "", "--times", "0.002", "--reference-dt", "1e-300"],
             "fluid-lab: error: --times up to 0.002 s on reference steps of 1e-300 s would take 2.000e297 steps, more than the 1e7 a run may take",
+        ),
+        (
+            // Its one sample would be at 1e5 s, where an adaptive method's reference
+            // steps would never arrive.
+            vec!["accuracy", small, "--output-dir", &ad, "--dt-factors", "1e8", "--times", "0.002"],
+            "fluid-lab: error: --dt-factors give a step of 100000 s, longer than the last of --times (0.002 s)",
         ),
         (
             vec!["run", small, "--progress-every", "nan"],

@@ -4,6 +4,7 @@
 //! trajectory (the compensated [`Kernel::Reference`] at a finer fixed step): position
 //! errors, observables, and the CPU time each spent per simulated second.
 
+use crate::io::gformat::format_shortest;
 use crate::lab::diagnostics::{self, Failure, PairCounts, Vitals};
 use crate::lab::machine::Machine;
 use crate::sim::kernel::Kernel;
@@ -546,13 +547,15 @@ pub fn measure(runs: &mut [Run], states: &[Vec<Observed>], sampled: &[f64], trut
 /// Runs every candidate on `model` from `start` through `times` (ascending, s)
 /// ([`run_method`]); then the reference ([`run_reference`]) at `reference_step` (or, if
 /// none, an eighth of the [`shortest_step`] any candidate took), landing on every time a
-/// candidate was sampled at; and [`measure`]s each sample against it.
+/// candidate was sampled at, unless that would take more than `most_steps` steps (an
+/// error); and [`measure`]s each sample against it.
 pub fn sweep(
     start: &Simulation,
     model: Model,
     candidates: &[Candidate],
     times: &[f64],
     reference_step: Option<f64>,
+    most_steps: f64,
 ) -> Result<Sweep, String> {
     let mut states: Vec<Vec<Observed>> = Vec::new();
     let mut runs: Vec<Run> = Vec::new();
@@ -567,6 +570,16 @@ pub fn sweep(
     let sampled = sampled_times(&runs);
     let mut truths = Vec::new();
     let step = reference_step.unwrap_or(shortest / 8.0);
+    let last = sampled.last().copied().unwrap_or(0.0);
+    if last / step > most_steps {
+        return Err(format!(
+            "the reference would take {:.3e} steps of {} s to reach the last sample, at {} s, \
+             more than the {most_steps:.0e} a run may take",
+            last / step,
+            format_shortest(step),
+            format_shortest(last)
+        ));
+    }
     let reference = run_reference(start, model, step, &sampled, |fresh| {
         truths.push(Observed::of(fresh))
     })?;
@@ -1146,7 +1159,7 @@ mod tests {
         let start = Simulation::with_method(150.0, particles, method).unwrap();
         let candidates =
             Candidate::product(model, &[Kernel::NATIVE], steps, &[], &[], &Integrator::ALL);
-        let sweep = sweep(&start, model, &candidates, &[until], Some(reference)).unwrap();
+        let sweep = sweep(&start, model, &candidates, &[until], Some(reference), 1e7).unwrap();
         let convergence = sweep.convergence(Metric::Median);
         let order = |integrator| {
             let family = convergence
@@ -1204,6 +1217,27 @@ mod tests {
     }
 
     #[test]
+    fn a_reference_that_would_take_too_many_steps_is_refused_before_it_runs() {
+        let particles = crate::lab::scene::corner_block(150.0, 300).unwrap();
+        let start = Simulation::new(150.0, particles).unwrap();
+        // A step of 1 ms sampled at 2 ms: the reference's 16 steps of 0.125 ms.
+        let candidates = [Candidate {
+            kernel: Kernel::NATIVE,
+            time_step: TimeStep::Fixed(1e-3),
+            skin: None,
+            integrator: Integrator::Leapfrog,
+        }];
+        let refused = sweep(&start, Model::Course, &candidates, &[2e-3], None, 10.0);
+        let error = refused.expect_err("16 steps, more than 10");
+        assert_eq!(
+            error,
+            "the reference would take 1.600e1 steps of 0.000125 s to reach the last sample, \
+             at 0.002 s, more than the 1e1 a run may take"
+        );
+        assert!(sweep(&start, Model::Course, &candidates, &[2e-3], None, 16.0).is_ok());
+    }
+
+    #[test]
     fn the_sweep_measures_methods_against_a_finer_reference_at_equal_times() {
         let particles = crate::lab::scene::corner_block(150.0, 300).unwrap();
         let start = Simulation::new(150.0, particles).unwrap();
@@ -1226,7 +1260,7 @@ mod tests {
             simd(TimeStep::Adaptive { courant: 0.3 }),
         ];
         let times = [2e-3, 4e-3];
-        let sweep = sweep(&start, Model::Fluidanimate, &candidates, &times, None).unwrap();
+        let sweep = sweep(&start, Model::Fluidanimate, &candidates, &times, None, 1e7).unwrap();
         let TimeStep::Fixed(reference_step) = sweep.reference.candidate.time_step else {
             panic!("a fixed reference step");
         };
