@@ -60,24 +60,21 @@ pub(crate) trait Lanes {
     /// # Safety
     /// Every place `at` names for the lanes is within `values`.
     unsafe fn load(values: &[f64], at: impl Site) -> Self::V;
-    /// The first half of the lanes `halves.0[0]`, the second `halves.0[1]`.
-    fn halves(halves: Halves) -> Self::V;
-    /// `center - ` the lanes of `values` at `at`, subtracted in f64 (a center per half).
+    /// `center - ` the lanes of `values` at `at`, subtracted in f64.
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn offsets(values: &[f64], at: impl Site, center: impl Into<Halves>) -> Self::V;
-    /// The lanes of `values` at `at` `- center`, subtracted in f64 (a center per half).
+    unsafe fn offsets(values: &[f64], at: impl Site, center: f64) -> Self::V;
+    /// The lanes of `values` at `at` `- center`, subtracted in f64.
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn differences(values: &[f64], at: impl Site, center: impl Into<Halves>) -> Self::V;
-    /// `(rho + ` the lanes of `values` at `at` `) - 2 * FLUID_DENSITY`, computed in f64 (a
-    /// `rho` per half).
+    unsafe fn differences(values: &[f64], at: impl Site, center: f64) -> Self::V;
+    /// `(rho + ` the lanes of `values` at `at` `) - 2 * FLUID_DENSITY`, computed in f64.
     ///
     /// # Safety
     /// As for [`Self::load`].
-    unsafe fn excess_density(rho: impl Into<Halves>, values: &[f64], at: impl Site) -> Self::V;
+    unsafe fn excess_density(rho: f64, values: &[f64], at: impl Site) -> Self::V;
     /// The lanes of `values` at `at` `+= terms`, in f64.
     ///
     /// # Safety
@@ -133,22 +130,6 @@ impl Site for Slots {
     fn place(&self, lane: usize) -> usize {
         self.at()[lane] as usize
     }
-}
-
-/// A value for each half of a register's lanes: one particle's in both (from an `f64`).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Halves(pub(crate) [f64; 2]);
-
-impl From<f64> for Halves {
-    fn from(value: f64) -> Self {
-        Halves([value; 2])
-    }
-}
-
-/// The lanes of `N` with a value per half.
-#[inline(always)]
-fn by_halves<const N: usize>(Halves(values): Halves) -> [f64; N] {
-    std::array::from_fn(|lane| values[lane * 2 / N])
 }
 
 /// The `N` lanes of `values` at `at`.
@@ -286,35 +267,22 @@ macro_rules! f64_lanes {
             }
 
             #[inline(always)]
-            fn halves(halves: Halves) -> $type {
-                <$type>::new(by_halves(halves))
-            }
-
-            #[inline(always)]
-            unsafe fn offsets(values: &[f64], at: impl Site, center: impl Into<Halves>) -> $type {
+            unsafe fn offsets(values: &[f64], at: impl Site, center: f64) -> $type {
                 // SAFETY: guaranteed by the caller.
-                unsafe { Self::halves(center.into()) - Self::load(values, at) }
+                unsafe { <$type>::splat(center) - Self::load(values, at) }
             }
 
             #[inline(always)]
-            unsafe fn differences(
-                values: &[f64],
-                at: impl Site,
-                center: impl Into<Halves>,
-            ) -> $type {
+            unsafe fn differences(values: &[f64], at: impl Site, center: f64) -> $type {
                 // SAFETY: guaranteed by the caller.
-                unsafe { Self::load(values, at) - Self::halves(center.into()) }
+                unsafe { Self::load(values, at) - <$type>::splat(center) }
             }
 
             #[inline(always)]
-            unsafe fn excess_density(
-                rho: impl Into<Halves>,
-                values: &[f64],
-                at: impl Site,
-            ) -> $type {
+            unsafe fn excess_density(rho: f64, values: &[f64], at: impl Site) -> $type {
                 let twice_rest_density = <$type>::splat(2.0 * FLUID_DENSITY);
                 // SAFETY: guaranteed by the caller.
-                Self::halves(rho.into()) + unsafe { Self::load(values, at) } - twice_rest_density
+                <$type>::splat(rho) + unsafe { Self::load(values, at) } - twice_rest_density
             }
 
             #[inline(always)]
@@ -445,40 +413,30 @@ impl Lanes for MixedF32x8 {
     }
 
     #[inline(always)]
-    fn halves(halves: Halves) -> f32x8 {
-        narrow(by_halves(halves))
-    }
-
-    #[inline(always)]
     unsafe fn load(values: &[f64], at: impl Site) -> f32x8 {
         // SAFETY: guaranteed by the caller.
         narrow(unsafe { read::<8>(values, at) })
     }
 
     #[inline(always)]
-    unsafe fn offsets(values: &[f64], at: impl Site, center: impl Into<Halves>) -> f32x8 {
-        let center = by_halves::<8>(center.into());
+    unsafe fn offsets(values: &[f64], at: impl Site, center: f64) -> f32x8 {
         // SAFETY: guaranteed by the caller.
         let values = unsafe { read::<8>(values, at) };
-        narrow(std::array::from_fn(|lane| center[lane] - values[lane]))
+        narrow(values.map(|value| center - value))
     }
 
     #[inline(always)]
-    unsafe fn differences(values: &[f64], at: impl Site, center: impl Into<Halves>) -> f32x8 {
-        let center = by_halves::<8>(center.into());
+    unsafe fn differences(values: &[f64], at: impl Site, center: f64) -> f32x8 {
         // SAFETY: guaranteed by the caller.
         let values = unsafe { read::<8>(values, at) };
-        narrow(std::array::from_fn(|lane| values[lane] - center[lane]))
+        narrow(values.map(|value| value - center))
     }
 
     #[inline(always)]
-    unsafe fn excess_density(rho: impl Into<Halves>, values: &[f64], at: impl Site) -> f32x8 {
-        let rho = by_halves::<8>(rho.into());
+    unsafe fn excess_density(rho: f64, values: &[f64], at: impl Site) -> f32x8 {
         // SAFETY: guaranteed by the caller.
         let values = unsafe { read::<8>(values, at) };
-        narrow(std::array::from_fn(|lane| {
-            rho[lane] + values[lane] - 2.0 * FLUID_DENSITY
-        }))
+        narrow(values.map(|value| rho + value - 2.0 * FLUID_DENSITY))
     }
 
     #[inline(always)]
@@ -629,10 +587,10 @@ unsafe fn density_group<L: Lanes>(
 
 /// The particle whose partners a group loop visits.
 pub(super) struct First {
-    pub(super) p: [Halves; 3],
-    pub(super) v: [Halves; 3],
-    pub(super) rho: Halves,
-    pub(super) inverse_rho: Halves,
+    pub(super) p: [f64; 3],
+    pub(super) v: [f64; 3],
+    pub(super) rho: f64,
+    pub(super) inverse_rho: f64,
 }
 
 /// The arrays and constants of the acceleration transfer.
@@ -700,7 +658,7 @@ impl<L: Lanes, const FLUIDANIMATE: bool> Transfer<'_, L, FLUIDANIMATE> {
         // The divider, not the lanes, bounds this loop: the densities' reciprocals are
         // taken once per particle, not per pair and axis (a square root and a division
         // per group, not three divisions more).
-        let per_density_product = L::halves(first.inverse_rho) * inverse_rho_j;
+        let per_density_product = L::splat(first.inverse_rho) * inverse_rho_j;
         // SAFETY: guaranteed by the caller.
         let difference = |axis: usize| unsafe { L::differences(self.v[axis], at, first.v[axis]) };
         let dv = [difference(0), difference(1), difference(2)];
@@ -847,10 +805,10 @@ pub(super) fn transfer_accelerations<L: Lanes, const FLUIDANIMATE: bool>(
     for cell_tiles in tiles.chunk_by(|a, b| a.first == b.first) {
         for i in cell_tiles[0].firsts() {
             let first = First {
-                p: [x[i], y[i], z[i]].map(Halves::from),
-                v: [vx[i], vy[i], vz[i]].map(Halves::from),
-                rho: rho[i].into(),
-                inverse_rho: inverse_rho[i].into(),
+                p: [x[i], y[i], z[i]],
+                v: [vx[i], vy[i], vz[i]],
+                rho: rho[i],
+                inverse_rho: inverse_rho[i],
             };
             let mut sum = [L::ZERO_SUM; 3];
             for tile in cell_tiles {
