@@ -205,6 +205,16 @@ fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
         stderr(&none)
     );
     assert!(!out.join("stability.csv").exists());
+    // Nor with --partial: there is nothing to write.
+    let nothing = merge(true);
+    assert_eq!(exit_code(&nothing), 1);
+    assert!(
+        stderr(&nothing).contains("no point has finished, so")
+            && stderr(&nothing).contains("stability.csv was not written"),
+        "{}",
+        stderr(&nothing)
+    );
+    assert!(!out.join("stability.csv").exists());
 
     let task = |index: &str, vars: &[(&str, &str)]| {
         run_lab_with(

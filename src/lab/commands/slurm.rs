@@ -538,6 +538,14 @@ fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
             }
         }
         let resubmit = format!("fluid-lab slurm resubmit {}", dir.path.display());
+        if merged.done.is_empty() {
+            return Err(format!(
+                "no point has finished, so {} was not written; {resubmit} runs the failed ones \
+                 again",
+                tool.csv_path().display()
+            )
+            .into());
+        }
         if !args.partial {
             return Err(format!(
                 "{missing} of {} points missing, so {} was not written; {resubmit} runs the \
