@@ -1187,6 +1187,24 @@ fn a_tiny_gauge_interval_reads_every_step_and_a_failed_run_says_nothing_of_repla
         std::fs::read_to_string(dir.path().join("g/gauges.csv")).unwrap(),
         table
     );
+    // A run whose chart cannot be written (a folder where its PNG goes) fails before
+    // the table is replaced: the table stays, unmentioned.
+    let png = std::fs::read_dir(dir.path().join("g"))
+        .unwrap()
+        .map(|entry| entry.unwrap().path())
+        .find(|path| path.extension().is_some_and(|e| e == "png"))
+        .expect("a gauge chart");
+    std::fs::remove_file(&png).unwrap();
+    std::fs::create_dir(&png).unwrap();
+    std::fs::write(&case, text("0.01")).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), case.as_os_str()]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(!stderr(&output).contains("note:"), "{}", stderr(&output));
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("g/gauges.csv")).unwrap(),
+        table
+    );
+    std::fs::remove_dir(&png).unwrap();
     // A path with control characters is refused at its key.
     let bad = text("0.01").replace("[output]\n", "[output]\nfinal_state = \"a\\nb.fld\"\n");
     std::fs::write(&case, bad).unwrap();

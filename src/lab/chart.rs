@@ -393,16 +393,45 @@ pub fn render<D: Drawing>(
     folder: &Path,
     size: (u32, u32),
 ) -> Result<[PathBuf; 2], Box<dyn Error>> {
-    register_font()?;
-    let [png, svg] = files(folder, drawing.name());
-    let (png_file, svg_file) = (OutputFile::create(&png)?, OutputFile::create(&svg)?);
-    let staged = png_file.staged()?;
-    drawing.draw_on(BitMapBackend::new(staged.path(), size).into_drawing_area())?;
-    staged.commit()?;
-    let mut text = String::new();
-    drawing.draw_on(SVGBackend::with_string(&mut text, size).into_drawing_area())?;
-    svg_file.commit(text.as_bytes())?;
-    Ok([png, svg])
+    ChartFiles::open(folder, drawing.name())?.render(drawing, size)
+}
+
+/// A chart's two files, opened (their room made) before it is drawn: a command that
+/// writes other files beside its charts opens every one first, so that none is replaced
+/// when another cannot be written.
+pub struct ChartFiles {
+    png: OutputFile,
+    svg: OutputFile,
+    paths: [PathBuf; 2],
+}
+
+impl ChartFiles {
+    /// Opens `DIR/NAME.png` and `DIR/NAME.svg`.
+    pub fn open(folder: &Path, name: &str) -> Result<ChartFiles, Box<dyn Error>> {
+        let paths = files(folder, name);
+        let (png, svg) = (
+            OutputFile::create(&paths[0])?,
+            OutputFile::create(&paths[1])?,
+        );
+        Ok(ChartFiles { png, svg, paths })
+    }
+
+    /// Writes `drawing` into them, `size` pixels; returns both paths.
+    pub fn render<D: Drawing>(
+        self,
+        drawing: &D,
+        size: (u32, u32),
+    ) -> Result<[PathBuf; 2], Box<dyn Error>> {
+        register_font()?;
+        let ChartFiles { png, svg, paths } = self;
+        let staged = png.staged()?;
+        drawing.draw_on(BitMapBackend::new(staged.path(), size).into_drawing_area())?;
+        staged.commit()?;
+        let mut text = String::new();
+        drawing.draw_on(SVGBackend::with_string(&mut text, size).into_drawing_area())?;
+        svg.commit(text.as_bytes())?;
+        Ok(paths)
+    }
 }
 
 /// Splits a chart's area into the plot and a footer line, and writes the footer.

@@ -363,12 +363,6 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     stored?;
     diagnosed?;
     if let Some((file, folder, replaces)) = gauges_file {
-        file.commit(gauges.csv().as_bytes())?;
-        if replaces {
-            let shown = folder.join(gauges::TABLE_FILE);
-            let shown = shown.display();
-            eprintln!("fluid-lab: note: {shown} and its charts replaced an earlier run's");
-        }
         let machine = Machine::this();
         let footer = format!(
             "{}: {} on {} particles, {} kernel; {}, commit {}",
@@ -379,8 +373,19 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
             machine.cpu_model,
             machine.commit
         );
-        for chart in gauges.charts(&footer) {
-            chart::render(&chart, folder, (900, 560))?;
+        // Every chart's files opened before the table replaces an earlier one.
+        let charts = gauges.charts(&footer);
+        let opened = (charts.iter())
+            .map(|chart| chart::ChartFiles::open(folder, chart::Drawing::name(chart)))
+            .collect::<Result<Vec<_>, _>>()?;
+        file.commit(gauges.csv().as_bytes())?;
+        if replaces {
+            let shown = folder.join(gauges::TABLE_FILE);
+            let shown = shown.display();
+            eprintln!("fluid-lab: note: {shown} and its charts replaced an earlier run's");
+        }
+        for (chart, files) in charts.iter().zip(opened) {
+            files.render(chart, (900, 560))?;
         }
     }
     Ok(())
