@@ -347,6 +347,22 @@ mod tests {
         particles
     }
 
+    /// The largest relative error of `other`'s densities against `exact`'s, and of its
+    /// accelerations relative to the largest of `exact`'s.
+    fn largest_errors(other: &Particles, exact: &Particles) -> (f64, f64) {
+        let n = exact.len();
+        let density_error = (0..n)
+            .map(|s| (other.rho[s] - exact.rho[s]).abs() / exact.rho[s])
+            .fold(0.0, f64::max);
+        let largest = (0..n)
+            .map(|s| exact.acceleration(s).length())
+            .fold(0.0, f64::max);
+        let acceleration_error = (0..n)
+            .map(|s| (other.acceleration(s) - exact.acceleration(s)).length() / largest)
+            .fold(0.0, f64::max);
+        (density_error, acceleration_error)
+    }
+
     #[test]
     fn mixed_precision_stays_within_1e_5_of_the_f64_kernels_on_a_dense_step() {
         let ppm = 292.0;
@@ -374,16 +390,7 @@ mod tests {
             let mixed = pair_stages(Kernel::Mixed);
             for kernel in [Kernel::Simd, Kernel::Simd8, Kernel::Scalar] {
                 let exact = pair_stages(kernel);
-                let n = exact.len();
-                let density_error = (0..n)
-                    .map(|s| (mixed.rho[s] - exact.rho[s]).abs() / exact.rho[s])
-                    .fold(0.0, f64::max);
-                let largest = (0..n)
-                    .map(|s| exact.acceleration(s).length())
-                    .fold(0.0, f64::max);
-                let acceleration_error = (0..n)
-                    .map(|s| (mixed.acceleration(s) - exact.acceleration(s)).length() / largest)
-                    .fold(0.0, f64::max);
+                let (density_error, acceleration_error) = largest_errors(&mixed, &exact);
                 println!(
                     "{model:?} on {structure:?} vs {kernel:?}: \
                      {density_error:.2e} {acceleration_error:.2e}"
@@ -465,16 +472,7 @@ mod tests {
             let rows = listed_pair_stages(model, kernel, ListLayout::Rows);
             // The mixed kernel's terms are f32: its sums' order moves them by more.
             let tolerance = if kernel == Kernel::Mixed { 1e-6 } else { 1e-12 };
-            let n = half.len();
-            let density_error = (0..n)
-                .map(|s| (rows.rho[s] - half.rho[s]).abs() / half.rho[s])
-                .fold(0.0, f64::max);
-            let largest = (0..n)
-                .map(|s| half.acceleration(s).length())
-                .fold(0.0, f64::max);
-            let acceleration_error = (0..n)
-                .map(|s| (rows.acceleration(s) - half.acceleration(s)).length() / largest)
-                .fold(0.0, f64::max);
+            let (density_error, acceleration_error) = largest_errors(&rows, &half);
             let what = format!("{model:?} on {kernel:?}: {density_error:e} {acceleration_error:e}");
             assert!(density_error < tolerance, "{what}");
             assert!(acceleration_error < tolerance, "{what}");
