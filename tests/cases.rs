@@ -323,8 +323,8 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
         ),
         (
             "name = \"wcsph\"",
-            "name = \"wcsph\"\nskin_cutoffs = 1000.0",
-            "too wide for the box",
+            "name = \"wcsph\"\nskin_cutoffs = 1e308",
+            "skin_cutoffs = 1e308 is too wide for the box",
         ),
         // A name with control characters is echoed escaped, on one line.
         (

@@ -175,6 +175,15 @@ fn lists_kept_with_a_skin_give_the_state_of_lists_rebuilt_every_step() {
     let bad = run_lab(&["run", "--skin=-1", small.to_str().unwrap()]);
     assert_eq!(exit_code(&bad), 2);
     assert!(stderr(&bad).contains("-1 is not a skin width (0 or more)"));
+    // Too wide for the box: a usage error, the width as given, not in 309 digits.
+    let wide = run_lab(&["run", "--skin", "1e308", small.to_str().unwrap()]);
+    assert_eq!(exit_code(&wide), 2, "{}", stderr(&wide));
+    assert!(
+        stderr(&wide).starts_with("fluid-lab: error: --skin 1e308: too wide for the box ("),
+        "{}",
+        stderr(&wide)
+    );
+    assert_eq!(stderr(&wide).lines().count(), 1);
 }
 
 #[test]

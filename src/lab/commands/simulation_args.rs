@@ -3,7 +3,7 @@
 
 use crate::io::case::{self, Case, CaseError};
 use crate::io::fld;
-use crate::io::gformat::format_g;
+use crate::io::gformat::{format_g, format_shortest};
 use crate::io::input::read_regular;
 use crate::lab::diagnostics::Vitals;
 use crate::lab::machine;
@@ -478,7 +478,8 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     simulation.set_pair_structure(args.pairs());
     let h = simulation.params().h;
     if let Some(fraction) = args.skin {
-        let too_wide = |error| format!("--skin {fraction}: too wide for the box ({error})");
+        let shown = format_shortest(fraction);
+        let too_wide = |error| format!("--skin {shown}: too wide for the box ({error})");
         let from_case = args
             .read
             .as_ref()
@@ -488,9 +489,9 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             .map_err(|error| match from_case {
                 Some(skin) if *skin.get_ref() == fraction => args.at_key(
                     skin.span(),
-                    format!("skin_cutoffs = {fraction} is too wide for the box ({error})"),
+                    format!("skin_cutoffs = {shown} is too wide for the box ({error})"),
                 ),
-                _ => too_wide(error).into(),
+                _ => UsageError(too_wide(error)).into(),
             })?;
     }
     Ok(Loaded {
