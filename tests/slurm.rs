@@ -312,12 +312,33 @@ fn an_array_merges_into_the_subcommands_own_csv_and_names_what_is_missing() {
     );
 
     let unsupported = run_lab(&["slurm", "submit", "--job-dir", "x", "--", "run", "in.fld"]);
-    assert_eq!(exit_code(&unsupported), 1);
+    assert_eq!(exit_code(&unsupported), 2);
     assert!(
         stderr(&unsupported).contains("runs sweep, stability and accuracy, not run"),
         "{}",
         stderr(&unsupported)
     );
+    // The subcommand's own usage errors: exit 2, one line, no folder made.
+    let job = temp.path().join("refused");
+    let job = job.to_str().unwrap();
+    for (command, message) in [
+        (
+            ["stability", "--bogus"].as_slice(),
+            "fluid-lab: error: the subcommand after --: unexpected argument '--bogus' found\n",
+        ),
+        (
+            ["accuracy"].as_slice(),
+            "fluid-lab: error: the subcommand after --: the following required arguments \
+             were not provided: --output-dir <OUTPUT_DIR> <INPUT>\n",
+        ),
+    ] {
+        let mut args = vec!["slurm", "submit", "--job-dir", job, "--"];
+        args.extend(command);
+        let refused = run_lab(&args);
+        assert_eq!(exit_code(&refused), 2, "{}", stderr(&refused));
+        assert_eq!(stderr(&refused), message);
+        assert!(!Path::new(job).exists());
+    }
 }
 
 #[test]

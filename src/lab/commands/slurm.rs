@@ -9,6 +9,7 @@ use super::MadeFolder;
 use crate::io::output::OutputFile;
 use crate::lab::slurm::{self, Job, JobDir, Placement, SlurmEnergy, Submission, TaskPlace};
 use crate::lab::stability;
+use crate::lab::UsageError;
 use crate::lab::{Command as LabCommand, Lab};
 use clap::{Args, Parser, Subcommand};
 use std::error::Error;
@@ -82,7 +83,7 @@ struct SubmitArgs {
     wait: bool,
     #[command(flatten)]
     programs: Programs,
-    /// The subcommand and its arguments, after `--`: `sweep ...` or `stability ...`.
+    /// The subcommand and its arguments, after `--`: `sweep ...`, `stability ...` or `accuracy ...`.
     #[arg(last = true, required = true)]
     command: Vec<OsString>,
 }
@@ -145,19 +146,27 @@ enum Tool {
 }
 
 impl Tool {
-    /// The subcommand of `command` (its name first).
-    fn parse(command: &[OsString]) -> Result<Tool, Box<dyn Error>> {
+    /// The subcommand of `command` (its name first); a command line it cannot run is a
+    /// usage error, in one line.
+    fn parse(command: &[OsString]) -> Result<Tool, UsageError> {
         let words = std::iter::once(OsString::from("fluid-lab")).chain(command.iter().cloned());
-        let lab = Lab::try_parse_from(words).map_err(|error| error.to_string())?;
+        let lab = Lab::try_parse_from(words).map_err(|error| {
+            // clap's message without its usage lines and its own "error: ".
+            let text = error.to_string();
+            let lines = text.lines().take_while(|line| !line.starts_with("Usage:"));
+            let words: Vec<&str> = lines.map(str::trim).filter(|l| !l.is_empty()).collect();
+            let message = words.join(" ");
+            let message = message.strip_prefix("error: ").unwrap_or(&message);
+            UsageError(format!("the subcommand after --: {message}"))
+        })?;
         match lab.command {
             LabCommand::Sweep(args) => Ok(Tool::Sweep(args)),
             LabCommand::Stability(args) => Ok(Tool::Stability(args)),
             LabCommand::Accuracy(args) => Ok(Tool::Accuracy(args)),
-            _ => Err(format!(
+            _ => Err(UsageError(format!(
                 "fluid-lab slurm runs sweep, stability and accuracy, not {}",
                 command[0].to_string_lossy()
-            )
-            .into()),
+            ))),
         }
     }
 
