@@ -186,12 +186,13 @@ fn a_failing_run_names_its_command_and_keeps_the_idle_window_measured_before() {
     );
 }
 
-/// A program that runs `fluid`, or fails with "broken" when run for `fail` iterations.
+/// A program that runs `fluid`, or fails with "broken" (the last of two lines) when run for
+/// `fail` iterations.
 fn flaky_fluid(dir: &Path, fail: &str) -> std::path::PathBuf {
     use std::os::unix::fs::PermissionsExt;
     let script = dir.join("flaky.sh");
     let text = format!(
-        "#!/bin/sh\nif [ \"$1\" = \"{fail}\" ]; then echo broken >&2; exit 3; fi\nexec {} \"$@\"\n",
+        "#!/bin/sh\nif [ \"$1\" = \"{fail}\" ]; then echo starting >&2; echo broken >&2; exit 3; fi\nexec {} \"$@\"\n",
         env!("CARGO_BIN_EXE_fluid")
     );
     std::fs::write(&script, text).unwrap();
@@ -232,7 +233,15 @@ fn a_failed_point_keeps_the_rows_measured_and_resume_goes_on_from_them() {
     assert_eq!(exit_code(&failed), 1);
     let message = stderr(&failed);
     assert!(
-        message.contains("2 ") && message.contains("failed (exit status: 3): broken"),
+        message.contains("2 ")
+            && message
+                .contains("failed (exit status: 3): broken (the last of 2 lines on its stderr)"),
+        "{message}"
+    );
+    // The error is one line, the last (the progress lines come before it).
+    let last = message.lines().last().unwrap();
+    assert!(
+        last.starts_with("fluid-lab: error: ") && last.contains("broken (the last"),
         "{message}"
     );
     assert!(

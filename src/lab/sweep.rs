@@ -336,9 +336,16 @@ impl Sweep {
             let mut message = String::new();
             stderr.seek(io::SeekFrom::Start(0))?;
             stderr.read_to_string(&mut message)?;
-            let said = match message.trim() {
-                "" => String::new(),
-                said => format!(": {said}"),
+            // Its last line, which says why (the error stays one line).
+            let lines: Vec<&str> = message
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
+            let said = match lines.as_slice() {
+                [] => String::new(),
+                [only] => format!(": {only}"),
+                [.., last] => format!(": {last} (the last of {} lines on its stderr)", lines.len()),
             };
             return Err(MeasureError(format!("{shown} failed ({status}){said}")).into());
         }
