@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{entries, exit_code, run_lab, stderr, stdout};
+use common::{assert_refused, entries, exit_code, run_lab, stderr, stdout};
 use std::path::{Path, PathBuf};
 
 /// The case `name` of `cases/`.
@@ -946,11 +946,31 @@ fn a_model_that_cannot_take_the_case_s_box_or_gravity_is_refused_at_its_key() {
         .replace("[domain]", "[domain]\ngravity_m_s2 = [1.0, -9.8, 0.0]");
     std::fs::write(&path, tilted).unwrap();
     let output = validate_still_water(&path, &folder);
-    assert_ne!(exit_code(&output), 0);
-    assert!(
-        stderr(&output).contains("gravity_m_s2 = [0, -g, 0]"),
-        "{}",
-        stderr(&output)
+    assert_refused(
+        &output,
+        2,
+        &format!(
+            "fluid-lab: error: {}:6:16: a still-water case's gravity pulls down y \
+             (gravity_m_s2 = [0, -g, 0], g > 0): its hydrostatics are along y",
+            path.display()
+        ),
+    );
+    assert!(!folder.exists());
+    // A second box of fluid, at its table.
+    let two_boxes = std::fs::read_to_string(case("still-water")).unwrap()
+        + "[[fluid.box]]\nmin_m = [-0.06, -0.08, -0.06]\nmax_m = [-0.05, -0.07, -0.05]\n";
+    std::fs::write(&path, &two_boxes).unwrap();
+    let lines: Vec<&str> = two_boxes.lines().collect();
+    let line = lines.iter().rposition(|&l| l == "[[fluid.box]]");
+    let output = validate_still_water(&path, &folder);
+    assert_refused(
+        &output,
+        2,
+        &format!(
+            "fluid-lab: error: {}:{}:1: a still-water case has one box of fluid (and no sphere)",
+            path.display(),
+            line.unwrap() + 1
+        ),
     );
     assert!(!folder.exists());
 }

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{entries, exit_code, input, run_fluid, run_lab, stderr, stdout};
+use common::{assert_refused, entries, exit_code, input, run_fluid, run_lab, stderr, stdout};
 use std::ffi::OsStr;
 use std::os::unix::ffi::OsStrExt;
 use std::os::unix::fs::PermissionsExt;
@@ -21,14 +21,6 @@ fn fld(path: &Path, ppm: f32, records: &[[f32; 9]]) {
         bytes.extend(record.iter().flat_map(|v| v.to_le_bytes()));
     }
     std::fs::write(path, bytes).unwrap();
-}
-
-/// Asserts a failed run: its exit code, one line on stderr equal to `message`, nothing
-/// on stdout.
-fn assert_refused(output: &std::process::Output, code: i32, message: &str) {
-    assert_eq!(exit_code(output), code, "{}", stderr(output));
-    assert_eq!(stderr(output), format!("{message}\n"));
-    assert_eq!(stdout(output), "", "nothing printed, nothing simulated");
 }
 
 /// Starts `program` with `args` in `dir`, with SIGINT and SIGHUP at their defaults (a

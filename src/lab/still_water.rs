@@ -40,28 +40,39 @@ pub struct Tank {
     pub spacing: f64,
 }
 
+/// Why a case is not a still-water tank, and where in the case file (a byte range).
+pub type NotATank = (std::ops::Range<usize>, String);
+
 impl Tank {
     /// The tank of `case`: its one box of fluid, standing on the domain's floor.
-    pub fn of_case(case: &Case) -> Result<Tank, String> {
-        let [fill] = &case.fluid.boxes[..] else {
-            return Err("a still-water case has one box of fluid (and no sphere)".into());
+    pub fn of_case(case: &Case) -> Result<Tank, NotATank> {
+        let one_box = || "a still-water case has one box of fluid (and no sphere)".to_string();
+        let fluid = &case.fluid;
+        let [fill] = &fluid.boxes[..] else {
+            let at = fluid
+                .boxes
+                .get(1)
+                .map_or(fluid.particles_per_m.span(), |b| b.span());
+            return Err((at, one_box()));
         };
-        if !case.fluid.spheres.is_empty() {
-            return Err("a still-water case has one box of fluid (and no sphere)".into());
+        if let Some(sphere) = fluid.spheres.first() {
+            return Err((sphere.span(), one_box()));
         }
         let (low, high) = (
             DVec3::from_array(fill.get_ref().min_m),
             DVec3::from_array(fill.get_ref().max_m),
         );
         if low.y != case.domain.box_min_m.get_ref()[1] {
-            return Err("a still-water case's box of fluid stands on the floor".into());
+            let message = "a still-water case's box of fluid stands on the floor".to_string();
+            return Err((fill.span(), message));
         }
         if case.domain.simulated().downward_pull().is_none() {
-            return Err(
+            return Err((
+                case.domain.gravity_m_s2.span(),
                 "a still-water case's gravity pulls down y (gravity_m_s2 = [0, -g, 0], g > 0): \
                  its hydrostatics are along y"
                     .into(),
-            );
+            ));
         }
         Ok(Tank {
             low,

@@ -129,3 +129,11 @@ pub fn write_fast_pair(path: &Path) {
     }
     std::fs::write(path, fluid::io::fld::encode(204.0, &particles).unwrap()).unwrap();
 }
+
+/// Asserts a failed run: its exit code, one line on stderr equal to `message`, nothing
+/// on stdout.
+pub fn assert_refused(output: &Output, code: i32, message: &str) {
+    assert_eq!(exit_code(output), code, "{}", stderr(output));
+    assert_eq!(stderr(output), format!("{message}\n"));
+    assert_eq!(stdout(output), "", "nothing printed, nothing simulated");
+}

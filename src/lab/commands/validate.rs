@@ -606,7 +606,7 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
     let mut args = SimulationArgs::of_case(path);
     args.read_case(&mut None)?;
     let case = args.read.as_ref().expect("a case read");
-    let tank = Tank::of_case(case).map_err(|error| format!("{}: {error}", path.display()))?;
+    let tank = Tank::of_case(case).map_err(|(span, message)| args.at_key(span, message))?;
     let Extent::Until(end) = args.extent(None)? else {
         return Err(format!(
             "{}: a still-water case runs to [run] until_s",
