@@ -973,6 +973,24 @@ fn a_model_that_cannot_take_the_case_s_box_or_gravity_is_refused_at_its_key() {
         ),
     );
     assert!(!folder.exists());
+    // A count of steps where it runs to a time, at its key.
+    let counted = std::fs::read_to_string(case("still-water"))
+        .unwrap()
+        .replace("until_s = 2.0", "steps = 3");
+    std::fs::write(&path, &counted).unwrap();
+    let lines: Vec<&str> = counted.lines().collect();
+    let line = lines.iter().position(|&l| l == "steps = 3").unwrap() + 1;
+    let output = validate_still_water(&path, &folder);
+    assert_refused(
+        &output,
+        2,
+        &format!(
+            "fluid-lab: error: {}:{line}:9: a still-water case runs to [run] until_s, not a \
+             count of steps",
+            path.display()
+        ),
+    );
+    assert!(!folder.exists());
 }
 
 #[test]

@@ -608,11 +608,11 @@ fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<()
     let case = args.read.as_ref().expect("a case read");
     let tank = Tank::of_case(case).map_err(|(span, message)| args.at_key(span, message))?;
     let Extent::Until(end) = args.extent(None)? else {
-        return Err(format!(
-            "{}: a still-water case runs to [run] until_s",
-            path.display()
-        )
-        .into());
+        let message = "a still-water case runs to [run] until_s, not a count of steps";
+        return Err(match &case.run.steps {
+            Some(steps) => args.at_key(steps.span(), message.into()),
+            None => format!("{}: {message}", path.display()).into(),
+        });
     };
     // The folder once the scene is made: a case refused leaves none behind.
     let Loaded { mut simulation, .. } = load(&args)?;
