@@ -134,7 +134,7 @@ fn flags_beside_a_case_override_it_and_its_run_and_outputs_apply() {
         "0.003".as_ref(),
     ]);
     // The case's walls are the water model's: refused for another model.
-    assert_eq!(exit_code(&output), 1, "{}", stdout(&output));
+    assert_eq!(exit_code(&output), 2, "{}", stdout(&output));
     assert!(
         stderr(&output).contains("--model fluidanimate takes none"),
         "{}",
@@ -1476,5 +1476,58 @@ fn a_final_state_that_is_a_gauge_file_is_refused() {
         chart.as_os_str(),
     ]);
     assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(!folder.exists());
+}
+
+#[test]
+fn water_flags_beside_a_validation_s_case_override_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let case =
+        |name: &str| Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("cases/{name}.toml"));
+    // The dam break's case runs on free-slip walls when the flag says so.
+    let folder = dir.path().join("dam");
+    let output = run_lab(&[
+        "validate".as_ref(),
+        "dam-break".as_ref(),
+        "--case".as_ref(),
+        case("dam-break-validation").as_os_str(),
+        "--walls".as_ref(),
+        "free-slip".as_ref(),
+        "--until-t".as_ref(),
+        "0.5".as_ref(),
+        "--quiet".as_ref(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert!(
+        stdout(&output).contains("settings: free-slip walls,"),
+        "{}",
+        stdout(&output)
+    );
+    // Still water's case on a model that takes no water settings: the flag is refused.
+    let path = dir.path().join("still.toml");
+    let other = std::fs::read_to_string(case("still-water"))
+        .unwrap()
+        .replace("name = \"wcsph\"", "name = \"fluidanimate\"");
+    std::fs::write(&path, other).unwrap();
+    let folder = dir.path().join("still");
+    let output = run_lab(&[
+        "validate".as_ref(),
+        "still-water".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        "--walls".as_ref(),
+        "free-slip".as_ref(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ]);
+    assert_refused(
+        &output,
+        2,
+        "fluid-lab: error: --walls, --artificial-viscosity, --laminar-viscosity, --smoothing, \
+         --sound-speed and --density-diffusion are the weakly compressible model's; --model \
+         fluidanimate takes none",
+    );
     assert!(!folder.exists());
 }

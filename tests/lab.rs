@@ -938,7 +938,7 @@ fn the_water_s_settings_are_the_weakly_compressible_model_s_and_are_checked() {
     };
     // Another model takes none of them.
     let output = run(&["--walls", "free-slip"]);
-    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
     let message = stderr(&output);
     assert!(
         message.contains("--model course takes none") && message.lines().count() == 1,
@@ -968,7 +968,7 @@ fn the_water_s_settings_are_the_weakly_compressible_model_s_and_are_checked() {
         ),
     ] {
         let output = run(&["--model", "wcsph", option, value]);
-        assert_eq!(exit_code(&output), 1, "{option} {value}");
+        assert_eq!(exit_code(&output), 2, "{option} {value}");
         let message = stderr(&output);
         assert!(
             message.contains(why) && message.lines().count() == 1,

@@ -131,16 +131,18 @@ impl WaterArgs {
     }
 
     /// `model` with these choices: the weakly compressible model's settings, refused for
-    /// another model.
-    pub fn dynamics(&self, model: Model) -> Result<Box<dyn Dynamics>, String> {
+    /// another model (a usage error, as a setting out of its range).
+    pub fn dynamics(&self, model: Model) -> Result<Box<dyn Dynamics>, UsageError> {
         match model {
-            Model::Wcsph => Ok(Box::new(Wcsph::unprepared(self.settings()?))),
-            _ if self.any() => Err(format!(
+            Model::Wcsph => Ok(Box::new(Wcsph::unprepared(
+                self.settings().map_err(UsageError)?,
+            ))),
+            _ if self.any() => Err(UsageError(format!(
                 "--walls, --artificial-viscosity, --laminar-viscosity, --smoothing, \
                  --sound-speed and --density-diffusion are the weakly compressible \
                  model's; --model {} takes none",
                 model.name()
-            )),
+            ))),
             _ => Ok(model.dynamics()),
         }
     }

@@ -177,7 +177,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     }
     match (args.experiment, &args.case) {
         (Experiment::StillWater, Some(case)) => {
-            return still_water(case, &args.output_dir, stdout);
+            return still_water(case, &args.output_dir, &args.water, stdout);
         }
         (Experiment::StillWater, None) => {
             return Err(UsageError(
@@ -533,11 +533,13 @@ fn join(vector: [f64; 3]) -> String {
 
 /// Takes the dam break of the case at `path` in place of the flags': its one box of fluid,
 /// the column (a wide and 2a high against the low-x wall, through the box's depth), gives
-/// the width, its lattice the resolution and seed; its model, kernel, settings and time
-/// step replace the flags'. `--until-t` (or `--until`), `--every` and `--output-dir` stay
-/// the command line's.
+/// the width, its lattice the resolution and seed; its model, kernel and time step replace
+/// the flags'. The weakly compressible model's settings given as flags override the
+/// case's, as beside `run --case`. `--until-t` (or `--until`), `--every` and
+/// `--output-dir` stay the command line's.
 fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<dyn Error>> {
     let mut simulation = SimulationArgs::of_case(path);
+    simulation.water = args.water.clone();
     simulation.read_case(&mut None)?;
     let case = simulation.read.as_ref().expect("a case read");
     let shown = path.display();
@@ -600,10 +602,17 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     Ok(())
 }
 
-/// Runs the still-water case at `path` to its end, reading its tank's gauges, and writes
+/// Runs the still-water case at `path` to its end (the weakly compressible model's
+/// settings given in `water` overriding the case's), reading its tank's gauges, and writes
 /// the readings, the checks and the chart of each pressure over its hydrostatic value.
-fn still_water(path: &Path, folder: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+fn still_water(
+    path: &Path,
+    folder: &Path,
+    water: &WaterArgs,
+    stdout: &mut impl Write,
+) -> Result<(), Box<dyn Error>> {
     let mut args = SimulationArgs::of_case(path);
+    args.water = water.clone();
     args.read_case(&mut None)?;
     let case = args.read.as_ref().expect("a case read");
     let tank = Tank::of_case(case).map_err(|(span, message)| args.at_key(span, message))?;
