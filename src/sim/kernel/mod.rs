@@ -374,18 +374,10 @@ mod tests {
             .flat_map(|model| structures.map(|structure| (model, structure)))
         {
             let pair_stages = |kernel| {
-                let method = Method { model, kernel };
-                let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
-                sim.set_pair_structure(structure);
-                for stage in [
-                    Stage::Reposition,
-                    Stage::IncrementDensities,
-                    Stage::TransformDensities,
-                    Stage::TransferAccelerations,
-                ] {
-                    sim.run_stage(stage);
-                }
-                sim.particles().clone()
+                let on_structure = |sim: &mut Simulation| sim.set_pair_structure(structure);
+                dense_pair_stages(ppm, model, kernel, on_structure)
+                    .particles()
+                    .clone()
             };
             let mixed = pair_stages(Kernel::Mixed);
             for kernel in [Kernel::Simd, Kernel::Simd8, Kernel::Scalar] {
@@ -440,12 +432,16 @@ mod tests {
         }
     }
 
-    /// Stages 1-5 of `model` with `kernel` on the lists in `layout`, on a dense block.
-    fn listed_pair_stages(model: Model, kernel: Kernel, layout: ListLayout) -> Particles {
-        let ppm = 292.0;
+    /// Stages 1-5 of `model` with `kernel` on a dense block at `ppm`, set up by `setup`.
+    fn dense_pair_stages(
+        ppm: f64,
+        model: Model,
+        kernel: Kernel,
+        setup: impl FnOnce(&mut Simulation),
+    ) -> Simulation {
         let method = Method { model, kernel };
         let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
-        sim.set_list_layout(Some(layout));
+        setup(&mut sim);
         for stage in [
             Stage::Reposition,
             Stage::IncrementDensities,
@@ -454,6 +450,13 @@ mod tests {
         ] {
             sim.run_stage(stage);
         }
+        sim
+    }
+
+    /// Stages 1-5 of `model` with `kernel` on the lists in `layout`, on a dense block.
+    fn listed_pair_stages(model: Model, kernel: Kernel, layout: ListLayout) -> Particles {
+        let on_layout = |sim: &mut Simulation| sim.set_list_layout(Some(layout));
+        let sim = dense_pair_stages(292.0, model, kernel, on_layout);
         let lists = sim.lists().expect("a dense block runs on lists");
         assert_eq!(lists.rows().is_some(), layout == ListLayout::Rows);
         sim.particles().clone()
