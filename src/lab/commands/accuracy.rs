@@ -152,23 +152,6 @@ impl AccuracyArgs {
             });
         let shortest = fixed.chain(self.reference_dt).fold(f64::INFINITY, f64::min);
         let last = times.iter().copied().fold(0.0, f64::max);
-        // A method is sampled at the end of its first step at or after each time: a step
-        // longer than the last time samples none of them.
-        let longest = candidates
-            .iter()
-            .filter_map(|candidate| match candidate.time_step {
-                TimeStep::Fixed(dt) => Some(dt),
-                TimeStep::Adaptive { .. } => None,
-            });
-        let longest = longest.fold(0.0, f64::max);
-        if longest > last {
-            return Err(UsageError(format!(
-                "--dt-factors give a step of {} s, longer than the last of --times ({} s)",
-                format_g(longest),
-                format_g(last)
-            ))
-            .into());
-        }
         let steps = last / shortest;
         if steps > MOST_STEPS_TO_GO {
             return Err(UsageError(format!(
