@@ -10,7 +10,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughpu
 use fluid::io::fld;
 use fluid::sim::isa::InstructionSet;
 use fluid::sim::kernel::floor::PackedPairs;
-use fluid::sim::lists::{ListLayout, NeighbourLists};
+use fluid::sim::lists::{ListLayout, NeighbourLists, PairStructure};
 use fluid::sim::stages::Stage;
 use fluid::{Kernel, Method, Model, Simulation};
 use std::path::Path;
@@ -26,7 +26,10 @@ fn placed(kernel: Kernel, isa: InstructionSet, layout: ListLayout) -> Simulation
     };
     let mut sim = Simulation::with_method(scene.ppm.into(), scene.particles, method).unwrap();
     sim.set_instruction_set(isa);
-    sim.set_list_layout(Some(layout));
+    sim.set_pair_structure(match layout {
+        ListLayout::Half => PairStructure::Lists,
+        ListLayout::Rows => PairStructure::Rows,
+    });
     sim.run_stage(Stage::Reposition);
     sim
 }

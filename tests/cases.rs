@@ -1531,3 +1531,45 @@ fn water_flags_beside_a_validation_s_case_override_it() {
     );
     assert!(!folder.exists());
 }
+
+#[test]
+fn rows_are_refused_for_a_model_that_reads_half_lists() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/dam-break-validation.toml");
+    let out = dir.path().join("out");
+    // From the flag: a usage error.
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        case.as_os_str(),
+        "--pairs".as_ref(),
+        "rows".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert_refused(
+        &output,
+        2,
+        "fluid-lab: error: --pairs rows runs the course models' passes across particles; \
+         the wcsph model reads half lists (lists)",
+    );
+    // From the case: at its key.
+    let text = std::fs::read_to_string(&case)
+        .unwrap()
+        .replace("name = \"wcsph\"", "name = \"wcsph\"\npairs = \"rows\"");
+    let path = dir.path().join("rows.toml");
+    std::fs::write(&path, &text).unwrap();
+    let line = text.lines().position(|l| l == "pairs = \"rows\"").unwrap() + 1;
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        path.as_os_str(),
+        out.as_os_str(),
+    ]);
+    let message = format!(
+        "fluid-lab: error: {}:{line}:9: pairs = rows runs the course models' passes across \
+         particles; the wcsph model reads half lists (lists)",
+        path.display()
+    );
+    assert_refused(&output, 2, &message);
+    assert!(!out.exists());
+}

@@ -11,11 +11,13 @@ use fluid::Kernel;
 #[test]
 fn every_f64_kernel_reproduces_every_reference_output() {
     let dir = tempfile::tempdir().unwrap();
-    // Every f64 kernel on the tiles, and those with loops on lists on lists too.
+    // Every f64 kernel on the tiles, and those with loops on lists on both kinds of
+    // lists too.
     let kernels = Kernel::F64.map(|kernel| kernel.name());
     let tiles = kernels.iter().map(|&k| (k, "tiles"));
     let on_lists = Kernel::F64.into_iter().filter(|k| k.runs_on_lanes());
-    let methods = tiles.chain(on_lists.map(|k| (k.name(), "lists")));
+    let listed = on_lists.flat_map(|k| ["lists", "rows"].map(|pairs| (k.name(), pairs)));
+    let methods = tiles.chain(listed);
     let runs = methods.flat_map(|(k, pairs)| [(k, pairs, "small"), (k, pairs, "large")]);
     for (kernel, pairs, name) in runs {
         for steps in 1..=5 {

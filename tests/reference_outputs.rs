@@ -54,15 +54,15 @@ fn large_matches_the_references_for_1_to_5_steps() {
 }
 
 #[test]
-fn both_list_layouts_reproduce_the_reference_outputs() {
+fn both_kinds_of_lists_reproduce_the_reference_outputs() {
     use fluid::io::fld;
-    use fluid::sim::lists::ListLayout;
+    use fluid::sim::lists::PairStructure;
     use fluid::{Kernel, Method, Model, Simulation};
     for name in ["small", "large"] {
         let scene = fld::read(&input(name)).unwrap();
-        for (kernel, layout) in [Kernel::Simd, Kernel::Simd8]
+        for (kernel, structure) in [Kernel::Simd, Kernel::Simd8]
             .into_iter()
-            .flat_map(|k| [ListLayout::Half, ListLayout::Rows].map(|l| (k, l)))
+            .flat_map(|k| [PairStructure::Lists, PairStructure::Rows].map(|s| (k, s)))
         {
             let method = Method {
                 model: Model::Course,
@@ -70,16 +70,16 @@ fn both_list_layouts_reproduce_the_reference_outputs() {
             };
             let particles = scene.particles.clone();
             let mut sim = Simulation::with_method(scene.ppm.into(), particles, method).unwrap();
-            sim.set_list_layout(Some(layout));
+            sim.set_pair_structure(structure);
             for steps in 1..=5 {
                 sim.run(1);
                 let lists = sim.lists();
                 assert!(lists.is_some() || steps > 1, "the first step is dense");
                 let rows = lists.map(|lists| lists.rows().is_some());
-                assert!(rows.is_none_or(|rows| rows == (layout == ListLayout::Rows)));
+                assert!(rows.is_none_or(|rows| rows == (structure == PairStructure::Rows)));
                 let bytes = fld::encode(scene.ppm, sim.particles()).unwrap();
                 let expected = std::fs::read(reference_output(name, steps)).unwrap();
-                let what = format!("{name}-{steps} on {kernel:?} and {layout:?}");
+                let what = format!("{name}-{steps} on {kernel:?} and {structure:?}");
                 assert!(bytes == expected, "{what}");
             }
         }

@@ -26,22 +26,38 @@ pub enum PairStructure {
     /// The tiles of whole neighbour cells (`sim::neighbours`), for comparison: what the
     /// scalar and reference kernels and scattered scenes run on either way.
     Tiles,
-    /// Each particle's list of partners within the cut-off (`sim::lists`), on dense
-    /// scenes, for every model on the simd, simd8 and mixed kernels (tiles elsewhere).
+    /// Each particle's half list of partners within the cut-off (`sim::lists`), one
+    /// particle at a time with its partners in the lanes, on dense scenes, for every
+    /// model on the simd, simd8 and mixed kernels (tiles elsewhere): the fastest on every
+    /// machine measured (`perf/README.md`, round five).
     #[default]
     Lists,
+    /// As lists, but the course models' passes read every particle's full list in
+    /// [`Rows`], a particle per lane (each pair twice, nothing written to a partner);
+    /// other models read the half lists.
+    Rows,
 }
 
 impl PairStructure {
     /// Every structure.
-    pub const ALL: [PairStructure; 2] = [PairStructure::Tiles, PairStructure::Lists];
+    pub const ALL: [PairStructure; 3] = [
+        PairStructure::Tiles,
+        PairStructure::Lists,
+        PairStructure::Rows,
+    ];
 
     /// Its name on the command line and in checkpoints.
     pub fn name(self) -> &'static str {
         match self {
             PairStructure::Tiles => "tiles",
             PairStructure::Lists => "lists",
+            PairStructure::Rows => "rows",
         }
+    }
+
+    /// Whether the pair loops run on neighbour lists (half lists or rows).
+    pub fn is_listed(self) -> bool {
+        self != PairStructure::Tiles
     }
 }
 
@@ -90,25 +106,11 @@ pub struct NeighbourLists {
 pub enum ListLayout {
     /// The half lists, one particle at a time, its partners in the lanes (each pair once,
     /// its terms written to the partner too).
+    #[default]
     Half,
     /// The full lists in [`Rows`], a particle per lane (each pair twice, nothing written
     /// to a partner).
-    #[default]
     Rows,
-}
-
-impl ListLayout {
-    /// The layout whose passes are faster on `isa`: [`ListLayout::Rows`] on AVX-512,
-    /// where the prototype `ivec-pairs` measured them at 0.75x the half lists' time
-    /// (Intel); [`ListLayout::Half`] elsewhere, where evaluating each pair twice costs
-    /// more than the partners' writes it saves (on AMD's Zen 1, whose 128-bit units and
-    /// divider bound the passes: `perf/README.md`, round five).
-    pub fn for_instruction_set(isa: InstructionSet) -> ListLayout {
-        match isa {
-            InstructionSet::Avx512 => ListLayout::Rows,
-            InstructionSet::Avx2 | InstructionSet::Portable => ListLayout::Half,
-        }
-    }
 }
 
 impl NeighbourLists {
@@ -236,16 +238,16 @@ pub struct Rows {
     entries: Vec<[u32; ROW]>,
     /// Each slot's partners (then 0 to the end of the last block).
     lengths: Vec<u32>,
-    /// The build's copy of each slot's earlier partners, in slot order.
-    earlier: Vec<u32>,
-    /// Where each slot's earlier partners end in `earlier`, after the build.
-    earlier_starts: Vec<u32>,
+    /// The build's cursor of each slot: its next free row.
+    next: Vec<u32>,
     /// The slots covered.
     slots: usize,
 }
 
 impl Rows {
-    /// Writes the rows of `half`'s lists: each pair in both of its slots' lists.
+    /// Writes the rows of `half`'s lists: each pair in both of its slots' lists, in one
+    /// pass over the half lists in slot order (so a slot's earlier partners are in its
+    /// rows, in order, when its own half list follows them).
     fn mirror(&mut self, half: &NeighbourLists) {
         let n = half.slots;
         self.slots = n;
@@ -253,53 +255,37 @@ impl Rows {
             starts,
             entries,
             lengths,
-            earlier,
-            earlier_starts,
+            next,
             ..
         } = self;
-        // Each slot's earlier partners, in slot order: the half lists transposed.
-        earlier_starts.clear();
-        earlier_starts.resize(n + 1, 0);
-        for &i in &half.partners[..half.pairs()] {
-            earlier_starts[i as usize + 1] += 1;
-        }
-        for i in 0..n {
-            earlier_starts[i + 1] += earlier_starts[i];
-        }
-        earlier.clear();
-        earlier.resize(half.pairs(), 0);
-        for j in 0..n {
-            for &i in half.partners(j) {
-                let at = &mut earlier_starts[i as usize];
-                earlier[*at as usize] = j as u32;
-                *at += 1;
-            }
-        }
-        // The cursors now stand at each slot's end: its start is the one before.
-        let earlier_of = |i: usize| {
-            let start = if i == 0 { 0 } else { earlier_starts[i - 1] };
-            &earlier[start as usize..earlier_starts[i] as usize]
-        };
         lengths.clear();
-        lengths.extend((0..n).map(|i| (earlier_of(i).len() + half.range(i).len()) as u32));
+        lengths.extend((0..n).map(|i| half.range(i).len() as u32));
+        for &i in &half.partners[..half.pairs()] {
+            lengths[i as usize] += 1;
+        }
         lengths.resize(n.next_multiple_of(ROW), 0);
-        // The rows, block by block, in order.
         starts.clear();
+        let mut end = 0;
+        for block_lengths in lengths.chunks_exact(ROW) {
+            starts.push(end);
+            end += block_lengths.iter().max().copied().unwrap_or(0);
+        }
+        starts.push(end);
         entries.clear();
-        for (block, block_lengths) in lengths.chunks_exact(ROW).enumerate() {
-            let first = entries.len();
-            starts.push(first as u32);
-            let width = block_lengths.iter().max().copied().unwrap_or(0) as usize;
-            entries.resize(first + width, [n as u32; ROW]);
-            let rows = &mut entries[first..];
-            for slot in block * ROW..n.min(block * ROW + ROW) {
-                let list = earlier_of(slot).iter().chain(half.partners(slot));
-                for (row, &partner) in rows.iter_mut().zip(list) {
-                    row[slot % ROW] = partner;
-                }
+        entries.resize(end as usize, [n as u32; ROW]);
+        // Each slot's next free row.
+        next.clear();
+        next.resize(n, 0);
+        for j in 0..n {
+            let (first_row, lane) = (starts[j / ROW] as usize, j % ROW);
+            let own = next[j] as usize;
+            for (m, &i) in half.partners(j).iter().enumerate() {
+                entries[first_row + own + m][lane] = i;
+                let i = i as usize;
+                entries[starts[i / ROW] as usize + next[i] as usize][i % ROW] = j as u32;
+                next[i] += 1;
             }
         }
-        starts.push(entries.len() as u32);
     }
 
     /// The padding slot: the slot count.
@@ -334,11 +320,7 @@ impl Rows {
     /// The bytes its buffers hold on the heap.
     pub fn heap_bytes(&self) -> usize {
         use crate::sim::heap_bytes as bytes;
-        bytes(&self.starts)
-            + bytes(&self.entries)
-            + bytes(&self.lengths)
-            + bytes(&self.earlier)
-            + bytes(&self.earlier_starts)
+        bytes(&self.starts) + bytes(&self.entries) + bytes(&self.lengths) + bytes(&self.next)
     }
 }
 
@@ -615,10 +597,11 @@ mod tests {
             .copied()
             .collect();
         let mut lists = NeighbourLists::default();
+        lists.set_layout(ListLayout::Rows);
         lists
             .build(&tiles, &particles.p, n, Params::new(ppm).h)
             .unwrap();
-        let rows = lists.rows().expect("rows by default");
+        let rows = lists.rows().expect("rows asked for");
         assert_eq!((rows.far() as usize, rows.blocks()), (n, n.div_ceil(ROW)));
         let mut earlier = vec![Vec::new(); n];
         for j in 0..n {

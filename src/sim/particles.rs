@@ -41,6 +41,8 @@ pub fn vector_at(arrays: &AxisArrays, slot: usize) -> DVec3 {
 fn gather_axes(target: &mut AxisArrays, source: &AxisArrays, order: &[u32]) {
     for (t, s) in target.iter_mut().zip(source) {
         t.clear();
+        // Room for the padding too, so that it does not grow the array by half or more.
+        t.reserve_exact(order.len() + PADDING);
         t.extend(order.iter().map(|&k| s[k as usize]));
         t.resize(order.len() + PADDING, 0.0);
     }

@@ -75,8 +75,6 @@ pub struct Simulation {
     /// The neighbour lists of the current placement, if built ([`Self::build_lists`]).
     lists: NeighbourLists,
     lists_built: bool,
-    /// The lists' layout where the model reads rows, if not the instruction set's.
-    list_layout: Option<ListLayout>,
     /// Counts the placements and kernel changes ([`Context::placement`]).
     placement: u64,
     /// Buffer reused by the reordering; where a placement leaves the particles in place,
@@ -203,7 +201,6 @@ impl Simulation {
             structure: PairStructure::default(),
             lists: NeighbourLists::default(),
             lists_built: false,
-            list_layout: None,
             placement: 0,
             spare: Particles::default(),
             time_step,
@@ -518,17 +515,6 @@ impl Simulation {
         self.cells.set_instruction_set(isa);
     }
 
-    /// Runs the SIMD passes of a model that reads rows ([`Dynamics::reads_rows`]) over
-    /// the lists in `layout` from the next build on, or (`None`) in the instruction
-    /// set's ([`ListLayout::for_instruction_set`], the default). The reference outputs
-    /// hold on either; only the order of the sums differs.
-    pub fn set_list_layout(&mut self, layout: Option<ListLayout>) {
-        if let Some(skin) = &mut self.skin {
-            skin.expire();
-        }
-        self.list_layout = layout;
-    }
-
     /// Filters out lone particles in stage 1 with a table of `blocks_per_particle` blocks
     /// per particle, or never (`None`): see [`CellOrder::set_lone_filter`]. Only the work
     /// changes, never a result.
@@ -808,7 +794,7 @@ impl Simulation {
     /// them ([`Self::build_lists`]), else its tiles.
     fn find_neighbours(&mut self) {
         let on_lanes = self.method.kernel.runs_on_lanes() && !self.cells.is_sparse();
-        self.lists_built = on_lanes && self.structure == PairStructure::Lists;
+        self.lists_built = on_lanes && self.structure.is_listed();
         if self.lists_built {
             self.build_lists();
         } else {
@@ -840,10 +826,10 @@ impl Simulation {
         let reach = self.params.h + skin;
         let particles = placed(&self.cells, &self.particles, &self.spare);
         let (tiles, n) = (self.search.tiles(), particles.len());
-        let layout = match self.list_layout {
-            _ if !self.dynamics.reads_rows() => ListLayout::Half,
-            Some(layout) => layout,
-            None => ListLayout::for_instruction_set(self.lists.instruction_set()),
+        let layout = if self.structure == PairStructure::Rows && self.dynamics.reads_rows() {
+            ListLayout::Rows
+        } else {
+            ListLayout::Half
         };
         self.lists.set_layout(layout);
         self.lists_built = self.lists.build(tiles, &particles.p, n, reach).is_ok();
@@ -1090,7 +1076,7 @@ mod tests {
         let largest = largest_distance(&sim, &rebuilt);
         assert!(sim.heap_bytes() > rebuilt.heap_bytes());
         let dense = !sim.cells.is_sparse();
-        assert_eq!(sim.lists_built, structure == PairStructure::Lists && dense);
+        assert_eq!(sim.lists_built, structure.is_listed() && dense);
         (sim.skin().unwrap().builds(), largest)
     }
 

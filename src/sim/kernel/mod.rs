@@ -316,7 +316,6 @@ impl<const FLUIDANIMATE: bool> PairPass for Accelerations<'_, FLUIDANIMATE> {
 #[cfg(test)]
 mod tests {
     use crate::sim::kernel::Kernel;
-    use crate::sim::lists::ListLayout;
     use crate::sim::lists::PairStructure;
     use crate::sim::method::Method;
     use crate::sim::model::Model;
@@ -399,14 +398,14 @@ mod tests {
     #[test]
     fn every_instruction_set_runs_the_list_loops_to_the_same_bits() {
         // The lists' build and passes on AVX-512, AVX2 and plain Rust, where this CPU runs
-        // them, on every SIMD kernel and both layouts: the same lists, the same sums in
-        // the same order.
+        // them, on every SIMD kernel and both kinds of lists: the same lists, the same
+        // sums in the same order.
         use crate::sim::isa::InstructionSet;
         let ppm = 292.0;
-        let layouts = [ListLayout::Half, ListLayout::Rows];
-        for (kernel, layout) in [Kernel::Simd, Kernel::Simd8, Kernel::Mixed]
+        let listed = [PairStructure::Lists, PairStructure::Rows];
+        for (kernel, structure) in [Kernel::Simd, Kernel::Simd8, Kernel::Mixed]
             .into_iter()
-            .flat_map(|kernel| layouts.map(|layout| (kernel, layout)))
+            .flat_map(|kernel| listed.map(|structure| (kernel, structure)))
         {
             let step = |isa| {
                 let method = Method {
@@ -415,10 +414,10 @@ mod tests {
                 };
                 let mut sim = Simulation::with_method(ppm, dense_block(ppm), method).unwrap();
                 sim.set_instruction_set(isa);
-                sim.set_list_layout(Some(layout));
+                sim.set_pair_structure(structure);
                 sim.run(2);
                 let lists = sim.lists().expect("a dense block runs on lists");
-                assert_eq!(lists.rows().is_some(), layout == ListLayout::Rows);
+                assert_eq!(lists.rows().is_some(), structure == PairStructure::Rows);
                 sim.particles().clone()
             };
             let portable = step(InstructionSet::Portable);
@@ -426,7 +425,7 @@ mod tests {
                 .into_iter()
                 .filter(|isa| isa.is_available());
             for isa in available {
-                let what = format!("{kernel:?} on {layout:?} and {}", isa.name());
+                let what = format!("{kernel:?} on {structure:?} and {}", isa.name());
                 assert!(step(isa) == portable, "{what}");
             }
         }
@@ -453,12 +452,12 @@ mod tests {
         sim
     }
 
-    /// Stages 1-5 of `model` with `kernel` on the lists in `layout`, on a dense block.
-    fn listed_pair_stages(model: Model, kernel: Kernel, layout: ListLayout) -> Particles {
-        let on_layout = |sim: &mut Simulation| sim.set_list_layout(Some(layout));
-        let sim = dense_pair_stages(292.0, model, kernel, on_layout);
+    /// Stages 1-5 of `model` with `kernel` on the lists of `structure`, on a dense block.
+    fn listed_pair_stages(model: Model, kernel: Kernel, structure: PairStructure) -> Particles {
+        let on_lists = |sim: &mut Simulation| sim.set_pair_structure(structure);
+        let sim = dense_pair_stages(292.0, model, kernel, on_lists);
         let lists = sim.lists().expect("a dense block runs on lists");
-        assert_eq!(lists.rows().is_some(), layout == ListLayout::Rows);
+        assert_eq!(lists.rows().is_some(), structure == PairStructure::Rows);
         sim.particles().clone()
     }
 
@@ -471,8 +470,8 @@ mod tests {
             .into_iter()
             .flat_map(|model| [Kernel::Simd, Kernel::Simd8, Kernel::Mixed].map(|k| (model, k)))
         {
-            let half = listed_pair_stages(model, kernel, ListLayout::Half);
-            let rows = listed_pair_stages(model, kernel, ListLayout::Rows);
+            let half = listed_pair_stages(model, kernel, PairStructure::Lists);
+            let rows = listed_pair_stages(model, kernel, PairStructure::Rows);
             // The mixed kernel's terms are f32: its sums' order moves them by more.
             let tolerance = if kernel == Kernel::Mixed { 1e-6 } else { 1e-12 };
             let (density_error, acceleration_error) = largest_errors(&rows, &half);

@@ -901,7 +901,7 @@ mod tests {
         sim.set_pair_structure(structure);
         sim.run_stage(Stage::Reposition);
         let on_lanes = kernel.runs_on_lanes();
-        let on_lists = structure == PairStructure::Lists && on_lanes;
+        let on_lists = structure.is_listed() && on_lanes;
         assert_eq!(
             sim.lists().is_some(),
             on_lists,

@@ -141,7 +141,7 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
     }
 
     /// Whether its SIMD passes can run across particles over the full lists' rows
-    /// (`sim::lists::Rows`), where the instruction set's layout is them.
+    /// (`sim::lists::Rows`, `--pairs rows`).
     fn reads_rows(&self) -> bool {
         false
     }
