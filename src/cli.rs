@@ -44,9 +44,10 @@ where
     print_report(&header, input_name, stdout)?;
     let mut simulation = scene.into_simulation(Method::default(), input_name)?;
     simulation.run(args.steps);
-    let bytes = fld::encode(ppm, simulation.particles())
+    let particles = simulation.particles();
+    fld::check_storable(particles)
         .map_err(|unstorable| unstorable.for_output(args.output.as_os_str()))?;
-    Ok(output.commit(&bytes)?)
+    Ok(output.commit_with(|out| fld::write(ppm, particles, out))?)
 }
 
 /// Prints the parameter report of a valid input (stdout errors are ignored: the run goes

@@ -14,6 +14,7 @@ use crate::sim::simulation::Simulation;
 use memmap2::Mmap;
 use std::ffi::{OsStr, OsString};
 use std::fmt;
+use std::io::Write;
 use std::os::unix::ffi::OsStrExt;
 use std::path::Path;
 
@@ -322,28 +323,53 @@ impl fmt::Display for Unstorable {
     }
 }
 
-/// Encodes particles (in any slot order) as an `.fld` file: each particle is written at
-/// the record of its id, every value narrowed to f32 (round to nearest). A value that
-/// narrows to an infinity or is not finite is an error (the first by id and field).
+/// Encodes particles (in any slot order) as an `.fld` file in memory: see [`write`].
 pub fn encode(ppm: f32, particles: &Particles) -> Result<Vec<u8>, Unstorable> {
+    check_storable(particles)?;
+    let mut bytes = Vec::with_capacity(file_size(particles.len()) as usize);
+    write(ppm, particles, &mut bytes).expect("a write to memory succeeds");
+    Ok(bytes)
+}
+
+/// Fails with the first value (by id and field) that narrows to an infinity or is not
+/// finite: such particles have no `.fld` file.
+pub fn check_storable(particles: &Particles) -> Result<(), Unstorable> {
+    first_unstorable(particles).map_or(Ok(()), Err)
+}
+
+/// Records [`write`] encodes at a time.
+const RECORDS_PER_WRITE: usize = 4096;
+
+/// Writes particles (in any slot order, ids 0..n each once, every value storable:
+/// [`check_storable`]) as an `.fld` file to `out`: the header, then each particle's
+/// record in id order, every value narrowed to f32 (round to nearest), a few thousand
+/// records per write, so that no copy of the whole file is held.
+pub fn write(
+    ppm: f32,
+    particles: &Particles,
+    out: &mut (impl Write + ?Sized),
+) -> std::io::Result<()> {
     let n = particles.len();
-    let mut bytes = vec![0u8; HEADER_BYTES + n * RECORD_BYTES];
-    bytes[0..4].copy_from_slice(&ppm.to_le_bytes());
-    bytes[4..8].copy_from_slice(&(n as i32).to_le_bytes());
-    for slot in 0..n {
-        let start = HEADER_BYTES + particles.id[slot] as usize * RECORD_BYTES;
-        let record = &mut bytes[start..start + RECORD_BYTES];
-        let fields = [&particles.p, &particles.hv, &particles.v]
-            .into_iter()
-            .flat_map(|arrays| arrays.iter().map(move |axis| axis[slot] as f32));
-        for (chunk, value) in record.chunks_exact_mut(4).zip(fields) {
-            chunk.copy_from_slice(&value.to_le_bytes());
+    let mut slot_of_id = vec![0u32; n];
+    for (slot, &id) in particles.id[..n].iter().enumerate() {
+        slot_of_id[id as usize] = slot as u32;
+    }
+    out.write_all(&ppm.to_le_bytes())?;
+    out.write_all(&(n as i32).to_le_bytes())?;
+    let mut records = Vec::with_capacity(RECORDS_PER_WRITE * RECORD_BYTES);
+    for slots in slot_of_id.chunks(RECORDS_PER_WRITE) {
+        records.clear();
+        for &slot in slots {
+            let fields = [&particles.p, &particles.hv, &particles.v]
+                .into_iter()
+                .flat_map(|arrays| arrays.iter().map(|axis| axis[slot as usize] as f32));
+            for value in fields {
+                records.extend_from_slice(&value.to_le_bytes());
+            }
         }
+        out.write_all(&records)?;
     }
-    match first_unstorable(particles) {
-        Some(unstorable) => Err(unstorable),
-        None => Ok(bytes),
-    }
+    Ok(())
 }
 
 /// The first value of `particles` (by id, then field) that narrows to a non-finite f32.
@@ -417,6 +443,34 @@ mod tests {
         let mut shuffled = Particles::default();
         shuffled.gather_kinematics(&scene.particles, &[2, 0, 1], GRAVITY);
         assert_eq!(encode(scene.ppm, &shuffled).unwrap(), bytes);
+    }
+
+    #[test]
+    fn a_file_of_several_writes_holds_every_record_at_its_id() {
+        // More records than one write takes, shuffled: the file as its records in order.
+        let n = 2 * RECORDS_PER_WRITE + 3;
+        let records: Vec<[f32; 9]> = (0..n).map(|k| record(k as f32)).collect();
+        let bytes = file_bytes(204.0, n as i32, &records);
+        let scene = parse(&bytes, "f").unwrap();
+        let order: Vec<u32> = (0..n as u32).map(|k| (k * 7919) % n as u32).collect();
+        let mut shuffled = Particles::default();
+        shuffled.gather_kinematics(&scene.particles, &order, GRAVITY);
+        // Writes of a few bytes at a time land the same bytes.
+        struct Trickle(Vec<u8>);
+        impl Write for Trickle {
+            fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+                let taken = bytes.len().min(5);
+                self.0.extend_from_slice(&bytes[..taken]);
+                Ok(taken)
+            }
+            fn flush(&mut self) -> std::io::Result<()> {
+                Ok(())
+            }
+        }
+        let mut out = Trickle(Vec::new());
+        write(204.0, &shuffled, &mut out).unwrap();
+        assert!(out.0 == bytes);
+        assert!(encode(204.0, &shuffled).unwrap() == bytes);
     }
 
     #[test]

@@ -17,7 +17,7 @@ use crate::io::fld::FileError;
 use crate::io::signals;
 use std::ffi::OsString;
 use std::fs::{File, OpenOptions, Permissions};
-use std::io::{Seek, Write};
+use std::io::{BufWriter, Seek, Write};
 use std::os::unix::ffi::OsStrExt;
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
@@ -25,6 +25,8 @@ use tempfile::NamedTempFile;
 
 /// The longest file name Linux file systems take, in bytes.
 const NAME_MAX: usize = 255;
+/// The buffer between [`OutputFile::commit_with`]'s writer and the file.
+const WRITE_BUFFER: usize = 1 << 16;
 /// The bytes a temporary name adds to the target's besides its suffix: `.`, `.` and 6
 /// random characters.
 const TEMPORARY_EXTRA: usize = 8;
@@ -113,17 +115,32 @@ impl OutputFile {
     /// Writes `bytes` as the whole file. On failure the target is untouched (a temporary
     /// file is removed) except for a special file, which may have taken part of them.
     pub fn commit(self, bytes: &[u8]) -> Result<(), FileError> {
+        self.commit_with(|out| out.write_all(bytes))
+    }
+
+    /// Writes the whole file with `write`, a piece at a time through a buffer (no copy
+    /// of the whole file in memory), as [`OutputFile::commit`] writes its bytes.
+    pub fn commit_with(
+        self,
+        write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    ) -> Result<(), FileError> {
         let failed = |error: std::io::Error| cannot_write(&self.name, &error);
+        let buffered = |file: &mut File| {
+            let mut out = BufWriter::with_capacity(WRITE_BUFFER, file);
+            write(&mut out)?;
+            out.flush()
+        };
         match self.sink {
-            Sink::Direct(mut file) => file.write_all(bytes).map_err(failed),
+            Sink::Direct(mut file) => buffered(&mut file).map_err(failed),
             Sink::InPlace(mut file) => with_signals_held(|| {
                 file.rewind()?;
-                file.write_all(bytes)?;
-                file.set_len(bytes.len() as u64)
+                buffered(&mut file)?;
+                let written = file.stream_position()?;
+                file.set_len(written)
             })
             .map_err(failed),
             Sink::Atomic(mut temporary) => {
-                temporary.file.write_all(bytes).map_err(failed)?;
+                buffered(temporary.file.as_file_mut()).map_err(failed)?;
                 temporary.persist(&self.target).map_err(failed)
             }
         }

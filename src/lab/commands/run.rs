@@ -354,9 +354,12 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     // The final state first, then the diagnostics, which are written even when the state
     // cannot be.
     let stored = match (output, &args.output) {
-        (Some(output), Some(path)) => fld::encode(ppm, simulation.particles())
-            .map_err(|unstorable| unstorable.for_output(path.as_os_str()))
-            .and_then(|bytes| output.commit(&bytes)),
+        (Some(output), Some(path)) => {
+            let particles = simulation.particles();
+            fld::check_storable(particles)
+                .map_err(|unstorable| unstorable.for_output(path.as_os_str()))
+                .and_then(|()| output.commit_with(|out| fld::write(ppm, particles, out)))
+        }
         _ => Ok(()),
     };
     let diagnosed = diagnostics_file.map_or(Ok(()), |file| file.commit(rows.as_bytes()));
