@@ -326,6 +326,18 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "name = \"wcsph\"\nskin_cutoffs = 1e308",
             "skin_cutoffs = 1e308 is too wide for the box",
         ),
+        // A list where a table goes (which the TOML reader would take, its items as the
+        // table's fields in order).
+        (
+            "[model]",
+            "[[model]]",
+            "[model] is a list of 1 item, expected a table",
+        ),
+        (
+            "seed = 0",
+            "seed = 0\nsphere = [[0.01, 0.02]]",
+            "an item of fluid.sphere is a list of 2 items, expected a table",
+        ),
         // A name with control characters is echoed escaped, on one line.
         (
             "name = \"wcsph\"",

@@ -380,6 +380,9 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
             message,
         },
     };
+    if let Some((span, message)) = list_for_a_table(text) {
+        return Err(error_at(Some(span), message));
+    }
     let case: Case = toml::from_str(text).map_err(|error| {
         // toml's message may run over lines (a snippet of the file): its first line.
         let message = error
@@ -409,6 +412,54 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
     Ok(case)
 }
 
+/// The tables of a case (`[model]`), and the tables of its lists of tables
+/// (`[[fluid.box]]`): the TOML reader would take a list for a table, its items as the
+/// table's fields in order.
+const TABLES: [&str; 6] = ["domain", "fluid", "model", "run", "output", "gauges"];
+/// Its lists of tables, by their table's name.
+const LISTS_OF_TABLES: [(&str, [&str; 2]); 2] = [
+    ("fluid", ["box", "sphere"]),
+    ("gauges", ["point", "height"]),
+];
+
+/// The first list of `text` where a case takes a table (or a list of tables, a table
+/// in it): its span and what was expected. Text that is not TOML is left to the reader.
+fn list_for_a_table(text: &str) -> Option<(Range<usize>, String)> {
+    use toml::de::{DeTable, DeValue};
+    let document = DeTable::parse(text).ok()?;
+    let not_a_table = |value: &toml::Spanned<DeValue>, name: String| {
+        let kind = match value.get_ref() {
+            DeValue::Array(items) if items.len() == 1 => "a list of 1 item".to_string(),
+            DeValue::Array(items) => format!("a list of {} items", items.len()),
+            _ => return None,
+        };
+        Some((value.span(), format!("{name} is {kind}, expected a table")))
+    };
+    for (key, value) in document.get_ref() {
+        let name = key.get_ref().as_ref();
+        if !TABLES.contains(&name) {
+            continue;
+        }
+        if let Some(found) = not_a_table(value, format!("[{name}]")) {
+            return Some(found);
+        }
+        let lists = LISTS_OF_TABLES.iter().find(|(table, _)| *table == name);
+        let (Some(table), Some((_, lists))) = (value.get_ref().as_table(), lists) else {
+            continue;
+        };
+        for (key, value) in table {
+            let list = key.get_ref().as_ref();
+            let items = value.get_ref().as_array().filter(|_| lists.contains(&list));
+            for item in items.into_iter().flatten() {
+                if let Some(found) = not_a_table(item, format!("an item of {name}.{list}")) {
+                    return Some(found);
+                }
+            }
+        }
+    }
+    None
+}
+
 /// A message of the TOML reader in a case's words: the kinds of value a case file holds
 /// (a number, a whole number, text, a list, a table) for Rust's (`f64`, `u64`, a string,
 /// a sequence, a map, a struct).
@@ -432,6 +483,14 @@ fn in_case_words(message: &str) -> String {
             };
             return format!("the whole number {number} is too large: at most {largest}");
         }
+    }
+    // "expected struct PointGauge": a table.
+    if let Some(at) = words.find("expected struct ") {
+        let rest = &words[at + "expected struct ".len()..];
+        let name_end = rest
+            .find(|c: char| !c.is_alphanumeric())
+            .unwrap_or(rest.len());
+        words = format!("{}expected a table{}", &words[..at], &rest[name_end..]);
     }
     // "a table with 13 elements": a table.
     if let Some(at) = words.find("a table with ") {
@@ -464,14 +523,6 @@ fn in_case_words(message: &str) -> String {
     ];
     for (rust, case) in WORDS {
         words = words.replace(rust, case);
-    }
-    // "expected struct PointGauge": a table.
-    if let Some(at) = words.find("expected struct ") {
-        let rest = &words[at + "expected struct ".len()..];
-        let name_end = rest
-            .find(|c: char| !c.is_alphanumeric())
-            .unwrap_or(rest.len());
-        words = format!("{}expected a table{}", &words[..at], &rest[name_end..]);
     }
     words
 }
@@ -907,6 +958,10 @@ mod tests {
             ),
             (
                 "invalid length 1, expected a table with 13 elements",
+                "a list of 1 item, expected a table",
+            ),
+            (
+                "invalid length 1, expected struct ModelSettings with 13 elements",
                 "a list of 1 item, expected a table",
             ),
         ];
