@@ -1429,3 +1429,60 @@ fn a_signal_removes_the_empty_folders_a_command_made_for_its_outputs() {
         );
     }
 }
+
+#[test]
+fn a_scene_too_big_for_memory_ends_with_one_line_and_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("big.fld");
+    let scene = [
+        "scene",
+        "corner-block",
+        "--ppm",
+        "800",
+        "--particles",
+        "1000000",
+    ];
+    let made = run_lab(&[&scene.map(OsStr::new)[..], &[big.as_os_str()]].concat());
+    assert_eq!(exit_code(&made), 0, "{}", stderr(&made));
+    // A run under an address-space limit, as a shared machine may set (KiB).
+    let under = |limit: u32, binary: &str, args: &str| {
+        Command::new("sh")
+            .current_dir(dir.path())
+            .arg("-c")
+            .arg(format!("ulimit -v {limit} && exec '{binary}' {args}"))
+            .output()
+            .unwrap()
+    };
+    let (lab, fluid) = (env!("CARGO_BIN_EXE_fluid-lab"), env!("CARGO_BIN_EXE_fluid"));
+    // The workbench estimates what an input's particles need and refuses it first.
+    let run = under(300_000, lab, "run --steps 5 big.fld out.fld");
+    assert_eq!(exit_code(&run), 1, "{}", stderr(&run));
+    assert_eq!(
+        stderr(&run),
+        "fluid-lab: error: big.fld: its 1000000 particles need about 1.6 GB of memory; this \
+         process's ulimit -v allows 307 MB\n"
+    );
+    // An allocation that fails all the same (reading the input, or `fluid`, which estimates
+    // nothing): one line, exit 1, not Rust's backtrace and abort (134), and no temporary
+    // output left.
+    for (run, prefix) in [
+        (
+            under(100_000, lab, "run --steps 5 big.fld out.fld"),
+            "fluid-lab: error: ",
+        ),
+        (under(150_000, fluid, "5 big.fld out.fld"), "Error: "),
+    ] {
+        let message = stderr(&run);
+        assert_eq!(exit_code(&run), 1, "{message}");
+        let line = message
+            .strip_prefix(&format!("{prefix}out of memory: an allocation of "))
+            .and_then(|rest| {
+                rest.strip_suffix(" bytes failed (a smaller scene, or more memory: ulimit -v)\n")
+            });
+        assert!(
+            line.is_some_and(|bytes| bytes.parse::<u64>().is_ok()),
+            "{message}"
+        );
+        assert_eq!(entries(dir.path()), ["big.fld"], "nothing left");
+    }
+}

@@ -2,13 +2,18 @@
 
 use clap::error::ErrorKind;
 use clap::Parser;
+use fluid::io::allocator::EndingAllocator;
 use fluid::io::case::CaseError;
 use fluid::io::fld::FileError;
 use fluid::lab::UsageError;
 use std::io::Write;
 use std::process::ExitCode;
 
+#[global_allocator]
+static ALLOCATOR: EndingAllocator = EndingAllocator;
+
 fn main() -> ExitCode {
+    fluid::io::allocator::set_error_prefix("fluid-lab: error: ");
     let lab = match fluid::lab::Lab::try_parse() {
         Ok(lab) => lab,
         Err(error)

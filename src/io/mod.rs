@@ -5,8 +5,10 @@
 //! stops), [`trace`] reads the course's per-stage traces,
 //! [`export`] writes a state as VTK or CSV, [`checkpoint`] a run's full state to resume
 //! from, [`case`] reads case files (a scene and how to run it, in TOML), and [`gformat`]
-//! prints numbers as C++ does. It builds on [`crate::sim`] only.
+//! prints numbers as C++ does; [`allocator`] ends the process with one line, its
+//! unfinished outputs removed, where memory runs out. It builds on [`crate::sim`] only.
 
+pub mod allocator;
 pub mod case;
 pub mod checkpoint;
 pub mod export;

@@ -153,15 +153,22 @@ impl Drop for Forwarding {
     }
 }
 
-/// The handler: passes the signal to the child, removes every registered file, then every
-/// registered folder that is empty (innermost first, in passes, as each emptied parent
-/// can go next), then acts as the signal's default.
+/// The handler: passes the signal to the child, removes the unfinished outputs
+/// ([`remove_unfinished`]), then acts as the signal's default.
 fn on_signal(signal: libc::c_int) {
     let child = CHILD.load(Ordering::Acquire);
     if child > 0 {
         // SAFETY: kill only reads its integer arguments.
         unsafe { libc::kill(child, signal) };
     }
+    remove_unfinished();
+    let _ = signal_hook::low_level::emulate_default_handler(signal);
+}
+
+/// Removes every registered file, then every registered folder that is empty (innermost
+/// first, in passes, as each emptied parent can go next): async-signal-safe, and
+/// allocation-free (the out-of-memory end calls it too, `io::allocator`).
+pub fn remove_unfinished() {
     for slot in &TABLE {
         if slot.state.load(Ordering::Acquire) == READY {
             // SAFETY: a READY slot holds a NUL-terminated path; unlink only reads it.
@@ -177,5 +184,4 @@ fn on_signal(signal: libc::c_int) {
             }
         }
     }
-    let _ = signal_hook::low_level::emulate_default_handler(signal);
 }

@@ -425,14 +425,23 @@ const RUN_BASE_BYTES: f64 = 64e6;
 /// `ulimit -v`, or the machine's available memory and swap), before any is allocated.
 fn check_memory(case: &Case) -> Result<(), String> {
     let most = case.particles_at_most();
-    let needed = RUN_BASE_BYTES + most * BYTES_PER_PARTICLE;
-    match machine::usable_memory() {
-        Some((usable, set_by)) if needed > usable as f64 => Err(format!(
-            "particles_per_m = {} fills about {most:.3e} particles, which need about {} of \
-             memory; {set_by} allows {}",
+    memory_beyond_usable(most).map_err(|(needed, usable)| {
+        format!(
+            "particles_per_m = {} fills about {most:.3e} particles, which need about \
+             {needed}; {usable}",
             case.fluid.particles_per_m.get_ref(),
-            machine::shown_bytes(needed),
-            machine::shown_bytes(usable as f64)
+        )
+    })
+}
+
+/// The memory `particles` need and what this process may use, shown, where the first is
+/// more.
+fn memory_beyond_usable(particles: f64) -> Result<(), (String, String)> {
+    let needed = RUN_BASE_BYTES + particles * BYTES_PER_PARTICLE;
+    match machine::usable_memory() {
+        Some((usable, set_by)) if needed > usable as f64 => Err((
+            format!("{} of memory", machine::shown_bytes(needed)),
+            format!("{set_by} allows {}", machine::shown_bytes(usable as f64)),
         )),
         _ => Ok(()),
     }
@@ -488,6 +497,10 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
         }
         None => {
             let scene = fld::read(source)?;
+            let particles = scene.particles.len();
+            memory_beyond_usable(particles as f64).map_err(|(needed, usable)| {
+                format!("{name}: its {particles} particles need about {needed}; {usable}")
+            })?;
             let ppm = scene.ppm;
             (scene.into_simulation_with(method, dynamics, &name)?, ppm)
         }
