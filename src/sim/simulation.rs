@@ -8,7 +8,7 @@
 use crate::sim::cells::CellOrder;
 use crate::sim::grid::{Grid, GridSizeError};
 use crate::sim::isa::InstructionSet;
-use crate::sim::lists::{ListLayout, NeighbourLists, PairStructure};
+use crate::sim::lists::{ListLayout, NeighbourLists, PairStructure, ROW};
 use crate::sim::method::Method;
 use crate::sim::model::{Context, Dynamics, Partnerless};
 use crate::sim::neighbours::{Tile, TileSearch};
@@ -294,10 +294,20 @@ impl Simulation {
     /// the run's kernel and structure (a SIMD kernel's masked lanes included): on the
     /// tiles, each first slot's partner range rounded up to whole
     /// groups of the kernel's lanes (1 per pair on the scalar and reference kernels).
-    /// On the lists, each slot's list rounded up to whole groups of the kernel's lanes.
-    /// The density pass of the course models is such a pass.
+    /// On the lists, each slot's list rounded up to whole groups of the kernel's lanes;
+    /// on their rows, each block's rows times the lanes its slots fill, rounded up to
+    /// whole registers (each pair twice, so at most half of them are useful). The
+    /// density pass of the course models is such a pass.
     pub fn pair_lanes(&self) -> u64 {
         let lanes = self.method.kernel.lanes();
+        if let Some(rows) = self.lists().and_then(NeighbourLists::rows) {
+            let n = rows.far() as usize;
+            let filled = |block: usize| (n - block * ROW).min(ROW).next_multiple_of(lanes);
+            let blocks = 0..rows.blocks();
+            return blocks
+                .map(|b| rows.rows(b).len() * filled(b))
+                .sum::<usize>() as u64;
+        }
         if self.lists_built {
             let groups: usize = (0..self.lists.slots())
                 .map(|slot| self.lists.range(slot).len().div_ceil(lanes))

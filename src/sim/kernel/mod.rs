@@ -462,6 +462,19 @@ mod tests {
     }
 
     #[test]
+    fn the_lanes_of_a_pass_on_rows_are_their_entries_each_pair_twice() {
+        for kernel in [Kernel::Simd, Kernel::Simd8] {
+            let on_rows = |sim: &mut Simulation| sim.set_pair_structure(PairStructure::Rows);
+            let sim = dense_pair_stages(292.0, Model::Fluidanimate, kernel, on_rows);
+            let lists = sim.lists().expect("a dense block runs on lists");
+            let rows = lists.rows().expect("rows asked for");
+            // 8000 slots: whole blocks, every lane of every row evaluated.
+            assert_eq!(sim.pair_lanes(), rows.entries() as u64, "{kernel:?}");
+            assert!(sim.pair_lanes() >= 2 * lists.pairs() as u64, "{kernel:?}");
+        }
+    }
+
+    #[test]
     fn the_passes_across_particles_sum_the_half_lists_terms_in_another_order() {
         // Each pair's terms are the same numbers on either layout (on rows, each
         // particle's own, the partner's the exact negation): only the order of the sums
