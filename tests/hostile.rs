@@ -1462,14 +1462,16 @@ fn a_scene_too_big_for_memory_ends_with_one_line_and_leaves_nothing() {
         "fluid-lab: error: big.fld: its 1000000 particles need about 1.6 GB of memory; this \
          process's ulimit -v allows 307 MB\n"
     );
-    // An allocation that fails all the same (reading the input, or `fluid`, which estimates
+    // Even under a tenth of that, before the particles are decoded.
+    let run = under(100_000, lab, "run --steps 5 big.fld out.fld");
+    assert_eq!(exit_code(&run), 1, "{}", stderr(&run));
+    assert!(stderr(&run).starts_with("fluid-lab: error: big.fld: its 1000000 particles"));
+    // An allocation that fails all the same (`scene`, or `fluid`, which estimate
     // nothing): one line, exit 1, not Rust's backtrace and abort (134), and no temporary
     // output left.
+    let scene = "scene corner-block --ppm 800 --particles 1000000 made.fld";
     for (run, prefix) in [
-        (
-            under(100_000, lab, "run --steps 5 big.fld out.fld"),
-            "fluid-lab: error: ",
-        ),
+        (under(100_000, lab, scene), "fluid-lab: error: "),
         (under(150_000, fluid, "5 big.fld out.fld"), "Error: "),
     ] {
         let message = stderr(&run);

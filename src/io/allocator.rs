@@ -1,14 +1,20 @@
-//! The process's allocator: the system's, except that an allocation that fails ends the
+//! The binaries' allocator: the system's, except that an allocation that fails ends the
 //! process as an error does, one line on stderr and exit status 1, with its unfinished
-//! outputs removed ([`signals::remove_unfinished`]), where Rust's default prints a
-//! backtrace and aborts (status 134). Nothing in the project tries an allocation that
-//! may fail (no `try_reserve`), so a failed one is always the end.
+//! outputs removed and a measured child stopped (as [`signals`] does for a signal), where
+//! Rust's default prints a backtrace and aborts (status 134). Every failed allocation
+//! ends the process, a fallible one too (a `try_reserve`, or std's file reads, which
+//! would return an out-of-memory error): the project has none it could go on without.
+//! Under Linux's default overcommit, memory itself rarely fails an allocation: the
+//! kernel's out-of-memory killer ends the process (SIGKILL, which nothing can catch);
+//! the line comes where an address-space limit (`ulimit -v`) or strict overcommit
+//! refuses the allocation.
 
 use crate::io::signals;
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::OnceLock;
 
-/// The allocator (the lib's `#[global_allocator]`).
+/// The allocator (each binary's `#[global_allocator]`).
 pub struct EndingAllocator;
 
 /// What the binary puts before its error messages (`Error: `, `fluid-lab: error: `).
@@ -57,6 +63,14 @@ fn allocated(pointer: *mut u8, bytes: usize) -> *mut u8 {
 /// status 1, without allocating.
 #[cold]
 fn out_of_memory(bytes: usize) -> ! {
+    // One line, if two threads fail at once: the second waits for the first's end.
+    static ENDING: AtomicBool = AtomicBool::new(false);
+    if ENDING.swap(true, Ordering::AcqRel) {
+        loop {
+            // SAFETY: pause only waits for a signal.
+            unsafe { libc::pause() };
+        }
+    }
     let prefix = ERROR_PREFIX.get().copied().unwrap_or("error: ");
     let mut line = Line::default();
     line.push(prefix.as_bytes());
@@ -66,6 +80,7 @@ fn out_of_memory(bytes: usize) -> ! {
     // SAFETY: write reads `len` bytes of the line's buffer; _exit ends the process.
     unsafe {
         libc::write(2, line.bytes.as_ptr().cast(), line.len);
+        signals::pass_to_child(libc::SIGTERM);
         signals::remove_unfinished();
         libc::_exit(1)
     }

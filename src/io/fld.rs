@@ -229,6 +229,12 @@ fn invalid(file: &OsStr, reason: String) -> FileError {
     }
 }
 
+/// The header of the bytes of an `.fld` file named `file`, with [`validate`]'s checks
+/// of all but the fields: the particle count a reader can act on before decoding them.
+pub fn header(bytes: &[u8], file: &(impl AsRef<OsStr> + ?Sized)) -> Result<Header, FileError> {
+    check_header(bytes, file.as_ref())
+}
+
 /// The header checks of [`validate`], all but the fields'.
 fn check_header(bytes: &[u8], file: &OsStr) -> Result<Header, FileError> {
     if bytes.len() < HEADER_BYTES {

@@ -2,12 +2,13 @@
 //!
 //! An [`OutputFile`] is opened before any work (so an unwritable output fails first, with
 //! SPEC.md rule 5's error), can reserve its size before a long run ([`OutputFile::reserve`]),
-//! and is written in one [`OutputFile::commit`]:
+//! and is written whole by one [`OutputFile::commit`] (or [`OutputFile::commit_with`],
+//! a piece at a time):
 //! - a new file, or an existing one with a single link in a writable folder, is written to
 //!   a hidden temporary file beside it and renamed over it; a new file gets mode 0666 less
 //!   the umask, an existing one keeps its mode;
 //! - an existing file with other hard links, or in a folder that takes no new file, is
-//!   rewritten where it is, in one write with the ending signals held back;
+//!   rewritten where it is, with the ending signals held back while it is written;
 //! - an existing special file (`/dev/null`, a pipe, a device) is written directly.
 //!
 //! Temporary files are removed when an output is dropped unwritten, and when a signal
@@ -113,7 +114,8 @@ impl OutputFile {
     }
 
     /// Writes `bytes` as the whole file. On failure the target is untouched (a temporary
-    /// file is removed) except for a special file, which may have taken part of them.
+    /// file is removed) except for a special file, which may have taken part of them, and
+    /// a file rewritten in place, which a failed write (a full disk) leaves part written.
     pub fn commit(self, bytes: &[u8]) -> Result<(), FileError> {
         self.commit_with(|out| out.write_all(bytes))
     }
@@ -197,9 +199,9 @@ impl Staged {
                 .persist(&output.target)
                 .map_err(|error| cannot_write(&output.name, &error)),
             Sink::InPlace(_) | Sink::Direct(_) => {
-                let bytes = std::fs::read(file.file.path())
-                    .map_err(|error| cannot_write(&output.name, &error))?;
-                output.commit(&bytes)
+                let path = file.file.path();
+                let mut staged = File::open(path).map_err(|e| cannot_write(&output.name, &e))?;
+                output.commit_with(|out| std::io::copy(&mut staged, out).map(drop))
             }
         }
     }

@@ -14,8 +14,8 @@ use std::sync::atomic::{AtomicI32, AtomicU8, Ordering};
 use std::sync::Once;
 
 /// The signals whose default ends the process and that a user or a scheduler sends:
-/// Ctrl-C, Ctrl-\\, `kill`, a closed terminal, `timeout`, and the user signals; and the
-/// abort of a failed memory allocation.
+/// Ctrl-C, Ctrl-\\, `kill`, a closed terminal, `timeout`, and the user signals; and an
+/// abort (a failed allocation ends the process without one: `io::allocator`).
 pub const ENDING: [libc::c_int; 8] = [
     libc::SIGABRT,
     libc::SIGINT,
@@ -156,13 +156,19 @@ impl Drop for Forwarding {
 /// The handler: passes the signal to the child, removes the unfinished outputs
 /// ([`remove_unfinished`]), then acts as the signal's default.
 fn on_signal(signal: libc::c_int) {
+    pass_to_child(signal);
+    remove_unfinished();
+    let _ = signal_hook::low_level::emulate_default_handler(signal);
+}
+
+/// Sends `signal` to the measured child process, if one runs: async-signal-safe and
+/// allocation-free (the out-of-memory end calls it too, `io::allocator`).
+pub fn pass_to_child(signal: libc::c_int) {
     let child = CHILD.load(Ordering::Acquire);
     if child > 0 {
         // SAFETY: kill only reads its integer arguments.
         unsafe { libc::kill(child, signal) };
     }
-    remove_unfinished();
-    let _ = signal_hook::low_level::emulate_default_handler(signal);
 }
 
 /// Removes every registered file, then every registered folder that is empty (innermost

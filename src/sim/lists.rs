@@ -26,15 +26,15 @@ pub enum PairStructure {
     /// The tiles of whole neighbour cells (`sim::neighbours`), for comparison: what the
     /// scalar and reference kernels and scattered scenes run on either way.
     Tiles,
-    /// Each particle's half list of partners within the cut-off (`sim::lists`), one
-    /// particle at a time with its partners in the lanes, on dense scenes, for every
-    /// model on the simd, simd8 and mixed kernels (tiles elsewhere): the fastest on every
-    /// machine measured (`perf/README.md`, round five).
+    /// Each particle's half list of partners within the cut-off, one particle at a time
+    /// with its partners in the lanes, on dense scenes, for every model on the simd,
+    /// simd8 and mixed kernels (tiles elsewhere): the fastest on every machine measured
+    /// (perf/README.md, round five).
     #[default]
     Lists,
-    /// As lists, but the course models' passes read every particle's full list in
-    /// [`Rows`], a particle per lane (each pair twice, nothing written to a partner);
-    /// other models read the half lists.
+    /// As lists, but the course models' passes read every particle's full list in rows
+    /// of 8 particles (SELL-8), a particle per lane (each pair twice, nothing written to
+    /// a partner); the weakly compressible model refuses them.
     Rows,
 }
 
@@ -157,11 +157,6 @@ impl NeighbourLists {
         self.layout = layout;
     }
 
-    /// How the passes read the lists.
-    pub fn layout(&self) -> ListLayout {
-        self.layout
-    }
-
     /// The full lists as rows, if the last build wrote them ([`ListLayout::Rows`]).
     pub fn rows(&self) -> Option<&Rows> {
         self.rows_built.then_some(&self.rows)
@@ -265,14 +260,16 @@ impl Rows {
         }
         lengths.resize(n.next_multiple_of(ROW), 0);
         starts.clear();
-        let mut end = 0;
+        let mut end = 0usize;
         for block_lengths in lengths.chunks_exact(ROW) {
-            starts.push(end);
-            end += block_lengths.iter().max().copied().unwrap_or(0);
+            starts.push(end as u32);
+            end += block_lengths.iter().max().copied().unwrap_or(0) as usize;
         }
-        starts.push(end);
+        // Twice the half lists' entries, which stay within u32, may not.
+        assert!(end <= u32::MAX as usize, "more rows than u32 indexes");
+        starts.push(end as u32);
         entries.clear();
-        entries.resize(end as usize, [n as u32; ROW]);
+        entries.resize(end, [n as u32; ROW]);
         // Each slot's next free row.
         next.clear();
         next.resize(n, 0);
@@ -282,6 +279,9 @@ impl Rows {
             for (m, &i) in half.partners(j).iter().enumerate() {
                 entries[first_row + own + m][lane] = i;
                 let i = i as usize;
+                // A half list holds later slots only, whose earlier partners are written
+                // in slot order before their own lists.
+                debug_assert!(i > j);
                 entries[starts[i / ROW] as usize + next[i] as usize][i % ROW] = j as u32;
                 next[i] += 1;
             }

@@ -66,9 +66,9 @@ pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
         return Ok(());
     }
     let particles = scene::generate(args.kind, args.ppm.into(), args.seed, args.particles)?;
-    let bytes = fld::encode(args.ppm, &particles)
+    fld::check_storable(&particles)
         .map_err(|unstorable| unstorable.for_output(args.output.as_os_str()))?;
-    output.commit(&bytes)?;
+    output.commit_with(|out| fld::write(args.ppm, &particles, out))?;
     Ok(())
 }
 

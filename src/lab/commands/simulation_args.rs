@@ -496,11 +496,14 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             (simulation, ppm as f32)
         }
         None => {
-            let scene = fld::read(source)?;
-            let particles = scene.particles.len();
+            // What the particles need is known from the header, before they are decoded.
+            let bytes = fld::map_input(source)?;
+            let particles = fld::header(&bytes, source)?.particles;
             memory_beyond_usable(particles as f64).map_err(|(needed, usable)| {
                 format!("{name}: its {particles} particles need about {needed}; {usable}")
             })?;
+            let scene = fld::parse(&bytes, source)?;
+            drop(bytes);
             let ppm = scene.ppm;
             (scene.into_simulation_with(method, dynamics, &name)?, ppm)
         }

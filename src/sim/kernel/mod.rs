@@ -462,14 +462,32 @@ mod tests {
     }
 
     #[test]
-    fn the_lanes_of_a_pass_on_rows_are_their_entries_each_pair_twice() {
+    fn the_lanes_of_a_pass_on_rows_are_the_registers_it_fills() {
+        use crate::sim::lists::ROW;
+        // 7995 particles: a last block of 3 slots, one register of either width.
+        let ppm = 292.0;
+        let order: Vec<u32> = (0..7995).collect();
+        let particles = dense_block(ppm).permuted(&order).unpadded();
         for kernel in [Kernel::Simd, Kernel::Simd8] {
-            let on_rows = |sim: &mut Simulation| sim.set_pair_structure(PairStructure::Rows);
-            let sim = dense_pair_stages(292.0, Model::Fluidanimate, kernel, on_rows);
+            let method = Method {
+                model: Model::Fluidanimate,
+                kernel,
+            };
+            let mut sim = Simulation::with_method(ppm, particles.clone(), method).unwrap();
+            sim.set_pair_structure(PairStructure::Rows);
+            sim.run_stage(Stage::Reposition);
             let lists = sim.lists().expect("a dense block runs on lists");
             let rows = lists.rows().expect("rows asked for");
-            // 8000 slots: whole blocks, every lane of every row evaluated.
-            assert_eq!(sim.pair_lanes(), rows.entries() as u64, "{kernel:?}");
+            let (n, lanes) = (rows.far() as usize, kernel.lanes());
+            assert_eq!((n, n % ROW), (7995, 3));
+            // The registers of `across`' loops: in each block, from each multiple of the
+            // lanes below the slot count, one per row.
+            let registers: usize = (0..rows.blocks())
+                .flat_map(|block| (0..ROW).step_by(lanes).map(move |from| (block, from)))
+                .filter(|(block, from)| block * ROW + from < n)
+                .map(|(block, _)| rows.rows(block).len())
+                .sum();
+            assert_eq!(sim.pair_lanes(), (registers * lanes) as u64, "{kernel:?}");
             assert!(sim.pair_lanes() >= 2 * lists.pairs() as u64, "{kernel:?}");
         }
     }
