@@ -32,9 +32,9 @@ pub enum PairStructure {
     /// (perf/README.md, round five).
     #[default]
     Lists,
-    /// As lists, but the course models' passes read every particle's full list in rows
-    /// of 8 particles (SELL-8), a particle per lane (each pair twice, nothing written to
-    /// a partner); the weakly compressible model refuses them.
+    /// As lists, but the passes read every particle's full list in rows of 8 particles
+    /// (SELL-8), a particle per lane (each pair twice, nothing written to a partner; the
+    /// weakly compressible model's wall images still from the half lists).
     Rows,
 }
 
@@ -302,6 +302,15 @@ impl Rows {
     #[inline(always)]
     pub fn rows(&self, block: usize) -> &[[u32; ROW]] {
         &self.entries[self.starts[block] as usize..self.starts[block + 1] as usize]
+    }
+
+    /// The lengths of the full lists of block `block`'s slots (0 past the last slot): in
+    /// lane k, the rows from the k-th length on are padding.
+    #[inline(always)]
+    pub fn lengths(&self, block: usize) -> &[u32; ROW] {
+        self.lengths[block * ROW..][..ROW]
+            .try_into()
+            .expect("whole blocks")
     }
 
     /// The full list of `slot`, in order.

@@ -836,7 +836,7 @@ impl Simulation {
         let reach = self.params.h + skin;
         let particles = placed(&self.cells, &self.particles, &self.spare);
         let (tiles, n) = (self.search.tiles(), particles.len());
-        let layout = if self.structure == PairStructure::Rows && self.dynamics.reads_rows() {
+        let layout = if self.structure == PairStructure::Rows {
             ListLayout::Rows
         } else {
             ListLayout::Half

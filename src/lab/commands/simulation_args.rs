@@ -68,8 +68,7 @@ pub struct SimulationArgs {
     /// (perf/README.md).
     #[arg(long, allow_negative_numbers = true, value_name = "FRACTION_OF_CUTOFF", value_parser = parse_skin)]
     pub skin: Option<f64>,
-    /// The neighbour structure of the SIMD pair loops on dense scenes (rows: the course
-    /// models only) [default: lists]
+    /// The neighbour structure of the SIMD pair loops on dense scenes [default: lists]
     #[arg(long, value_enum)]
     pub pairs: Option<PairStructure>,
     /// How each step advances the state [default: leapfrog]
@@ -454,23 +453,6 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
     let name = source.display().to_string();
     // What is wrong with a case's scene is at the key that makes it so (`args.at_key`).
     let dynamics = args.water.dynamics(args.model())?;
-    if args.pairs() == PairStructure::Rows && !dynamics.reads_rows() {
-        let why = |key: &str| {
-            format!(
-                "{key} rows runs the course models' passes across particles; the {} model \
-                 reads half lists (lists)",
-                args.model().name()
-            )
-        };
-        let from_case = args
-            .read
-            .as_ref()
-            .and_then(|case| case.model.pairs.as_ref());
-        return Err(match from_case {
-            Some(pairs) if pairs.get_ref() == "rows" => args.at_key(pairs.span(), why("pairs =")),
-            _ => UsageError(why("--pairs")).into(),
-        });
-    }
     let method = Method {
         model: args.model(),
         kernel: args.kernel(),

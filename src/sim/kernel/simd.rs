@@ -93,6 +93,11 @@ pub(crate) trait Lanes {
     /// f64 lanes as the lanes the pair terms are computed in (narrowed by the mixed
     /// kernel).
     fn narrowed(values: Self::F64) -> Self::V;
+    /// The lanes of `values` at `at`, in f64.
+    ///
+    /// # Safety
+    /// As for [`Self::load`].
+    unsafe fn load_f64(values: &[f64], at: impl Site) -> Self::F64;
     /// The fields of the records at the first `LANES` slots of `at`, gathered on `isa`.
     fn records<G: Gathers>(isa: G, records: &[Record], at: &Slots) -> [Self::F64; 4];
     /// Adds `terms` to field `field` of the records at the first `LANES` slots of `at`,
@@ -216,6 +221,12 @@ macro_rules! f64_lanes {
                 for (k, term) in terms.to_array().into_iter().enumerate() {
                     records[slots[k] as usize][field] += term;
                 }
+            }
+
+            #[inline(always)]
+            unsafe fn load_f64(values: &[f64], at: impl Site) -> $type {
+                // SAFETY: guaranteed by the caller.
+                unsafe { Self::load(values, at) }
             }
 
             #[inline(always)]
@@ -368,6 +379,12 @@ impl Lanes for MixedF32x8 {
         for (k, term) in widen(terms).into_iter().enumerate() {
             records[slots[k] as usize][field] += term;
         }
+    }
+
+    #[inline(always)]
+    unsafe fn load_f64(values: &[f64], at: impl Site) -> f64x8 {
+        // SAFETY: guaranteed by the caller.
+        f64x8::from(unsafe { read::<8>(values, at) })
     }
 
     #[inline(always)]

@@ -15,10 +15,11 @@
 //! al. 2012), and its density follows: the pressure keeps growing with depth, so the
 //! floor holds water at rest.
 //!
-//! Four implementations: [`scalar`] (one pair at a time), [`lanes`] (a lane-width of
+//! Five implementations: [`scalar`] (one pair at a time), [`lanes`] (a lane-width of
 //! partners at a time over the tiles, on any [`Lanes`]), [`listed`] (the same lanes over
-//! the [`NeighbourLists`], on dense scenes) and [`reference`] (each particle's terms
-//! summed on their own in id order with compensated sums). All share [`pair`]'s formulas; the lanes
+//! the [`NeighbourLists`], on dense scenes), [`across`] (a lane per particle over the
+//! full lists' [`Rows`], the wall images as `listed`) and [`reference`] (each particle's
+//! terms summed on their own in id order with compensated sums). All share [`pair`]'s formulas; the lanes
 //! take one division per group where [`pair`] takes four (the viscosity's and the
 //! diffusion's quotients from one reciprocal), which moves the last bits only.
 
@@ -26,7 +27,7 @@ use super::reference::Neumaier;
 use super::simd::{assert_padded, slots_used, Lanes, Site};
 use super::PairPass;
 use crate::sim::isa::Slots;
-use crate::sim::lists::NeighbourLists;
+use crate::sim::lists::{NeighbourLists, Rows, ROW};
 use crate::sim::neighbours::Tile;
 use crate::sim::params::Domain;
 use crate::sim::particles::{vector_at, AxisArrays};
@@ -138,7 +139,10 @@ impl PairPass for WeaklyCompressible<'_> {
     }
     fn lanes<L: Lanes>(self) {
         match self.lists {
-            Some(lists) => listed::<L>(self, lists),
+            Some(lists) => match lists.rows() {
+                Some(rows) => across::<L>(self, lists, rows),
+                None => listed::<L>(self, lists),
+            },
             None => lanes::<L>(self),
         }
     }
@@ -558,29 +562,21 @@ impl<L: Lanes> Pairs<'_, L> {
         let softened = r2 + self.eta2;
         let floor_image = first.floor_image.filter(|_| across(1));
         let Some((pressure_i_image, rho_i_image)) = floor_image else {
-            // One division for the lanes' three quotients: 1 / (softened (rho_i + rho_j))
-            // of the viscosities, and 1 / rho_j, 1 / rho_i of the diffusion.
-            let (densities, product) = (rho_i + rho_j, rho_i * rho_j);
-            let denominator = softened * densities;
-            let reciprocal = self.one / (denominator * product);
-            let over_denominator = reciprocal * product;
-            let over_product = reciprocal * denominator;
-            let pressures = pressure_i + pressure_j;
-            let scale = |approach: L::V| {
-                mass_gradient * (pressures + viscosity(approach * over_denominator))
+            let pair = Pair {
+                d,
+                r2,
+                close,
+                mass_gradient,
+                continuity,
+                rho: [rho_i, rho_j],
+                pressure: [pressure_i, pressure_j],
             };
-            let laminar = laminar_factor * over_denominator;
-            let diffusion = self.diffusion * mass_gradient * r2 * densities * over_denominator;
-            let difference = (rho_j - rho_i) * diffusion * over_product;
-            let rate_i = (continuity + difference * rho_i) & close;
-            let rate_j = (continuity - difference * rho_j) & close;
-            let da = terms(scale(approach_i), laminar, &viscous_i);
-            let da_j = if NO_SLIP {
-                terms(scale(approach_j), laminar, &viscous_j)
-            } else {
-                da
-            };
-            return Some((da, da_j, rate_i, rate_j));
+            let viscous = [viscous_i, viscous_j];
+            return Some(self.off_floor::<NO_SLIP, LAMINAR>(
+                pair,
+                viscous,
+                [approach_i, approach_j],
+            ));
         };
         let inverse = self.one / softened;
         let diffusion = self.diffusion * mass_gradient * r2 * inverse;
@@ -606,6 +602,73 @@ impl<L: Lanes> Pairs<'_, L> {
             rate_i,
             rate_j,
         ))
+    }
+}
+
+/// What a group's terms off the floor's images take: the offsets `p_i - p_j` and their
+/// squared length, the lanes within the support, the kernel's gradient times the mass,
+/// the continuity term, and both particles' densities and p / rho^2.
+struct Pair<V> {
+    d: [V; 3],
+    r2: V,
+    close: V,
+    mass_gradient: V,
+    continuity: V,
+    rho: [V; 2],
+    pressure: [V; 2],
+}
+
+impl<L: Lanes> Pairs<'_, L> {
+    /// The terms of `pair` (not an image across the floor) with the viscous velocity
+    /// differences `viscous` and their approaches (i's, then j's: [`Self::group`]).
+    #[inline(always)]
+    fn off_floor<const NO_SLIP: bool, const LAMINAR: bool>(
+        &self,
+        pair: Pair<L::V>,
+        [viscous_i, viscous_j]: [[L::V; 3]; 2],
+        [approach_i, approach_j]: [L::V; 2],
+    ) -> GroupTerms<L> {
+        let Pair {
+            d,
+            r2,
+            close,
+            mass_gradient,
+            continuity,
+            rho: [rho_i, rho_j],
+            pressure: [pressure_i, pressure_j],
+        } = pair;
+        let viscosity =
+            |approach_over: L::V| L::max(self.zero - self.viscosity * approach_over, self.zero);
+        let terms = |scale: L::V, laminar: L::V, u: &[L::V; 3]| {
+            [0, 1, 2].map(|axis| match LAMINAR {
+                true => (d[axis] * scale - u[axis] * laminar) & close,
+                false => (d[axis] * scale) & close,
+            })
+        };
+        let laminar_factor = self.laminar * mass_gradient * r2;
+        let softened = r2 + self.eta2;
+        // One division for the lanes' three quotients: 1 / (softened (rho_i + rho_j))
+        // of the viscosities, and 1 / rho_j, 1 / rho_i of the diffusion.
+        let (densities, product) = (rho_i + rho_j, rho_i * rho_j);
+        let denominator = softened * densities;
+        let reciprocal = self.one / (denominator * product);
+        let over_denominator = reciprocal * product;
+        let over_product = reciprocal * denominator;
+        let pressures = pressure_i + pressure_j;
+        let scale =
+            |approach: L::V| mass_gradient * (pressures + viscosity(approach * over_denominator));
+        let laminar = laminar_factor * over_denominator;
+        let diffusion = self.diffusion * mass_gradient * r2 * densities * over_denominator;
+        let difference = (rho_j - rho_i) * diffusion * over_product;
+        let rate_i = (continuity + difference * rho_i) & close;
+        let rate_j = (continuity - difference * rho_j) & close;
+        let da = terms(scale(approach_i), laminar, &viscous_i);
+        let da_j = if NO_SLIP {
+            terms(scale(approach_j), laminar, &viscous_j)
+        } else {
+            da
+        };
+        (da, da_j, rate_i, rate_j)
     }
 }
 
@@ -705,9 +768,85 @@ impl<'a, L: Lanes> Pairs<'a, L> {
         // SAFETY (both): guaranteed by the caller. The partners themselves first (set 0,
         // which the compiler folds into the group), then their images.
         unsafe { self.add_group(first, at, lanes, 0, sums, targets) };
+        unsafe { self.visit_images(first, at, lanes, sums, targets) };
+    }
+
+    /// [`Self::visit`]'s terms with the partners' images alone.
+    ///
+    /// # Safety
+    /// As for [`Self::visit`].
+    #[inline(always)]
+    unsafe fn visit_images(
+        &self,
+        first: &First,
+        at: impl Site,
+        lanes: L::V,
+        sums: &mut [L::Sum; 4],
+        targets: &mut [&mut [f64]; 4],
+    ) {
         for &set in &first.images[..first.image_count] {
+            // SAFETY: guaranteed by the caller.
             unsafe { self.add_group(first, at, lanes, set, sums, targets) };
         }
+    }
+
+    /// The terms of the particles of `first`'s lanes (p, v, rho, p / rho^2 in f64 where
+    /// the lanes narrow) with the partners at `at` themselves (lanes of `lanes`): each
+    /// lane's own acceleration by axis, then its density rate; `None` if no lane is within
+    /// the support. A lane's terms are the exact negation of those [`Self::group`] gives
+    /// its partner with it.
+    ///
+    /// # Safety
+    /// Every place of `at` is within every array of the state.
+    #[inline(always)]
+    unsafe fn own_terms(
+        &self,
+        first: &Lanesful<L>,
+        at: Slots,
+        lanes: L::V,
+    ) -> Option<([L::V; 3], L::V)> {
+        // `center - ` the lanes of `values` at `at`, narrowed (written out: a map of the
+        // axes is not inlined).
+        // SAFETY (each): guaranteed by the caller.
+        let offsets = |values: &AxisArrays, center: &[L::F64; 3]| unsafe {
+            [
+                L::narrowed(center[0] - L::load_f64(&values[0], at)),
+                L::narrowed(center[1] - L::load_f64(&values[1], at)),
+                L::narrowed(center[2] - L::load_f64(&values[2], at)),
+            ]
+        };
+        let d = offsets(self.state.p, &first.p);
+        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let close = L::lt(r2, self.support2) & lanes;
+        if !L::any(close) {
+            return None;
+        }
+        let dv = offsets(self.state.v, &first.v);
+        let w = self.one - L::sqrt(r2) * self.over_2h;
+        let mass_gradient = self.mass_gradient * (w * w * w);
+        let approach = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
+        // SAFETY: guaranteed by the caller.
+        let (rho_j, pressure_j) = unsafe {
+            (
+                L::load(self.state.rho, at),
+                L::load(self.state.pressure_terms, at),
+            )
+        };
+        let pair = Pair {
+            d,
+            r2,
+            close,
+            mass_gradient,
+            continuity: self.zero - mass_gradient * approach,
+            rho: [first.rho, rho_j],
+            pressure: [first.pressure, pressure_j],
+        };
+        let (viscous, approaches) = ([dv, dv], [approach, approach]);
+        let (da, _, rate, _) = match self.laminar_term {
+            false => self.off_floor::<false, false>(pair, viscous, approaches),
+            true => self.off_floor::<false, true>(pair, viscous, approaches),
+        };
+        Some((da, rate))
     }
 
     /// [`Self::group`]'s terms, added: `first`'s to `sums`, the partners' to `targets`
@@ -842,6 +981,114 @@ pub(super) fn listed<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists)
     self_images(constants, state, n, rates);
 }
 
+/// The particles of a register's lanes, as [`Pairs::own_terms`] reads them.
+struct Lanesful<L: Lanes> {
+    p: [L::F64; 3],
+    v: [L::F64; 3],
+    rho: L::V,
+    pressure: L::V,
+}
+
+/// The pair loop on `L` lanes across particles: each particle with the partners
+/// themselves over the full lists' `rows`, a lane per particle of a block and its own
+/// terms only (each pair is in both particles' lists); then each particle near a wall
+/// with its half list's images (`lists`), whose terms go to both, as [`listed`]'s; then
+/// the particles' own images.
+pub(super) fn across<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists, rows: &Rows) {
+    let WeaklyCompressible {
+        constants,
+        state,
+        id,
+        mut rates,
+        ..
+    } = pass;
+    let (rates, n) = (&mut rates, id.len());
+    let bound = lists.slots();
+    assert_eq!(rows.far() as usize, bound);
+    let ([x, y, z], [vx, vy, vz]) = (state.p, state.v);
+    let [ax, ay, az] = &mut *rates.a;
+    // A block's lanes read their own slots up to the last block's end, and the padding
+    // slot `bound`.
+    let read = (bound.next_multiple_of(ROW)).max(bound + 1);
+    let arrays = [&x[..], y, z, vx, vy, vz, state.rho, state.pressure_terms];
+    assert!(arrays.iter().all(|array| array.len() >= read));
+    assert!([&ax[..], ay, az, rates.rho]
+        .iter()
+        .all(|array| array.len() >= bound));
+    let pairs = Pairs::<L>::new(constants, state);
+    let mut targets = [&mut ax[..], ay, az, rates.rho];
+    for block in 0..rows.blocks() {
+        let lengths = rows.lengths(block).map(f64::from);
+        for from in (0..ROW).step_by(L::LANES) {
+            let first = block * ROW + from;
+            if first >= bound {
+                break;
+            }
+            // SAFETY (each): first + LANES <= the last block's end, within every array
+            // (asserted above).
+            let own = |values: &[f64]| unsafe { L::load_f64(values, first) };
+            let row_of = |row: &[u32; ROW]| -> [u32; 8] {
+                let at = |k: usize| row[(from + k) % ROW];
+                [at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7)]
+            };
+            let lanes = Lanesful::<L> {
+                p: [own(x), own(y), own(z)],
+                v: [own(vx), own(vy), own(vz)],
+                rho: unsafe { L::load(state.rho, first) },
+                pressure: unsafe { L::load(state.pressure_terms, first) },
+            };
+            // SAFETY: 8 lengths, read from `from` (< 8, by LANES).
+            let length = unsafe { L::load(&lengths, from) };
+            let mut sums = [L::ZERO_SUM; 4];
+            for (m, row) in rows.rows(block).iter().enumerate() {
+                let at = Slots::new(row_of(row), bound + 1);
+                // The lanes whose lists reach this row (past them, the padding slot).
+                let listed = L::lt(L::splat(m as f64), length);
+                // SAFETY: every slot of `at` is at most `bound`, within every array of the
+                // state (asserted above).
+                if let Some((da, rate)) = unsafe { pairs.own_terms(&lanes, at, listed) } {
+                    for (sum, terms) in sums.iter_mut().zip(da.into_iter().chain([rate])) {
+                        L::accumulate(sum, terms);
+                    }
+                }
+            }
+            let count = L::LANES.min(bound - first);
+            for (target, sum) in targets.iter_mut().zip(sums) {
+                for (value, lane) in target[first..first + count].iter_mut().zip(L::lanes(sum)) {
+                    *value += lane;
+                }
+            }
+        }
+    }
+    let entries = lists.entries();
+    for i in 0..bound {
+        let range = lists.range(i);
+        let position = [0, 1, 2].map(|axis| state.p[axis][i]);
+        if range.is_empty()
+            || NearWalls::of(position, constants.support, &constants.domain).axes == 0
+        {
+            continue;
+        }
+        let first = First::of(constants, &state, i);
+        let mut sums = [L::ZERO_SUM; 4];
+        for k in range.clone().step_by(L::LANES) {
+            let at = Slots::new(entries[k..k + 8].try_into().expect("8 entries"), bound);
+            let lanes = if k + L::LANES <= range.end {
+                L::all()
+            } else {
+                L::first(range.end - k)
+            };
+            // SAFETY: every slot of `at` is below `bound` (Slots::new), which every array
+            // of the state and of the targets holds (asserted above).
+            unsafe { pairs.visit_images(&first, at, lanes, &mut sums, &mut targets) };
+        }
+        for (target, sum) in targets.iter_mut().zip(sums) {
+            target[i] += L::total(sum);
+        }
+    }
+    self_images(constants, state, n, rates);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -903,8 +1150,8 @@ mod tests {
         let on_lanes = kernel.runs_on_lanes();
         let on_lists = structure.is_listed() && on_lanes;
         assert_eq!(
-            sim.lists().is_some(),
-            on_lists,
+            sim.lists().map(|lists| lists.rows().is_some()),
+            on_lists.then_some(structure == PairStructure::Rows),
             "{kernel:?} on {structure:?}"
         );
         let placed = sim.particles();

@@ -88,10 +88,6 @@ impl<const FLUIDANIMATE: bool> Course<FLUIDANIMATE> {
 }
 
 impl<const FLUIDANIMATE: bool> Dynamics for Course<FLUIDANIMATE> {
-    fn reads_rows(&self) -> bool {
-        true
-    }
-
     /// SPEC.md's: the stiffness times the density's excess over the rest density, the
     /// pressure its acceleration's factor (rho_i + rho_j - 2 rho_0) sums in pairs.
     fn pressure(&self, density: f64) -> f64 {

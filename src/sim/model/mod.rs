@@ -140,12 +140,6 @@ pub trait Dynamics: std::fmt::Debug + dyn_clone::DynClone {
         params.h
     }
 
-    /// Whether its SIMD passes can run across particles over the full lists' rows
-    /// (`sim::lists::Rows`, `--pairs rows`).
-    fn reads_rows(&self) -> bool {
-        false
-    }
-
     /// Whether the densities are a state of their own, carried from step to step (moved
     /// with the particles, kept by stage 2), rather than recomputed each step.
     fn carries_densities(&self) -> bool {
