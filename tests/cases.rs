@@ -6,6 +6,7 @@
 mod common;
 
 use common::{assert_refused, entries, exit_code, run_lab, stderr, stdout};
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 
 /// The case `name` of `cases/`.
@@ -649,7 +650,7 @@ fn still_water_is_checked_against_hydrostatics() {
 fn the_dam_break_validation_from_its_case_gives_the_fronts_of_its_flags() {
     let dir = tempfile::tempdir().unwrap();
     let validate = |extra: &[&std::ffi::OsStr], folder: &Path| {
-        let mut args: Vec<&std::ffi::OsStr> = vec!["validate".as_ref(), "dam-break".as_ref()];
+        let mut args: Vec<&OsStr> = vec!["validate".as_ref(), "dam-break".as_ref()];
         args.extend_from_slice(extra);
         args.extend(["--until-t", "0.6", "--output-dir"].map(std::ffi::OsStr::new));
         args.push(folder.as_os_str());
@@ -1488,6 +1489,45 @@ fn a_final_state_that_is_a_gauge_file_is_refused() {
         chart.as_os_str(),
     ]);
     assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(!folder.exists());
+    // Nor may the diagnostics or a checkpoint be one of the gauges' files.
+    let out = dir.path().join("out.fld");
+    for (option, every) in [("--diagnostics", None), ("--checkpoint", Some("1"))] {
+        let mut args: Vec<&OsStr> = vec![
+            "run".as_ref(),
+            "--case".as_ref(),
+            case.as_os_str(),
+            out.as_os_str(),
+            option.as_ref(),
+            chart.as_os_str(),
+        ];
+        if let Some(every) = every {
+            args.extend([OsStr::new("--checkpoint-every"), OsStr::new(every)]);
+        }
+        let message = format!(
+            "fluid-lab: error: {option} {} is also the gauges' gauges-surface.png: give it a \
+             file of its own",
+            chart.display()
+        );
+        assert_refused(&run_lab(&args), 2, &message);
+        assert!(!folder.exists() && !out.exists());
+    }
+    // Nor the final state the gauges' folder itself.
+    let text = tank(&folder, 0.01).replace(
+        "[output]\n",
+        &format!("[output]\nfinal_state = \"{}\"\n", folder.display()),
+    );
+    std::fs::write(&case, text).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), case.as_os_str()]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(
+        stderr(&output).ends_with(&format!(
+            ":11:15: final_state = \"{}\" is the gauges' folder: name a .fld file\n",
+            folder.display()
+        )),
+        "{}",
+        stderr(&output)
+    );
     assert!(!folder.exists());
 }
 

@@ -910,13 +910,66 @@ fn side_files_must_be_files_of_their_own_and_special_files_are_not_resumed() {
         let mut all: Vec<&OsStr> = vec!["run".as_ref(), own.as_os_str(), out.as_os_str()];
         all.extend(args);
         let output = run_lab(&all);
-        assert_eq!(exit_code(&output), 1);
+        assert_eq!(exit_code(&output), 2, "a usage error");
         assert!(
             stderr(&output).contains("give it a file of its own"),
             "{}",
             stderr(&output)
         );
     }
+    // The checkpoint resumed from is not written over by the final state or the
+    // diagnostics (a new checkpoint may replace it).
+    let checkpoint = dir.path().join("ck.bin");
+    let output = run_lab(&[
+        "run".as_ref(),
+        own.as_os_str(),
+        "--steps".as_ref(),
+        "2".as_ref(),
+        "--checkpoint-every".as_ref(),
+        "1".as_ref(),
+        "--checkpoint".as_ref(),
+        checkpoint.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let saved = std::fs::read(&checkpoint).unwrap();
+    let resume = |extra: &[&OsStr]| {
+        let mut all: Vec<&OsStr> = vec![
+            "run".as_ref(),
+            own.as_os_str(),
+            "--steps".as_ref(),
+            "3".as_ref(),
+            "--resume".as_ref(),
+            checkpoint.as_os_str(),
+        ];
+        all.extend(extra);
+        run_lab(&all)
+    };
+    let shown = checkpoint.display();
+    for (extra, what) in [
+        (vec![checkpoint.as_os_str()], "the output"),
+        (
+            vec![
+                out.as_os_str(),
+                "--diagnostics".as_ref(),
+                checkpoint.as_os_str(),
+            ],
+            "--diagnostics",
+        ),
+    ] {
+        let message = format!(
+            "fluid-lab: error: {what} {shown} is the checkpoint resumed from: give it a file \
+             of its own"
+        );
+        assert_refused(&resume(&extra), 2, &message);
+        assert_eq!(std::fs::read(&checkpoint).unwrap(), saved);
+    }
+    let again = resume(&[
+        "--checkpoint-every".as_ref(),
+        "1".as_ref(),
+        "--checkpoint".as_ref(),
+        checkpoint.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&again), 0, "{}", stderr(&again));
     let output = run_lab(&[
         "sweep".as_ref(),
         "--output".as_ref(),

@@ -150,8 +150,27 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     }
     let extent = args.simulation.extent(args.until)?;
     let input = &args.simulation.source().to_path_buf();
-    // The side files must be files of their own: not the input, the output or each other
-    // (the output may be the input, as with `fluid`).
+    // The checkpoint resumed from is read, not written over by the final state or the
+    // diagnostics (a new checkpoint may replace it).
+    let resumed = args.resume.as_ref();
+    let written = [
+        ("the output", &args.output),
+        ("--diagnostics", &args.diagnostics),
+    ];
+    for (what, path) in written {
+        let (Some(path), Some(resumed)) = (path, resumed) else {
+            continue;
+        };
+        if same_file(path, resumed) {
+            return Err(UsageError(format!(
+                "{what} {} is the checkpoint resumed from: give it a file of its own",
+                path.display()
+            ))
+            .into());
+        }
+    }
+    // The side files must be files of their own: not the input, the output, the gauges'
+    // or each other (the output may be the input, as with `fluid`).
     let sides = [
         ("--diagnostics", &args.diagnostics),
         ("--checkpoint", &args.checkpoint),
@@ -161,12 +180,15 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         let others = [Some(input), args.output.as_ref()]
             .into_iter()
             .chain(sides[index + 1..].iter().map(|(_, other)| other.as_ref()));
-        if let Some(other) = others.flatten().find(|other| same_file(side, other)) {
-            return Err(format!(
-                "{option} {} is also {}: give it a file of its own",
+        let other = match others.flatten().find(|other| same_file(side, other)) {
+            Some(other) => Some(other.display().to_string()),
+            None => gauge_file_at(&args.simulation, side).map(|name| format!("the gauges' {name}")),
+        };
+        if let Some(other) = other {
+            return Err(UsageError(format!(
+                "{option} {} is also {other}: give it a file of its own",
                 side.display(),
-                other.display()
-            )
+            ))
             .into());
         }
     }
@@ -457,6 +479,18 @@ fn check_case_outputs(args: &SimulationArgs, used: bool) -> Result<(), Box<dyn E
                 "the case file: give the state a file of its own".into(),
             ));
         }
+        let folder = case.output.folder.as_ref();
+        if folder.is_some_and(|folder| {
+            Path::new(folder.get_ref())
+                .components()
+                .eq(path.components())
+        }) {
+            return Err(at(
+                "final_state",
+                state,
+                "the gauges' folder: name a .fld file".into(),
+            ));
+        }
     }
     Ok(())
 }
@@ -472,22 +506,9 @@ fn check_gauge_files(
     let (Some(case), Some(output)) = (&args.read, output) else {
         return Ok(());
     };
-    let (Some(folder), false) = (
-        &case.output.folder,
-        case.gauges.points.is_empty() && case.gauges.heights.is_empty(),
-    ) else {
+    let Some(name) = gauge_file_at(args, output) else {
         return Ok(());
     };
-    let folder = Path::new(folder.get_ref());
-    let charts = (gauges::CHART_NAMES.iter()).flat_map(|name| chart::files(folder, name));
-    let mut files = std::iter::once(folder.join(gauges::TABLE_FILE)).chain(charts);
-    // The same file, or (its folder not made yet) the same path.
-    let Some(file) =
-        files.find(|file| same_file(output, file) || output.components().eq(file.components()))
-    else {
-        return Ok(());
-    };
-    let name = file.file_name().unwrap_or_default().to_string_lossy();
     let message = format!(
         "the final state {} is the gauges' {name}: give it a file of its own",
         output.display()
@@ -496,6 +517,27 @@ fn check_gauge_files(
         (true, Some(key)) => Err(args.at_key(key.span(), message)),
         _ => Err(UsageError(message).into()),
     }
+}
+
+/// The name of the file the case's gauges write at `path`, if it is one: the same file,
+/// or (its folder not made yet) the same path.
+fn gauge_file_at(args: &SimulationArgs, path: &Path) -> Option<String> {
+    let case = args.read.as_ref()?;
+    let folder = case.output.folder.as_ref()?;
+    if case.gauges.points.is_empty() && case.gauges.heights.is_empty() {
+        return None;
+    }
+    let folder = Path::new(folder.get_ref());
+    let charts = (gauges::CHART_NAMES.iter()).flat_map(|name| chart::files(folder, name));
+    let mut files = std::iter::once(folder.join(gauges::TABLE_FILE)).chain(charts);
+    let file =
+        files.find(|file| same_file(path, file) || path.components().eq(file.components()))?;
+    Some(
+        file.file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned(),
+    )
 }
 
 /// The bytes a diagnostics row usually takes, for the room reserved before a run.
