@@ -1583,3 +1583,29 @@ fn water_flags_beside_a_validation_s_case_override_it() {
     );
     assert!(!folder.exists());
 }
+
+#[test]
+fn a_failed_run_removes_the_nested_folders_it_made() {
+    // The final state's folder holds the gauges' folder; the state (the course model
+    // blown up in 50 steps of 50 ms) cannot be stored, so the run fails after making
+    // both: neither stays.
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("c.toml");
+    let folder = dir.path().join("made");
+    std::fs::write(
+        &case,
+        format!(
+            "[fluid]\nparticles_per_m = 150.0\n[[fluid.box]]\nmin_m = [-0.065, -0.08, -0.065]\n\
+             max_m = [0.0, 0.0, 0.0]\n[model]\nname = \"course\"\ntime_step_s = 0.05\n\
+             [run]\nsteps = 50\n[output]\nfolder = \"{0}/gauges\"\n\
+             final_state = \"{0}/final.fld\"\n[gauges]\ninterval_s = 0.001\n\
+             [[gauges.point]]\nname = \"p\"\nat_m = [0.0, -0.04, 0.0]\n",
+            folder.display()
+        ),
+    )
+    .unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), case.as_os_str()]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(stderr(&output).contains("beyond what the f32 .fld format stores"));
+    assert!(!folder.exists(), "{:?}", entries(&folder));
+}

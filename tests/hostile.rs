@@ -1541,3 +1541,32 @@ fn a_scene_too_big_for_memory_ends_with_one_line_and_leaves_nothing() {
         assert_eq!(entries(dir.path()), ["big.fld"], "nothing left");
     }
 }
+
+#[test]
+fn a_folder_that_cannot_be_made_leaves_none_of_its_parents() {
+    // The last folder's name is too long for the file system: the two made before it go.
+    let dir = tempfile::tempdir().unwrap();
+    let long = "x".repeat(300);
+    for command in ["export", "chaos"] {
+        let folder = dir.path().join("made").join("inner").join(&long);
+        let mut args: Vec<&OsStr> = match command {
+            "export" => vec!["export".as_ref(), "--steps".as_ref(), "0".as_ref()],
+            _ => vec!["chaos".as_ref(), "perturb".as_ref()],
+        };
+        let small = input("small");
+        args.extend([small.as_os_str(), folder.as_os_str()]);
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 1, "{command}: {}", stderr(&output));
+        assert!(
+            stderr(&output).contains("File name too long"),
+            "{}",
+            stderr(&output)
+        );
+        assert_eq!(stderr(&output).lines().count(), 1);
+        assert!(
+            entries(dir.path()).is_empty(),
+            "{command}: {:?}",
+            entries(dir.path())
+        );
+    }
+}

@@ -67,9 +67,10 @@ impl MadeFolder {
 
 impl Drop for MadeFolder {
     fn drop(&mut self) {
-        // Innermost first; a folder that holds anything stays (and so do its parents).
+        // Innermost first; a folder that holds anything stays (and so do its parents);
+        // one never made (its making failed part way) is passed over.
         for folder in self.made.iter().rev() {
-            if std::fs::remove_dir(folder).is_err() {
+            if folder.exists() && std::fs::remove_dir(folder).is_err() {
                 break;
             }
         }

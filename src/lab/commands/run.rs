@@ -201,8 +201,9 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         (case.output.folder.as_ref()).map(|folder| PathBuf::from(folder.get_ref()))
     });
     let interval = case.and_then(|case| case.gauges.interval_s.as_ref().map(|i| *i.get_ref()));
-    // Declared before the files that go into them, so dropped after those.
-    let mut made = Vec::new();
+    // Declared before the files that go into them, so dropped after those; the last made
+    // first (a vector drops from its front), as one may be inside another.
+    let mut made = std::collections::VecDeque::new();
     let open_output = || args.output.as_deref().map(OutputFile::create).transpose();
     let mut output = if from_case { None } else { open_output()? };
     let mut diagnostics_file = args
@@ -220,13 +221,13 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     if from_case {
         let folder = args.output.as_deref().and_then(Path::parent);
         if let Some(folder) = folder.filter(|folder| !folder.as_os_str().is_empty()) {
-            made.push(super::create_output_dir(folder)?);
+            made.push_front(super::create_output_dir(folder)?);
         }
         output = open_output()?;
     }
     let gauges_file = match (&gauge_folder, gauges.is_empty()) {
         (Some(folder), false) => {
-            made.push(super::create_output_dir(folder)?);
+            made.push_front(super::create_output_dir(folder)?);
             let table = folder.join(gauges::TABLE_FILE);
             // A case run again writes over its last run's readings: said once they are.
             let replaces = table.exists();
