@@ -1570,3 +1570,47 @@ fn a_folder_that_cannot_be_made_leaves_none_of_its_parents() {
         );
     }
 }
+
+#[test]
+fn a_dam_break_s_column_and_water_flags_are_checked_before_anything_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("v");
+    let refused = [
+        (
+            "--width=-1",
+            "invalid value '-1' for '--width <WIDTH>': -1 is not a width in metres > 0",
+        ),
+        (
+            "--width=nan",
+            "invalid value 'nan' for '--width <WIDTH>': nan is not a width in metres > 0",
+        ),
+        (
+            "--width=1",
+            "--width 1 at 100 per m: a column 1 m wide and 2 m high does not fit the box \
+             (0.13 x 0.18 m)",
+        ),
+        (
+            "--walls=free-slip",
+            "--walls, --artificial-viscosity, --laminar-viscosity, --smoothing, --sound-speed \
+             and --density-diffusion are the weakly compressible model's; the models run \
+             (fluidanimate) take none",
+        ),
+    ];
+    for (flag, message) in refused {
+        let output = run_lab(&[
+            "validate".as_ref(),
+            "dam-break".as_ref(),
+            "--models".as_ref(),
+            "fluidanimate".as_ref(),
+            "--ppms".as_ref(),
+            "100".as_ref(),
+            "--until".as_ref(),
+            "0.01".as_ref(),
+            flag.as_ref(),
+            "--output-dir".as_ref(),
+            folder.as_os_str(),
+        ]);
+        assert_refused(&output, 2, &format!("fluid-lab: error: {message}"));
+        assert!(!folder.exists(), "{flag}");
+    }
+}

@@ -107,7 +107,7 @@ pub struct WaterArgs {
 
 impl WaterArgs {
     /// Whether any choice was given (every field is `None` when none is).
-    fn any(&self) -> bool {
+    pub fn any(&self) -> bool {
         *self != WaterArgs::default()
     }
 

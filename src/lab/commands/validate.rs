@@ -67,7 +67,7 @@ pub struct ValidateArgs {
     /// The column's width in metres (its height is twice it): a is the width of the
     /// particles' columns within it (a multiple of the spacing). The box's 0.13 m length
     /// lets the front run to Z = 0.13 / a [default: 0.03].
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_width)]
     width: Option<f64>,
     /// Run until the experiment's dimensionless time T = t sqrt(2 g / a) reaches this (at
     /// most 1000) [default: 4].
@@ -206,6 +206,29 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     }
     let asked = asked_time_step(args.adaptive, args.dt);
     let models = args.models();
+    // The water settings only a water run reads, and the column at each resolution:
+    // usage errors, before anything is made.
+    if args.water.any() && !models.contains(&Model::Wcsph) {
+        let names: Vec<&str> = models.iter().map(|model| model.name()).collect();
+        return Err(UsageError(format!(
+            "--walls, --artificial-viscosity, --laminar-viscosity, --smoothing, \
+             --sound-speed and --density-diffusion are the weakly compressible model's; \
+             the models run ({}) take none",
+            names.join(", ")
+        ))
+        .into());
+    }
+    for &ppm in &args.ppms() {
+        let dam = DamBreak {
+            width: args.width(),
+            ppm,
+            seed: args.seed,
+        };
+        dam.particles().map_err(|why| {
+            let (width, ppm) = (format_g(args.width()), format_g(ppm));
+            UsageError(format!("--width {width} at {ppm} per m: {why}"))
+        })?;
+    }
     // A fixed step that would take more steps than any run to a time may: refused before
     // anything is made.
     for &model in &models {
@@ -730,5 +753,13 @@ fn verdict(
             failed.join(separator)
         )
         .into()),
+    }
+}
+
+/// Parses a column's width: a finite number of metres > 0.
+fn parse_width(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(width) if width.is_finite() && width > 0.0 => Ok(width),
+        _ => Err(format!("{text} is not a width in metres > 0")),
     }
 }
