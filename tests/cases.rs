@@ -621,6 +621,11 @@ fn still_water_is_checked_against_hydrostatics() {
         ("--models", "wcsph"),
         ("--ppms", "100"),
         ("--width", "0.02"),
+        ("--every", "3"),
+        ("--kernel", "scalar"),
+        ("--dt", "0.0001"),
+        ("--adaptive", "0.5"),
+        ("--seed", "5"),
     ] {
         let mut args = vec![
             "validate".as_ref(),
@@ -639,7 +644,7 @@ fn still_water_is_checked_against_hydrostatics() {
             stderr(&output),
             format!(
                 "fluid-lab: error: {flag} is the dam break's: validate still-water runs its \
-                 case's model, resolution and [run] until_s\n"
+                 case's model, kernel, time step, scene and [run] until_s\n"
             )
         );
         assert!(!unmade.exists(), "{flag}");

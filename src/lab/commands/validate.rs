@@ -77,13 +77,12 @@ pub struct ValidateArgs {
     /// 60).
     #[arg(long, value_name = "SECONDS", conflicts_with = "until_t", allow_negative_numbers = true, value_parser = parse_seconds)]
     until: Option<f64>,
-    /// Sample the front every this many steps.
-    #[arg(long, default_value_t = 5,
-          value_parser = clap::builder::RangedI64ValueParser::<u64>::new().range(1..))]
-    every: u64,
-    /// Pair-loop implementation.
-    #[arg(long, value_enum, default_value_t = Kernel::NATIVE)]
-    kernel: Kernel,
+    /// Sample the front every this many steps [default: 5]
+    #[arg(long, value_parser = clap::builder::RangedI64ValueParser::<u64>::new().range(1..))]
+    every: Option<u64>,
+    /// Pair-loop implementation [default: the widest f64 lanes the build's CPU has]
+    #[arg(long, value_enum)]
+    kernel: Option<Kernel>,
     /// Fixed time step in seconds (default: each model's own rule, the course's 1 ms or
     /// the weakly compressible model's CFL step).
     #[arg(long, allow_negative_numbers = true, value_parser = parse_time_step)]
@@ -91,9 +90,9 @@ pub struct ValidateArgs {
     /// Adaptive time step with this Courant constant instead of a fixed one.
     #[arg(long, allow_negative_numbers = true, conflicts_with = "dt", value_parser = parse_courant)]
     adaptive: Option<f64>,
-    /// Seed of the lattice jitter.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
+    /// Seed of the lattice jitter [default: 1]
+    #[arg(long)]
+    seed: Option<u64>,
     /// The weakly compressible model's choices (its runs only).
     #[command(flatten)]
     water: WaterArgs,
@@ -120,7 +119,23 @@ impl ValidateArgs {
         self.until_t.unwrap_or(4.0)
     }
 
-    /// The first of the flags that only a dam break reads, if given.
+    /// How often the front is sampled (steps).
+    fn every(&self) -> u64 {
+        self.every.unwrap_or(5)
+    }
+
+    /// The kernel of the runs.
+    fn kernel(&self) -> Kernel {
+        self.kernel.unwrap_or(Kernel::NATIVE)
+    }
+
+    /// The seed of the columns' lattice jitter.
+    fn seed(&self) -> u64 {
+        self.seed.unwrap_or(1)
+    }
+
+    /// The first of the flags that only a dam break reads, if given (still water runs
+    /// its case's model, kernel, time step and scene).
     fn dam_break_flag(&self) -> Option<&'static str> {
         let given = [
             ("--models", self.models.is_some()),
@@ -128,6 +143,11 @@ impl ValidateArgs {
             ("--width", self.width.is_some()),
             ("--until-t", self.until_t.is_some()),
             ("--until", self.until.is_some()),
+            ("--every", self.every.is_some()),
+            ("--kernel", self.kernel.is_some()),
+            ("--dt", self.dt.is_some()),
+            ("--adaptive", self.adaptive.is_some()),
+            ("--seed", self.seed.is_some()),
         ];
         given
             .into_iter()
@@ -170,8 +190,8 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     };
     if let Some(flag) = still_water_flag {
         return Err(UsageError(format!(
-            "{flag} is the dam break's: validate still-water runs its case's model, \
-             resolution and [run] until_s"
+            "{flag} is the dam break's: validate still-water runs its case's model, kernel, \
+             time step, scene and [run] until_s"
         ))
         .into());
     }
@@ -222,7 +242,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         let dam = DamBreak {
             width: args.width(),
             ppm,
-            seed: args.seed,
+            seed: args.seed(),
         };
         dam.particles().map_err(|why| {
             let (width, ppm) = (format_g(args.width()), format_g(ppm));
@@ -239,7 +259,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             let unit = DamBreak {
                 width: args.width(),
                 ppm,
-                seed: args.seed,
+                seed: args.seed(),
             }
             .time_unit();
             let end = args.until.unwrap_or(until_t * unit);
@@ -270,11 +290,11 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             let dam = DamBreak {
                 width: args.width(),
                 ppm,
-                seed: args.seed,
+                seed: args.seed(),
             };
             let method = Method {
                 model,
-                kernel: args.kernel,
+                kernel: args.kernel(),
             };
             let (dynamics, settings) = match model {
                 Model::Wcsph => (
@@ -300,7 +320,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
                 &mut simulation,
                 &dam,
                 until,
-                args.every,
+                args.every(),
                 &mut progress,
                 shortest,
             );
@@ -310,7 +330,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             let cells = format!(
                 "{},{},{ppm},{},{rule}",
                 model.name(),
-                args.kernel.name(),
+                args.kernel().name(),
                 dam.column_width()
             );
             for sample in &collapse.samples {
@@ -396,7 +416,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     let footer = format!(
         "column a = {} m, 2a high, {rule}, {} kernel; {}, commit {}; {:.0} CPU s in all{}",
         args.width(),
-        args.kernel.name(),
+        args.kernel().name(),
         machine.cpu_model,
         machine.commit,
         runs.iter().map(|run| run.seconds).sum::<f64>(),
@@ -617,8 +637,8 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     args.models = Some(vec![simulation.model()]);
     args.ppms = Some(vec![ppm]);
     args.width = Some(dam.width);
-    args.seed = dam.seed;
-    args.kernel = simulation.kernel();
+    args.seed = Some(dam.seed);
+    args.kernel = Some(simulation.kernel());
     args.dt = simulation.dt;
     args.adaptive = simulation.adaptive;
     args.water = simulation.water.clone();
