@@ -1614,3 +1614,47 @@ fn a_dam_break_s_column_and_water_flags_are_checked_before_anything_runs() {
         assert!(!folder.exists(), "{flag}");
     }
 }
+
+#[test]
+fn resolutions_and_factors_out_of_range_are_usage_errors_before_anything_is_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let made = dir.path().join("made");
+    let small = input("small");
+    let grid = "gives a grid of 0 x 0 x 0 blocks, but a grid needs at least 1 block per axis \
+                and at most 67108864 blocks";
+    let cases: [(Vec<&OsStr>, String); 4] = [
+        (
+            ["scene", "dam-break", "--ppm", "1e-3"]
+                .map(OsStr::new)
+                .to_vec(),
+            format!("particles per metre 0.001 {grid}"),
+        ),
+        (
+            ["scene", "drop", "--ppm", "5"].map(OsStr::new).to_vec(),
+            format!("particles per metre 5 {grid}"),
+        ),
+        (
+            vec![
+                "accuracy".as_ref(),
+                small.as_os_str(),
+                "--times".as_ref(),
+                "0.001".as_ref(),
+                "--dt-factors".as_ref(),
+                "0".as_ref(),
+                "--output-dir".as_ref(),
+            ],
+            "--dt-factors need positive, finite factors".to_string(),
+        ),
+        (
+            ["stability", "--ppms", "5", "--output-dir"]
+                .map(OsStr::new)
+                .to_vec(),
+            format!("--ppms 5: particles per metre 5 {grid}"),
+        ),
+    ];
+    for (mut args, message) in cases {
+        args.push(made.as_os_str());
+        assert_refused(&run_lab(&args), 2, &format!("fluid-lab: error: {message}"));
+        assert!(!made.exists(), "{message}");
+    }
+}

@@ -287,7 +287,7 @@ pub fn generate(
 
 /// Particles per metre a built-in scene can have: finite, > 0, and giving a grid over
 /// `domain`'s box.
-fn check_ppm(ppm: f64, domain: &Domain) -> Result<(), String> {
+pub fn check_ppm(ppm: f64, domain: &Domain) -> Result<(), String> {
     if !(ppm.is_finite() && ppm > 0.0) {
         return Err(format!(
             "particles per metre {ppm} is not a finite number > 0"

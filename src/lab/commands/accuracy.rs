@@ -134,7 +134,7 @@ impl AccuracyArgs {
     /// The times and methods, checked, with the reference's step if one is given.
     fn plan(&self) -> Result<(Vec<f64>, Vec<Candidate>), Box<dyn Error>> {
         let times = self.times().map_err(UsageError)?;
-        let candidates = self.candidates()?;
+        let candidates = self.candidates().map_err(UsageError)?;
         if let Some(step) = self.reference_dt {
             if !(step.is_finite() && step > 0.0) {
                 return Err(

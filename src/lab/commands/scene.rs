@@ -4,6 +4,7 @@ use crate::io::fld;
 use crate::io::output::OutputFile;
 use crate::lab::scene::{self, SceneKind};
 use crate::lab::UsageError;
+use crate::sim::params::Domain;
 use clap::Args;
 use std::error::Error;
 use std::path::PathBuf;
@@ -38,10 +39,13 @@ const CASE_UNTIL: f64 = 0.5;
 
 /// Generates the scene and writes it as a `.fld` file.
 pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
-    // Before anything is made, and as a usage error (generate checks it too).
+    // Before anything is made, and as usage errors (generate checks them too).
     args.kind
         .check_particle_count(args.particles)
         .map_err(UsageError)?;
+    // Checked as given (the f32's shortest decimal, not its widening's digits).
+    let ppm: f64 = args.ppm.to_string().parse().unwrap_or(args.ppm.into());
+    scene::check_ppm(ppm, &Domain::COURSE).map_err(UsageError)?;
     let output = OutputFile::create(&args.output)?;
     if args.case_file {
         // Only a case whose scene can be made: the scene's own checks first.

@@ -8,13 +8,13 @@ use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
 use crate::lab::chart;
 use crate::lab::machine::Machine;
-use crate::lab::scene::SceneKind;
+use crate::lab::scene::{check_ppm, SceneKind};
 use crate::lab::stability::{self, rule_name, Outcome};
 use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
-use crate::sim::params::TIME_STEP;
+use crate::sim::params::{Domain, TIME_STEP};
 use crate::sim::timestep::{Integrator, TimeStep};
 use clap::Args;
 use std::error::Error;
@@ -207,6 +207,11 @@ impl StabilityArgs {
 /// Watches every (model, ppm, time step) run and writes the CSV and the map.
 pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let cells = args.cells()?;
+    // Each resolution admits a grid: a usage error before anything is made.
+    for &ppm in &args.ppms {
+        let why = |error| UsageError(format!("--ppms {}: {error}", format_g(ppm)));
+        check_ppm(ppm, &Domain::COURSE).map_err(why)?;
+    }
     let _folder = super::create_output_dir(&args.output_dir)?;
     // The CSV is opened before the runs, so an unwritable folder fails first.
     let csv_path = args.csv_path();
