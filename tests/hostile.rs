@@ -977,7 +977,7 @@ fn side_files_must_be_files_of_their_own_and_special_files_are_not_resumed() {
         "--".as_ref(),
         own.as_os_str(),
     ]);
-    assert_eq!(exit_code(&output), 1);
+    assert_eq!(exit_code(&output), 2, "a usage error");
     assert!(
         stderr(&output).contains("is the input"),
         "{}",
@@ -1007,7 +1007,7 @@ fn side_files_must_be_files_of_their_own_and_special_files_are_not_resumed() {
         "--".as_ref(),
         own.as_os_str(),
     ]);
-    assert_eq!(exit_code(&output), 1);
+    assert_eq!(exit_code(&output), 2, "a usage error");
     assert!(
         stderr(&output).contains("is the program measured"),
         "{}",
@@ -1657,4 +1657,37 @@ fn resolutions_and_factors_out_of_range_are_usage_errors_before_anything_is_made
         assert_refused(&run_lab(&args), 2, &format!("fluid-lab: error: {message}"));
         assert!(!made.exists(), "{message}");
     }
+}
+
+#[test]
+fn a_sweep_of_two_inputs_of_one_name_is_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    for folder in [&a, &b] {
+        std::fs::create_dir(folder).unwrap();
+        std::fs::copy(input("small"), folder.join("one.fld")).unwrap();
+    }
+    let output_csv = dir.path().join("sweep.csv");
+    let output = run_lab(&[
+        "sweep".as_ref(),
+        "--output".as_ref(),
+        output_csv.as_os_str(),
+        "--iterations".as_ref(),
+        "1".as_ref(),
+        "--repeats".as_ref(),
+        "1".as_ref(),
+        "--idle-seconds".as_ref(),
+        "0".as_ref(),
+        "--".as_ref(),
+        a.join("one.fld").as_os_str(),
+        b.join("one.fld").as_os_str(),
+    ]);
+    let message = format!(
+        "fluid-lab: error: {} and {} share the name one.fld, which the CSV's input column \
+         would not tell apart",
+        a.join("one.fld").display(),
+        b.join("one.fld").display()
+    );
+    assert_refused(&output, 2, &message);
+    assert!(!output_csv.exists());
 }

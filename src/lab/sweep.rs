@@ -5,6 +5,7 @@
 use crate::io::signals;
 use crate::lab::energy::{Domain, Energy, EnergyMethod, MeasureError};
 use crate::lab::machine::Machine;
+use crate::lab::UsageError;
 use std::collections::HashSet;
 use std::error::Error;
 use std::io::{self, Read, Seek, Write};
@@ -196,12 +197,12 @@ impl Sweep {
         for path in &self.plan.inputs {
             let name = file_name(path);
             if let Some((other, ..)) = inputs.iter().find(|(_, seen, _)| *seen == name) {
-                return Err(format!(
+                return Err(UsageError(format!(
                     "{} and {} share the name {name}, which the CSV's input column would \
                      not tell apart",
                     other.display(),
                     path.display()
-                )
+                ))
                 .into());
             }
             inputs.push((path, name, particle_count(path)?));
@@ -258,9 +259,10 @@ impl Sweep {
         save: &mut Save<'_>,
     ) -> Result<(), Box<dyn Error>> {
         let plan = &self.plan;
+        // The inputs checked before the notes: a refused sweep prints its error alone.
+        let inputs = self.inputs()?;
         writeln!(log, "time: {TIME_METHOD}")?;
         writeln!(log, "energy: {}", self.energy.describe())?;
-        let inputs = self.inputs()?;
         for repeat in 1..=plan.idle_windows {
             if done.contains(&(None, None, repeat)) {
                 continue;

@@ -7,6 +7,7 @@ use crate::io::output::OutputFile;
 use crate::lab::energy::{EnergyMethod, Sources};
 use crate::lab::machine::Machine;
 use crate::lab::sweep::{self, Plan, Sweep};
+use crate::lab::UsageError;
 use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::collections::HashSet;
@@ -79,19 +80,19 @@ impl SweepArgs {
             .iter()
             .find(|input| same_file(input, &self.output))
         {
-            return Err(format!(
+            return Err(UsageError(format!(
                 "--output {} is the input {}",
                 self.output.display(),
                 input.display()
-            )
+            ))
             .into());
         }
         if same_file(&program, &self.output) {
-            return Err(format!(
+            return Err(UsageError(format!(
                 "--output {} is the program measured, {}",
                 self.output.display(),
                 program.display()
-            )
+            ))
             .into());
         }
         let sources = Sources {
