@@ -224,7 +224,7 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
         (
             "until_s = 0.5",
             "until_s = 0.5\nspeed = 1",
-            "unknown field `speed`",
+            "unknown key `speed`",
         ),
         // A whole number past the largest a key takes.
         (
@@ -338,6 +338,17 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "seed = 0",
             "seed = 0\nsphere = [[0.01, 0.02]]",
             "an item of fluid.sphere is a list of 2 items, expected a table",
+        ),
+        // Bare words where text goes, and a table left out.
+        (
+            "name = \"wcsph\"",
+            "name = wcsph",
+            "text must be in quotes (\"...\"); true and false are the only bare words",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = fluidanimate",
+            "text must be in quotes (\"...\"); true and false are the only bare words",
         ),
         // A name with control characters is echoed escaped, on one line.
         (

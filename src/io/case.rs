@@ -503,6 +503,19 @@ fn in_case_words(message: &str) -> String {
             );
         }
     }
+    // serde's fields are a case's keys, and its tables; TOML's bare words are quoted.
+    if let Some(rest) = words.strip_prefix("missing field `") {
+        let name = rest.trim_end_matches('`');
+        return match TABLES.contains(&name) {
+            true => format!("missing table [{name}]"),
+            false => format!("missing key `{name}`"),
+        };
+    }
+    if words.starts_with("invalid boolean") || words.starts_with("string values must be quoted") {
+        return "text must be in quotes (\"...\"); true and false are the only bare words"
+            .to_string();
+    }
+    words = words.replace("unknown field `", "unknown key `");
     const WORDS: [(&str, &str); 16] = [
         ("expected f64", "expected a number"),
         ("expected f32", "expected a number"),
@@ -951,7 +964,17 @@ mod tests {
                 "invalid type: string \"x\", expected struct PointGauge",
                 "invalid type: text \"x\", expected a table",
             ),
-            ("unknown field `speed`", "unknown field `speed`"),
+            ("unknown field `speed`", "unknown key `speed`"),
+            ("missing field `fluid`", "missing table [fluid]"),
+            ("missing field `name`", "missing key `name`"),
+            (
+                "invalid boolean, expected `false`",
+                "text must be in quotes (\"...\"); true and false are the only bare words",
+            ),
+            (
+                "string values must be quoted, expected literal string",
+                "text must be in quotes (\"...\"); true and false are the only bare words",
+            ),
             (
                 "invalid type: integer `99999999999999999999` as i128, expected u64",
                 "the whole number 99999999999999999999 is too large: at most 18446744073709551615",
@@ -1054,7 +1077,7 @@ until_s = 0.01
                 "until_s = 0.01",
                 "until_seconds = 0.01",
                 (18, 1),
-                "unknown field",
+                "unknown key",
             ),
             (
                 "particles_per_m = 200.0",
