@@ -468,19 +468,29 @@ fn item_12_options_take_the_forms_their_help_shows() {
     let rows = std::fs::read_to_string(dir.path().join("map/stability.csv")).unwrap();
     assert_eq!(rows.lines().count(), 1 + 2 * 2 * 2, "{rows}");
     // A negative number reaches its check.
-    for (option, said) in [
-        ("--steps", "-1 is not in 0.."),
-        ("--every", "-1 is not in 1.."),
+    let whole = |text: &str| {
+        format!("{text} is not a whole number of steps from 0 to 9223372036854775807 in digits")
+    };
+    for (option, value, said) in [
+        ("--steps", "-1", whole("-1")),
+        ("--every", "-1", "-1 is not in 1..".to_string()),
+        // Nor a number in another form, or past the largest.
+        ("--steps", "1e3", whole("1e3")),
+        (
+            "--steps",
+            "9223372036854775808",
+            whole("9223372036854775808"),
+        ),
     ] {
         let args = [
             "run".as_ref(),
             small.as_os_str(),
             option.as_ref(),
-            "-1".as_ref(),
+            value.as_ref(),
         ];
         let output = run_lab(&args);
         assert_eq!(exit_code(&output), 2);
-        assert!(stderr(&output).contains(said), "{}", stderr(&output));
+        assert!(stderr(&output).contains(&said), "{}", stderr(&output));
     }
     let output = run_lab(&[
         "run".as_ref(),

@@ -41,8 +41,7 @@ pub struct SimulationArgs {
     #[arg(skip)]
     pub case_text: Option<String>,
     /// Time steps to run (at most 2^63-1, as `fluid` takes) [default: 1]
-    #[arg(long, allow_negative_numbers = true,
-          value_parser = clap::builder::RangedI64ValueParser::<u64>::new().range(0..))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_steps)]
     pub steps: Option<u64>,
     /// Physical model [default: course]
     #[arg(long, value_enum)]
@@ -734,6 +733,17 @@ pub fn parse_particles_per_metre(text: &str) -> Result<f64, String> {
         Ok(ppm) if ppm.is_finite() && ppm > 0.0 => Ok(ppm),
         _ => Err(format!(
             "{text} is not a positive, finite number of particles per metre"
+        )),
+    }
+}
+
+/// Parses a count of time steps: a whole number from 0 to 2^63-1, written out in digits.
+pub fn parse_steps(text: &str) -> Result<u64, String> {
+    match text.parse::<u64>() {
+        Ok(steps) if steps <= i64::MAX as u64 => Ok(steps),
+        _ => Err(format!(
+            "{text} is not a whole number of steps from 0 to {} in digits",
+            i64::MAX
         )),
     }
 }
