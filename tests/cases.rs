@@ -77,7 +77,7 @@ fn a_scene_writes_only_a_case_that_runs() {
         "1".as_ref(),
         "--case-file".as_ref(),
     ]);
-    assert_eq!(exit_code(&output), 1);
+    assert_eq!(exit_code(&output), 2, "a usage error");
     assert!(
         stderr(&output).contains("particles per metre 1 gives a grid"),
         "{}",
@@ -90,7 +90,7 @@ fn a_scene_writes_only_a_case_that_runs() {
         path.as_os_str(),
         "--case-file".as_ref(),
     ]);
-    assert_eq!(exit_code(&output), 1);
+    assert_eq!(exit_code(&output), 2, "a usage error");
     assert!(
         stderr(&output).contains("it has no case file"),
         "{}",
@@ -290,6 +290,12 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "outside the domain",
         ),
         ("until_s = 0.5", "until_s = 0", "time > 0"),
+        // A subnormal time: seconds per simulated second would overflow.
+        (
+            "until_s = 0.5",
+            "until_s = 5e-324",
+            "time > 0 (from 2.2e-308 s)",
+        ),
         (
             "until_s = 0.5",
             "until_s = 0.5\n[output]\nframe_interval_s = -0.1",

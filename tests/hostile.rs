@@ -492,6 +492,19 @@ fn item_12_options_take_the_forms_their_help_shows() {
         assert_eq!(exit_code(&output), 2);
         assert!(stderr(&output).contains(&said), "{}", stderr(&output));
     }
+    // A subnormal time, whose ratios overflow (seconds per simulated second was inf).
+    let output = run_lab(&[
+        "run".as_ref(),
+        small.as_os_str(),
+        "--until".as_ref(),
+        "5e-324".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 2);
+    assert!(
+        stderr(&output).contains("5e-324 is not a positive, finite time in seconds"),
+        "{}",
+        stderr(&output)
+    );
     let output = run_lab(&[
         "run".as_ref(),
         small.as_os_str(),

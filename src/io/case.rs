@@ -7,6 +7,7 @@
 //! are refused, each with the file, the line and the column of the value at fault.
 
 use crate::sim::params::{self, BOX_MAX, BOX_MIN, GRAVITY};
+use crate::sim::timestep::is_time;
 use clap::ValueEnum;
 use glam::DVec3;
 use serde::de::Error as _;
@@ -728,8 +729,11 @@ impl Case {
             return Err((until.span(), "give steps or until_s, not both".into()));
         }
         if let Some(until) = &run.until_s {
-            if !(until.get_ref().is_finite() && *until.get_ref() > 0.0) {
-                return Err((until.span(), "until_s must be a time > 0".into()));
+            if !is_time(*until.get_ref()) {
+                return Err((
+                    until.span(),
+                    "until_s must be a time > 0 (from 2.2e-308 s)".into(),
+                ));
             }
         }
         if let Some(steps) = &run.steps {
@@ -738,10 +742,10 @@ impl Case {
             }
         }
         if let Some(interval) = &self.output.frame_interval_s {
-            if !(interval.get_ref().is_finite() && *interval.get_ref() > 0.0) {
+            if !is_time(*interval.get_ref()) {
                 return Err((
                     interval.span(),
-                    "frame_interval_s must be a time > 0".into(),
+                    "frame_interval_s must be a time > 0 (from 2.2e-308 s)".into(),
                 ));
             }
         }
@@ -784,8 +788,11 @@ impl Case {
         let Some(interval) = &gauges.interval_s else {
             return Err((first.clone(), "gauges need [gauges] interval_s".into()));
         };
-        if !(interval.get_ref().is_finite() && *interval.get_ref() > 0.0) {
-            return Err((interval.span(), "interval_s must be a time > 0".into()));
+        if !is_time(*interval.get_ref()) {
+            return Err((
+                interval.span(),
+                "interval_s must be a time > 0 (from 2.2e-308 s)".into(),
+            ));
         }
         if self.output.folder.is_none() {
             return Err((
@@ -911,8 +918,11 @@ impl ModelSettings {
             ));
         }
         if let Some(dt) = &self.time_step_s {
-            if !(dt.get_ref().is_finite() && *dt.get_ref() > 0.0) {
-                return Err((dt.span(), "time_step_s must be a time > 0".into()));
+            if !is_time(*dt.get_ref()) {
+                return Err((
+                    dt.span(),
+                    "time_step_s must be a time > 0 (from 2.2e-308 s)".into(),
+                ));
             }
         }
         if let Some(courant) = &self.adaptive_courant {

@@ -61,6 +61,13 @@ impl Limit {
     }
 }
 
+/// Whether `seconds` can be a time or a time step: positive and a normal f64 (from
+/// 2.2e-308 s; a subnormal one overflows the ratios of times, such as the seconds of
+/// computation per simulated second).
+pub fn is_time(seconds: f64) -> bool {
+    seconds.is_normal() && seconds > 0.0
+}
+
 /// The largest |a| and the largest |hv| (half-step speed) of `particles`, which the
 /// models' adaptive steps scale from; non-finite values are skipped (0 without any).
 pub fn largest_acceleration_and_speed(particles: &Particles) -> (f64, f64) {

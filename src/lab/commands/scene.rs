@@ -56,10 +56,10 @@ pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
             .kind
             .case(args.ppm, args.seed, CASE_UNTIL)
             .ok_or_else(|| {
-                format!(
+                UsageError(format!(
                     "{} is not a fill of a lattice: it has no case file",
                     args.kind.name()
-                )
+                ))
             })?;
         let text = format!(
             "# The {} scene of `fluid-lab scene`, as a case file (docs/case-files.md).\n\n{}",

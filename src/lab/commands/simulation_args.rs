@@ -17,7 +17,7 @@ use crate::sim::model::wcsph::{Settings, WallFriction};
 use crate::sim::model::{Dynamics, Model, Wcsph};
 use crate::sim::params;
 use crate::sim::simulation::Simulation;
-use crate::sim::timestep::{Integrator, Limit, TimeStep};
+use crate::sim::timestep::{is_time, Integrator, Limit, TimeStep};
 use clap::Args;
 use clap::ValueEnum;
 use std::error::Error;
@@ -722,8 +722,10 @@ pub fn run_visiting(
 /// Parses a physical time in seconds: finite and positive.
 pub fn parse_seconds(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
-        Ok(seconds) if seconds.is_finite() && seconds > 0.0 => Ok(seconds),
-        _ => Err(format!("{text} is not a positive, finite time in seconds")),
+        Ok(seconds) if is_time(seconds) => Ok(seconds),
+        _ => Err(format!(
+            "{text} is not a positive, finite time in seconds (from 2.2e-308)"
+        )),
     }
 }
 
@@ -751,7 +753,7 @@ pub fn parse_steps(text: &str) -> Result<u64, String> {
 /// Parses a positive, finite time step.
 pub fn parse_time_step(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
-        Ok(dt) if is_time_step(dt) => Ok(dt),
+        Ok(dt) if is_time(dt) => Ok(dt),
         _ => Err(format!("{text} is not a positive time step")),
     }
 }
@@ -794,9 +796,4 @@ fn parse_skin(text: &str) -> Result<f64, String> {
         Ok(width) if width.is_finite() && width >= 0.0 => Ok(width),
         _ => Err(format!("{text} is not a skin width (0 or more)")),
     }
-}
-
-/// Whether `dt` can be a time step: finite and positive.
-pub fn is_time_step(dt: f64) -> bool {
-    dt.is_finite() && dt > 0.0
 }

@@ -2,7 +2,7 @@
 //! it fails; a CSV and the stability map.
 
 use super::simulation_args::{
-    is_time_step, parse_courants, parse_particles_per_metre, Courants, MOST_STEPS_TO_GO,
+    parse_courants, parse_particles_per_metre, Courants, MOST_STEPS_TO_GO,
 };
 use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
@@ -15,7 +15,7 @@ use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
 use crate::sim::params::{Domain, TIME_STEP};
-use crate::sim::timestep::{Integrator, TimeStep};
+use crate::sim::timestep::{is_time, Integrator, TimeStep};
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
@@ -72,7 +72,7 @@ impl StabilityArgs {
             Err(UsageError(message).into())
         };
         for &factor in &self.dt_factors {
-            if !is_time_step(factor * TIME_STEP) {
+            if !is_time(factor * TIME_STEP) {
                 return refuse(format!(
                     "--dt-factors: {factor} does not give a positive time step"
                 ));
