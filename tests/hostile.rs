@@ -1714,3 +1714,45 @@ fn a_sweep_of_two_inputs_of_one_name_is_refused_in_one_line() {
     assert_refused(&output, 2, &message);
     assert!(!output_csv.exists());
 }
+
+#[test]
+fn energies_past_f64_are_said_and_speeds_stay_finite() {
+    // The course model on 50 ms steps: by step 72 the speeds pass 1e154 m/s, whose
+    // squares, and the energies, pass the largest f64 while the state is still finite.
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("c.toml");
+    std::fs::write(
+        &case,
+        "[fluid]\nparticles_per_m = 150.0\n[[fluid.box]]\nmin_m = [-0.065, -0.08, -0.065]\n\
+         max_m = [0.0, 0.0, 0.0]\n[model]\nname = \"course\"\ntime_step_s = 0.05\n\
+         [run]\nsteps = 100\n",
+    )
+    .unwrap();
+    let diagnostics = dir.path().join("d.csv");
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        case.as_os_str(),
+        "--diagnostics".as_ref(),
+        diagnostics.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let table = std::fs::read_to_string(&diagnostics).unwrap();
+    let first = table
+        .lines()
+        .skip(1)
+        .find(|row| row.split(',').nth(4) == Some("inf"))
+        .and_then(|row| row.split(',').next())
+        .expect("an energy past f64");
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: note: the energies pass the largest f64 from step {first} on: inf in {}\n",
+            diagnostics.display()
+        )
+    );
+    for row in table.lines().skip(1) {
+        let speed: f64 = row.split(',').nth(2).unwrap().parse().unwrap();
+        assert!(speed.is_finite(), "{row}");
+    }
+}

@@ -63,7 +63,15 @@ impl Vitals {
             {
                 vitals.beyond_f32 += 1;
             }
-            let speed = velocity.length();
+            // Scaled by the largest component where the squares overflow: a finite
+            // velocity has a finite speed.
+            let speed = match velocity.length() {
+                speed if speed.is_finite() => speed,
+                _ => {
+                    let largest = velocity.abs().max_element();
+                    largest * (velocity / largest).length()
+                }
+            };
             vitals.max_speed = vitals.max_speed.max(speed);
             if !(position.cmpge(low).all() && position.cmple(high).all()) {
                 vitals.outside += 1;
@@ -80,6 +88,12 @@ impl Vitals {
     /// Kinetic plus potential energy.
     pub fn total_energy(&self) -> f64 {
         self.kinetic + self.potential
+    }
+
+    /// Whether an energy passes the largest f64 (inf in the diagnostics) while every
+    /// particle's state is finite: a blown-up run's.
+    pub fn energy_overflows(&self) -> bool {
+        !(self.kinetic.is_finite() && self.potential.is_finite() && self.total_energy().is_finite())
     }
 }
 

@@ -289,8 +289,13 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     }
     let mut rows = String::from(diagnostics::CSV_HEADER);
     rows.push('\n');
+    // The first step whose energies pass the largest f64, said once the rows are written.
+    let mut overflowed = None;
     let mut diagnose = |simulation: &Simulation, step: u64| {
         let state = Diagnostics::of(simulation, step);
+        if state.vitals.energy_overflows() {
+            overflowed = overflowed.or(Some(step));
+        }
         rows.push_str(&state.csv_row());
         rows.push('\n');
     };
@@ -388,6 +393,12 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     let diagnosed = diagnostics_file.map_or(Ok(()), |file| file.commit(rows.as_bytes()));
     stored?;
     diagnosed?;
+    if let (Some(step), Some(path)) = (overflowed, &args.diagnostics) {
+        eprintln!(
+            "fluid-lab: note: the energies pass the largest f64 from step {step} on: inf in {}",
+            path.display()
+        );
+    }
     if let Some((file, folder, replaces)) = gauges_file {
         let machine = Machine::this();
         let footer = format!(
