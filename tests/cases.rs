@@ -1631,3 +1631,58 @@ fn a_failed_run_removes_the_nested_folders_it_made() {
     assert!(stderr(&output).contains("beyond what the f32 .fld format stores"));
     assert!(!folder.exists(), "{:?}", entries(&folder));
 }
+
+#[test]
+fn a_validation_case_of_another_shape_is_refused_at_its_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let shipped = |name: &str| {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("cases/{name}.toml"));
+        std::fs::read_to_string(path).unwrap()
+    };
+    let folder = dir.path().join("v");
+    let validate = |experiment: &str, text: String| {
+        let path = dir.path().join(format!("{experiment}.toml"));
+        std::fs::write(&path, text).unwrap();
+        let output = run_lab(&[
+            "validate".as_ref(),
+            experiment.as_ref(),
+            "--case".as_ref(),
+            path.as_os_str(),
+            "--output-dir".as_ref(),
+            folder.as_os_str(),
+        ]);
+        (output, path)
+    };
+    let dam = shipped("dam-break-validation");
+    // A column lower than 2a: at its box; a sphere beside it: at the sphere.
+    let low = dam.replace("-0.026666666666666665, 0.065]", "-0.03, 0.065]");
+    let sphere = format!("{dam}\n[[fluid.sphere]]\ncentre_m = [0.0, 0.0, 0.0]\nradius_m = 0.01\n");
+    let sphere_line = dam.lines().count() + 2;
+    for (text, line, message) in [
+        (
+            low,
+            12,
+            "a dam-break case's box of fluid is the column a wide and 2a high",
+        ),
+        (
+            sphere,
+            sphere_line,
+            "a dam-break case's fluid is one box, the column: no other box or sphere",
+        ),
+    ] {
+        let (output, path) = validate("dam-break", text);
+        assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+        let start = format!("fluid-lab: error: {}:{line}:1: {message}", path.display());
+        assert!(stderr(&output).starts_with(&start), "{}", stderr(&output));
+        assert!(!folder.exists());
+    }
+    // Still water without [run]: the case, exit 2.
+    let still = shipped("still-water").replace("[run]\nuntil_s = 2.0\n", "");
+    let (output, path) = validate("still-water", still);
+    let message = format!(
+        "fluid-lab: error: {}: a still-water case runs to [run] until_s: give it one",
+        path.display()
+    );
+    assert_refused(&output, 2, &message);
+    assert!(!folder.exists());
+}

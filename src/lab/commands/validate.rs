@@ -8,6 +8,7 @@ use super::simulation_args::{
     parse_time_step, steps_beyond_limit, Extent, Loaded, SimulationArgs, WaterArgs,
     MOST_STEPS_TO_GO,
 };
+use crate::io::case::CaseError;
 use crate::io::gformat::{format_g, format_rate, format_shortest};
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
@@ -28,6 +29,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+use toml::Spanned;
 
 /// The experiments a model can be validated against.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -585,7 +587,6 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     simulation.water = args.water.clone();
     simulation.read_case(&mut None)?;
     let case = simulation.read.as_ref().expect("a case read");
-    let shown = path.display();
     if case.domain.simulated() != Domain::COURSE {
         // At the first key that differs from the course's.
         let domain = &case.domain;
@@ -604,8 +605,16 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
         );
         return Err(simulation.at_key(key.span(), message));
     }
-    let [fill] = &case.fluid.boxes[..] else {
-        return Err(format!("{shown}: a dam-break case has one box of fluid").into());
+    // Its fluid is one box, no sphere: refused at the first fill past it.
+    let fills = &case.fluid;
+    let extra =
+        (fills.boxes.get(1).map(Spanned::span)).or(fills.spheres.first().map(Spanned::span));
+    let (Some(fill), None) = (fills.boxes.first(), extra.clone()) else {
+        let message = "a dam-break case's fluid is one box, the column: no other box or sphere";
+        return Err(match extra {
+            Some(span) => simulation.at_key(span, message.into()),
+            None => simulation.at_key(fills.particles_per_m.span(), message.into()),
+        });
     };
     let ppm = *case.fluid.particles_per_m.get_ref();
     let (low, high) = (fill.get_ref().min_m, fill.get_ref().max_m);
@@ -623,16 +632,16 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
         (high[1], BOX_MIN.y + 2.0 * a),
         (high[2], BOX_MAX.z),
     ];
-    if !case.fluid.spheres.is_empty() || column.iter().any(|(x, y)| (x - y).abs() > 1e-9) {
-        return Err(format!(
-            "{shown}: a dam-break case's box of fluid is the column a wide and 2a high against \
-             the low-x wall, through the box's depth (a = {a} m at {ppm} per metre: max_m = \
+    if column.iter().any(|(x, y)| (x - y).abs() > 1e-9) {
+        let message = format!(
+            "a dam-break case's box of fluid is the column a wide and 2a high against the \
+             low-x wall, through the box's depth (a = {a} m at {ppm} per metre: max_m = \
              [{}, {}, {}])",
             BOX_MIN.x + a,
             BOX_MIN.y + 2.0 * a,
             BOX_MAX.z
-        )
-        .into());
+        );
+        return Err(simulation.at_key(fill.span(), message));
     }
     args.models = Some(vec![simulation.model()]);
     args.ppms = Some(vec![ppm]);
@@ -663,7 +672,11 @@ fn still_water(
         let message = "a still-water case runs to [run] until_s, not a count of steps";
         return Err(match &case.run.steps {
             Some(steps) => args.at_key(steps.span(), message.into()),
-            None => format!("{}: {message}", path.display()).into(),
+            None => Box::new(CaseError {
+                file: path.display().to_string(),
+                at: None,
+                message: "a still-water case runs to [run] until_s: give it one".into(),
+            }),
         });
     };
     // The folder once the scene is made: a case refused leaves none behind.
