@@ -745,3 +745,38 @@ fn a_real_slurm_cancels_the_reference_when_a_method_fails_and_resubmits_both() {
     );
     assert!(out.join("accuracy-speed.png").is_file());
 }
+
+#[test]
+fn an_sbatch_that_prints_no_job_id_is_said_so() {
+    // Exit status 0 and nothing printed: not "sbatch failed (exit status: 0)".
+    let dir = tempfile::tempdir().unwrap();
+    let sbatch = dir.path().join("sbatch");
+    script(&sbatch, "exit 0");
+    let job = dir.path().join("job");
+    let folder = dir.path().join("st");
+    let output = run_lab(&[
+        "slurm".as_ref(),
+        "submit".as_ref(),
+        "--job-dir".as_ref(),
+        job.as_os_str(),
+        "--sbatch".as_ref(),
+        sbatch.as_os_str(),
+        "--".as_ref(),
+        "stability".as_ref(),
+        "--ppms".as_ref(),
+        "100".as_ref(),
+        "--models".as_ref(),
+        "fluidanimate".as_ref(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: sbatch succeeded but printed no job id; the job folder is kept, \
+             and fluid-lab slurm resubmit {} submits its points once sbatch works\n",
+            job.display()
+        )
+    );
+}

@@ -504,13 +504,19 @@ pub fn submit(
         .map_err(|error| format!("cannot run {}: {error}", sbatch.display()))?;
     let stdout = String::from_utf8_lossy(&output.stdout);
     let job_id = stdout.trim().split(';').next().unwrap_or("").to_string();
-    if !output.status.success() || job_id.is_empty() || !job_id.bytes().all(|b| b.is_ascii_digit())
-    {
+    if !output.status.success() {
         return Err(format!(
             "sbatch failed ({}): {}",
             output.status,
             last_line(&output.stderr)
         ));
+    }
+    if job_id.is_empty() || !job_id.bytes().all(|b| b.is_ascii_digit()) {
+        let printed = stdout.trim();
+        return Err(match printed.is_empty() {
+            true => "sbatch succeeded but printed no job id".to_string(),
+            false => format!("sbatch succeeded but printed no job id: {printed:?}"),
+        });
     }
     Ok(job_id)
 }
