@@ -780,3 +780,35 @@ fn an_sbatch_that_prints_no_job_id_is_said_so() {
         )
     );
 }
+
+#[test]
+fn an_accuracy_array_of_an_input_that_cannot_be_read_is_not_submitted() {
+    let dir = tempfile::tempdir().unwrap();
+    let slurm = FakeSlurm::in_folder(dir.path(), "exit 0");
+    let (job, folder) = (dir.path().join("job"), dir.path().join("acc"));
+    let missing = dir.path().join("missing.fld");
+    let mut args: Vec<std::ffi::OsString> = vec![
+        "slurm".into(),
+        "submit".into(),
+        "--job-dir".into(),
+        job.clone().into(),
+    ];
+    args.extend(slurm.options(&["sbatch"]));
+    args.extend([
+        "--".into(),
+        "accuracy".into(),
+        missing.clone().into(),
+        "--output-dir".into(),
+        folder.clone().into(),
+    ]);
+    let output = run_lab(&args);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: Cannot open {} for reading\n",
+            missing.display()
+        )
+    );
+    assert!(!job.exists() && !folder.exists() && !slurm.calls.exists());
+}

@@ -195,6 +195,8 @@ impl AccuracyArgs {
     /// The points a Slurm array runs, one a task: each method, then the reference, which
     /// needs every method's sample times and so runs after them.
     pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
+        // The input read as its tasks will read it, before anything is submitted.
+        fld::header(&fld::map_input(&self.input)?, &self.input)?;
         let (_, candidates) = self.plan()?;
         let mut points: Vec<String> = candidates.iter().map(Candidate::label).collect();
         points.push("the reference (compensated kernel, fixed step), after every method".into());
