@@ -1756,3 +1756,33 @@ fn energies_past_f64_are_said_and_speeds_stay_finite() {
         assert!(speed.is_finite(), "{row}");
     }
 }
+
+#[test]
+fn the_workbench_names_the_input_whose_particle_count_is_wrong() {
+    // `fluid`'s messages for these are SPEC.md's and name no file; the workbench's do.
+    let dir = tempfile::tempdir().unwrap();
+    let zero = dir.path().join("zero.fld");
+    std::fs::write(
+        &zero,
+        [&204f32.to_le_bytes()[..], &0i32.to_le_bytes()].concat(),
+    )
+    .unwrap();
+    let short = dir.path().join("short.fld");
+    let mut bytes = std::fs::read(input("small")).unwrap();
+    bytes.truncate(bytes.len() - 36);
+    std::fs::write(&short, bytes).unwrap();
+    let out = dir.path().join("out.fld");
+    for (path, message) in [
+        (&zero, "Invalid number of particles: 0."),
+        (
+            &short,
+            "Number of particles mismatch. Header: 4800, Found: 4799.",
+        ),
+    ] {
+        let output = run_lab(&["run".as_ref(), path.as_os_str(), out.as_os_str()]);
+        assert_eq!(exit_code(&output), 1);
+        let line = format!("fluid-lab: error: {}: {message}\n", path.display());
+        assert_eq!(stderr(&output), line);
+        assert!(!out.exists());
+    }
+}

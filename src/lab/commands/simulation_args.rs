@@ -478,12 +478,23 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
         }
         None => {
             // What the particles need is known from the header, before they are decoded.
+            // The course's count messages (SPEC.md rules 6 and 7) name no file: here, the
+            // input's name goes before them.
+            let named = |error: fld::FileError| -> Box<dyn Error> {
+                match error {
+                    fld::FileError::InvalidParticleCount(_)
+                    | fld::FileError::ParticleCountMismatch { .. } => {
+                        format!("{name}: {error}").into()
+                    }
+                    other => other.into(),
+                }
+            };
             let bytes = fld::map_input(source)?;
-            let particles = fld::header(&bytes, source)?.particles;
+            let particles = fld::header(&bytes, source).map_err(named)?.particles;
             memory_beyond_usable(particles as f64).map_err(|(needed, usable)| {
                 format!("{name}: its {particles} particles need about {needed}; {usable}")
             })?;
-            let scene = fld::parse(&bytes, source)?;
+            let scene = fld::parse(&bytes, source).map_err(named)?;
             drop(bytes);
             let ppm = scene.ppm;
             (scene.into_simulation_with(method, dynamics, &name)?, ppm)
