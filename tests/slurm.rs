@@ -812,3 +812,32 @@ fn an_accuracy_array_of_an_input_that_cannot_be_read_is_not_submitted() {
     );
     assert!(!job.exists() && !folder.exists() && !slurm.calls.exists());
 }
+
+#[test]
+fn a_job_folder_that_lists_no_points_merges_nothing() {
+    let temp = tempfile::tempdir().unwrap();
+    let slurm = FakeSlurm::in_folder(temp.path(), "exit 0");
+    let (job_dir, out) = (temp.path().join("job"), temp.path().join("map"));
+    let mut submit: Vec<std::ffi::OsString> =
+        ["slurm", "submit", "--job-dir"].map(Into::into).to_vec();
+    submit.push(job_dir.clone().into());
+    submit.extend(slurm.options(&["sbatch", "squeue"]));
+    submit.push("--".into());
+    submit.extend(STABILITY.map(Into::into));
+    submit.push("--output-dir".into());
+    submit.push(out.clone().into());
+    let output = run_lab(&submit);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // Edited by hand: no points left.
+    std::fs::write(job_dir.join("points.txt"), "").unwrap();
+    let output = slurm.merge(&job_dir, &[]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: {}: the job lists no points\n",
+            job_dir.display()
+        )
+    );
+    assert!(!out.join("stability.csv").exists());
+}

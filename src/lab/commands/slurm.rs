@@ -472,6 +472,10 @@ enum Status {
 fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let dir = JobDir::at(&args.job_dir)?;
     let job = dir.job()?;
+    // A job folder edited by hand may list none: nothing to merge, nothing written.
+    if job.points.is_empty() {
+        return Err(format!("{}: the job lists no points", dir.path.display()).into());
+    }
     // The subcommand's paths are the submitter's, as they are its tasks'.
     std::env::set_current_dir(&job.cwd)
         .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
