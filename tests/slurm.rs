@@ -779,6 +779,10 @@ fn an_sbatch_that_prints_no_job_id_is_said_so() {
             job.display()
         )
     );
+    // The job folder is kept to resubmit; the stability's own folder, made by the merge,
+    // is not left empty.
+    assert!(job.join("points.txt").exists());
+    assert!(!folder.exists());
 }
 
 #[test]

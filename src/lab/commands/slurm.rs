@@ -327,10 +327,9 @@ fn submit(args: SubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error
     let job_folder = super::create_output_dir(&dir.path)?;
     let tool_folder = tool.create_folder()?;
     drop(OutputFile::create(&tool.csv_path())?);
+    // The job folder stays whatever happens next (a failed sbatch leaves it to
+    // resubmit); the subcommand's, only once the job is submitted (the merge makes it).
     job_folder.keep();
-    if let Some(folder) = tool_folder {
-        folder.keep();
-    }
     let count = points.len();
     dir.create(&Job {
         command: args.command,
@@ -366,6 +365,9 @@ fn submit(args: SubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error
             dir.path.display()
         )?;
         job_ids.push(job_id);
+    }
+    if let Some(folder) = tool_folder {
+        folder.keep();
     }
     finish(&dir, &args.programs, &job_ids, args.wait, stdout)
 }
