@@ -356,6 +356,12 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "name = fluidanimate",
             "text must be in quotes (\"...\"); true and false are the only bare words",
         ),
+        // A date, which the TOML reader calls a table.
+        (
+            "particles_per_m = 400.0",
+            "particles_per_m = 1979-05-27T07:32:00Z",
+            "a date and time, which no key of a case takes",
+        ),
         // A name with control characters is echoed escaped, on one line.
         (
             "name = \"wcsph\"",

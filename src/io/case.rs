@@ -381,7 +381,7 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
             message,
         },
     };
-    if let Some((span, message)) = list_for_a_table(text) {
+    if let Some((span, message)) = misshapen(text) {
         return Err(error_at(Some(span), message));
     }
     let case: Case = toml::from_str(text).map_err(|error| {
@@ -423,11 +423,26 @@ const LISTS_OF_TABLES: [(&str, [&str; 2]); 2] = [
     ("gauges", ["point", "height"]),
 ];
 
-/// The first list of `text` where a case takes a table (or a list of tables, a table
-/// in it): its span and what was expected. Text that is not TOML is left to the reader.
-fn list_for_a_table(text: &str) -> Option<(Range<usize>, String)> {
+/// The first value of `text` of a kind no case takes where it stands: a date (no key
+/// takes one; the TOML reader calls it a table), or a list where a case takes a table (or
+/// a list of tables, a table in it). Its span and what was expected; text that is not
+/// TOML is left to the reader.
+fn misshapen(text: &str) -> Option<(Range<usize>, String)> {
     use toml::de::{DeTable, DeValue};
     let document = DeTable::parse(text).ok()?;
+    // Depth first, in the file's order.
+    fn first_date(value: &toml::Spanned<DeValue>) -> Option<Range<usize>> {
+        match value.get_ref() {
+            DeValue::Datetime(_) => Some(value.span()),
+            DeValue::Array(items) => items.iter().find_map(first_date),
+            DeValue::Table(table) => table.values().find_map(first_date),
+            _ => None,
+        }
+    }
+    if let Some(span) = document.get_ref().values().find_map(first_date) {
+        let message = "a date and time, which no key of a case takes".to_string();
+        return Some((span, message));
+    }
     let not_a_table = |value: &toml::Spanned<DeValue>, name: String| {
         let kind = match value.get_ref() {
             DeValue::Array(items) if items.len() == 1 => "a list of 1 item".to_string(),
