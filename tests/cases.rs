@@ -356,6 +356,12 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "name = fluidanimate",
             "text must be in quotes (\"...\"); true and false are the only bare words",
         ),
+        // A gravity whose squares overflow, shown as given.
+        (
+            "box_max_m = [0.065, 0.1, 0.065]",
+            "box_max_m = [0.065, 0.1, 0.065]\ngravity_m_s2 = [0.0, 1e308, 0.0]",
+            "gravity must be at most 1000 m/s^2, not 1e308",
+        ),
         // A date, which the TOML reader calls a table.
         (
             "particles_per_m = 400.0",

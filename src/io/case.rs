@@ -631,7 +631,14 @@ impl Case {
         if !finite(gravity.get_ref()) {
             return Err((gravity.span(), "gravity must be finite".into()));
         }
-        let pull = DVec3::from_array(*gravity.get_ref()).length();
+        // Its length scaled by its largest component, which stays finite where the squares
+        // would not (1e308 m/s^2 is not "inf").
+        let vector = DVec3::from_array(*gravity.get_ref());
+        let largest = vector.abs().max_element();
+        let pull = match largest > 0.0 {
+            true => largest * (vector / largest).length(),
+            false => 0.0,
+        };
         if pull > MAX_GRAVITY {
             return Err((
                 gravity.span(),
@@ -1176,6 +1183,12 @@ until_s = 0.01
                 "box_max_m = [0.065, 0.1, 0.065]\ngravity_m_s2 = [0.0, -1e4, 0.0]",
                 (5, 16),
                 "gravity must be at most 1000 m/s^2, not 10000",
+            ),
+            (
+                "box_max_m = [0.065, 0.1, 0.065]",
+                "box_max_m = [0.065, 0.1, 0.065]\ngravity_m_s2 = [0.0, 1e308, 0.0]",
+                (5, 16),
+                "gravity must be at most 1000 m/s^2, not 1e308",
             ),
             // A corner left out is blamed on the other.
             (
