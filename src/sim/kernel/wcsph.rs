@@ -955,13 +955,32 @@ pub(super) fn listed<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists)
         .all(|array| array.len() >= bound));
     let pairs = Pairs::<L>::new(constants, state);
     let mut targets = [&mut ax[..], ay, az, rates.rho];
-    let entries = lists.entries();
+    // SAFETY: every array of the state and of the targets holds `bound` (asserted above).
+    unsafe { over_half_lists::<L, false>(&pairs, constants, lists, &mut targets) };
+    self_images(constants, state, n, rates);
+}
+
+/// Each particle of `lists` with its half list, a register of partners at a time (the
+/// last group's lanes past the list masked): all their terms ([`Pairs::visit`]), or
+/// (`IMAGES_ONLY`), for the particles near a wall, their images' alone.
+///
+/// # Safety
+/// Every array of the pairs' state and of `targets` holds the lists' slots.
+unsafe fn over_half_lists<L: Lanes, const IMAGES_ONLY: bool>(
+    pairs: &Pairs<L>,
+    constants: &WcsphConstants,
+    lists: &NeighbourLists,
+    targets: &mut [&mut [f64]; 4],
+) {
+    let (state, entries, bound) = (&pairs.state, lists.entries(), lists.slots());
     for i in 0..bound {
         let range = lists.range(i);
-        if range.is_empty() {
+        let position = || [0, 1, 2].map(|axis| state.p[axis][i]);
+        let near_walls = || NearWalls::of(position(), constants.support, &constants.domain);
+        if range.is_empty() || (IMAGES_ONLY && near_walls().axes == 0) {
             continue;
         }
-        let first = First::of(constants, &state, i);
+        let first = First::of(constants, state, i);
         let mut sums = [L::ZERO_SUM; 4];
         for k in range.clone().step_by(L::LANES) {
             let at = Slots::new(entries[k..k + 8].try_into().expect("8 entries"), bound);
@@ -971,14 +990,18 @@ pub(super) fn listed<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists)
                 L::first(range.end - k)
             };
             // SAFETY: every slot of `at` is below `bound` (Slots::new), which every array
-            // of the state and of the targets holds (asserted above).
-            unsafe { pairs.visit(&first, at, lanes, &mut sums, &mut targets) };
+            // of the state and of the targets holds (the caller's).
+            unsafe {
+                match IMAGES_ONLY {
+                    true => pairs.visit_images(&first, at, lanes, &mut sums, targets),
+                    false => pairs.visit(&first, at, lanes, &mut sums, targets),
+                }
+            };
         }
         for (target, sum) in targets.iter_mut().zip(sums) {
             target[i] += L::total(sum);
         }
     }
-    self_images(constants, state, n, rates);
 }
 
 /// The particles of a register's lanes, as [`Pairs::own_terms`] reads them.
@@ -1060,32 +1083,8 @@ pub(super) fn across<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists,
             }
         }
     }
-    let entries = lists.entries();
-    for i in 0..bound {
-        let range = lists.range(i);
-        let position = [0, 1, 2].map(|axis| state.p[axis][i]);
-        if range.is_empty()
-            || NearWalls::of(position, constants.support, &constants.domain).axes == 0
-        {
-            continue;
-        }
-        let first = First::of(constants, &state, i);
-        let mut sums = [L::ZERO_SUM; 4];
-        for k in range.clone().step_by(L::LANES) {
-            let at = Slots::new(entries[k..k + 8].try_into().expect("8 entries"), bound);
-            let lanes = if k + L::LANES <= range.end {
-                L::all()
-            } else {
-                L::first(range.end - k)
-            };
-            // SAFETY: every slot of `at` is below `bound` (Slots::new), which every array
-            // of the state and of the targets holds (asserted above).
-            unsafe { pairs.visit_images(&first, at, lanes, &mut sums, &mut targets) };
-        }
-        for (target, sum) in targets.iter_mut().zip(sums) {
-            target[i] += L::total(sum);
-        }
-    }
+    // SAFETY: every array of the state and of the targets holds `bound` (asserted above).
+    unsafe { over_half_lists::<L, true>(&pairs, constants, lists, &mut targets) };
     self_images(constants, state, n, rates);
 }
 
