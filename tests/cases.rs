@@ -717,7 +717,7 @@ fn the_dam_break_validation_from_its_case_gives_the_fronts_of_its_flags() {
         "--output-dir".as_ref(),
         dir.path().join("no").as_os_str(),
     ]);
-    assert_eq!(exit_code(&output), 1);
+    assert_eq!(exit_code(&output), 2, "a case error, at its box");
     assert!(
         stderr(&output).contains("a wide and 2a high"),
         "{}",

@@ -828,6 +828,7 @@ fn any_f64() -> impl Strategy<Value = f64> {
             -0.0,
             f64::MAX,
             f64::MIN_POSITIVE,
+            f64::MIN_POSITIVE / 2.0,
             1.0,
         ]),
     ]
@@ -870,9 +871,10 @@ proptest! {
         }
     }
 
-    /// `--dt` of `run`, `export` and `render` takes exactly the finite positive numbers,
-    /// and `--adaptive` exactly the finite ones in (0, 1]; everything else is refused at
-    /// parse time as an invalid value.
+    /// `--dt` of `run`, `export` and `render` takes exactly the positive normal numbers
+    /// (from 2.2e-308 s: a subnormal step overflows the ratios of times), and
+    /// `--adaptive` exactly the finite ones in (0, 1]; everything else is refused at parse
+    /// time as an invalid value.
     #[test]
     fn lab_time_steps_are_validated(
         subcommand in prop::sample::select(vec!["run", "export", "render"]),
@@ -883,9 +885,10 @@ proptest! {
         // `--dt=-inf`: as one word, so that no value is taken for a short option.
         let word = format!("{option}={value}");
         args.push(word.as_str());
-        let valid = value.is_finite()
-            && value > 0.0
-            && (option == "--dt" || value <= 1.0);
+        let valid = match option {
+            "--dt" => value.is_normal() && value > 0.0,
+            _ => value.is_finite() && value > 0.0 && value <= 1.0,
+        };
         match Lab::try_parse_from(&args) {
             Ok(_) => prop_assert!(valid, "{:?} was accepted", args),
             Err(error) => {
