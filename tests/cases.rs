@@ -1698,3 +1698,39 @@ fn a_validation_case_of_another_shape_is_refused_at_its_place() {
     assert_refused(&output, 2, &message);
     assert!(!folder.exists());
 }
+
+#[test]
+fn a_final_state_through_a_folder_not_made_is_the_path_it_names() {
+    // `newd/..` is the case's own folder before `newd` is made: the case file is not
+    // written over, and a failed run leaves no `newd` behind.
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("c.toml");
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/dam-break-validation.toml");
+    let base = std::fs::read_to_string(shipped)
+        .unwrap()
+        .replace("[model]", "[run]\nsteps = 2\n\n[model]");
+    let with_state = |state: &str, extra: &str| {
+        let text = base.replace("name = \"wcsph\"", &format!("name = \"wcsph\"{extra}"));
+        format!("{text}\n[output]\nfinal_state = \"{state}\"\n")
+    };
+    let text = with_state(&format!("{}/newd/../c.toml", dir.path().display()), "");
+    std::fs::write(&case, &text).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), case.as_os_str()]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("is the case file: give the state a file of its own"),
+        "{}",
+        stderr(&output)
+    );
+    assert_eq!(
+        std::fs::read_to_string(&case).unwrap(),
+        text,
+        "the case is intact"
+    );
+    // A run that fails at its first step (a sound speed beyond reason).
+    let state = format!("{}/newd/../x.fld", dir.path().display());
+    std::fs::write(&case, with_state(&state, "\nsound_speed_factor = 1e300")).unwrap();
+    let output = run_lab(&["run".as_ref(), "--case".as_ref(), case.as_os_str()]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert_eq!(entries(dir.path()), ["c.toml"]);
+}

@@ -25,6 +25,14 @@ use std::path::{Path, PathBuf};
 /// they are still empty: a command that fails before writing leaves none behind.
 pub fn create_output_dir(dir: &Path) -> Result<MadeFolder, String> {
     let shown = dir.display();
+    // `newd/..` is a folder that is there: nothing to make (nor to remove after).
+    let dir = &through_missing_folders(dir);
+    if dir.as_os_str().is_empty() {
+        return Ok(MadeFolder {
+            made: Vec::new(),
+            registered: Vec::new(),
+        });
+    }
     if dir.exists() && !dir.is_dir() {
         return Err(format!("cannot use {shown} as a folder: it is a file"));
     }
@@ -87,8 +95,29 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
+/// `path` with each `..` that follows a folder that does not exist taken out with that
+/// folder (a folder not there is no symbolic link, so `newd/..` is the folder before
+/// it); every other `..` is left to the file system. `newd/../case.toml` names the case
+/// file before `newd` is made, and making the folder of `newd/../x.fld` makes nothing.
+pub fn through_missing_folders(path: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for component in path.components() {
+        let missing_folder =
+            matches!(out.components().next_back(), Some(Component::Normal(_))) && !out.exists();
+        match component {
+            Component::ParentDir if missing_folder => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    out
+}
+
 /// `path` with its folder resolved (symbolic links, `..`), or `None` if it has none.
 fn resolved(path: &Path) -> Option<std::path::PathBuf> {
+    let path = &through_missing_folders(path);
     let folder = match path.parent() {
         Some(folder) if !folder.as_os_str().is_empty() => folder,
         _ => Path::new("."),

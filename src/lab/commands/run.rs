@@ -134,7 +134,8 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     // The final state a case names (its folder made once the scene is).
     let mut from_case = false;
     if let (None, Some(case)) = (&args.output, &args.simulation.read) {
-        args.output = (case.output.final_state.as_ref()).map(|path| PathBuf::from(path.get_ref()));
+        args.output = (case.output.final_state.as_ref())
+            .map(|path| super::through_missing_folders(Path::new(path.get_ref())));
         from_case = args.output.is_some();
     }
     check_case_outputs(&args.simulation, from_case)?;
