@@ -845,3 +845,47 @@ fn a_job_folder_that_lists_no_points_merges_nothing() {
     );
     assert!(!out.join("stability.csv").exists());
 }
+
+#[test]
+fn a_merge_of_shards_no_run_writes_is_refused_before_the_csv_is_written() {
+    let temp = tempfile::tempdir().unwrap();
+    let slurm = FakeSlurm::in_folder(temp.path(), "exit 0");
+    let (job_dir, out) = (temp.path().join("job"), temp.path().join("map"));
+    let mut submit: Vec<std::ffi::OsString> =
+        ["slurm", "submit", "--job-dir"].map(Into::into).to_vec();
+    submit.push(job_dir.clone().into());
+    submit.extend(slurm.options(&["sbatch", "squeue"]));
+    submit.push("--".into());
+    submit.extend(STABILITY.map(Into::into));
+    submit.push("--output-dir".into());
+    submit.push(out.clone().into());
+    assert_eq!(exit_code(&run_lab(&submit)), 0);
+    for index in ["0", "1"] {
+        let task = task_of_job_77(&job_dir, index, "node-a");
+        assert_eq!(exit_code(&task), 0, "{}", stderr(&task));
+    }
+    // A shard edited by hand: a resolution that is no number.
+    let shard = std::fs::read_dir(job_dir.join("shards"))
+        .unwrap()
+        .map(|entry| entry.unwrap().path())
+        .find(|path| path.extension().is_some_and(|e| e == "csv"))
+        .expect("a shard");
+    let text = std::fs::read_to_string(&shard).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let ppm = lines[0].split(',').position(|name| name == "ppm").unwrap();
+    let mut cells: Vec<String> = lines[1].split(',').map(String::from).collect();
+    cells[ppm] = "abc".into();
+    lines[1] = cells.join(",");
+    std::fs::write(&shard, lines.join("\n") + "\n").unwrap();
+    let output = slurm.merge(&job_dir, &[]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("\"abc\" is not a number"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(
+        !out.join("stability.csv").exists(),
+        "no CSV of what no run writes"
+    );
+}

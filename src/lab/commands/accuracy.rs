@@ -392,6 +392,11 @@ impl AccuracyArgs {
 
     /// Draws the charts of the accuracy CSV at `csv` (a merged array's) and reports its
     /// failures and choices, as the sweep itself does.
+    /// Checks CSV text as [`Self::chart`] reads it.
+    pub fn check_csv(&self, text: &str) -> Result<(), Box<dyn Error>> {
+        Sweep::read(text, self.model).map(drop).map_err(Into::into)
+    }
+
     pub fn chart(&self, csv: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
         let text = std::fs::read_to_string(csv)
             .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;

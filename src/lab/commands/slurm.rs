@@ -270,6 +270,24 @@ impl Tool {
         }
     }
 
+    /// Checks the merged CSV `rows` as the subcommand's charts read them, before they are
+    /// written: a shard edited by hand may hold what no run writes.
+    fn check(&self, rows: &[u8], csv: &Path) -> Result<(), Box<dyn Error>> {
+        let text =
+            std::str::from_utf8(rows).map_err(|_| format!("{}: not UTF-8", csv.display()))?;
+        let named = |error: Box<dyn Error>| format!("{}: {error}", csv.display());
+        match self {
+            Tool::Sweep(_) => crate::lab::chart::SweepTable::parse(text)
+                .map(drop)
+                .map_err(named)?,
+            Tool::Stability(_) => stability::read_csv(text)
+                .map(drop)
+                .map_err(|error| named(error.into()))?,
+            Tool::Accuracy(args) => args.check_csv(text).map_err(named)?,
+        }
+        Ok(())
+    }
+
     /// Draws its charts from the merged CSV at `csv`.
     fn chart(&self, csv: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
         match self {
@@ -579,6 +597,7 @@ fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
     let csv_path = tool.csv_path();
     tool.create_folder()?;
     let rows = tool.complete(merged.csv, &dir, job.points.len())?;
+    tool.check(&rows, &csv_path)?;
     OutputFile::create(&csv_path)?.commit(&rows)?;
     writeln!(
         stdout,
