@@ -822,15 +822,7 @@ fn a_job_folder_that_lists_no_points_merges_nothing() {
     let temp = tempfile::tempdir().unwrap();
     let slurm = FakeSlurm::in_folder(temp.path(), "exit 0");
     let (job_dir, out) = (temp.path().join("job"), temp.path().join("map"));
-    let mut submit: Vec<std::ffi::OsString> =
-        ["slurm", "submit", "--job-dir"].map(Into::into).to_vec();
-    submit.push(job_dir.clone().into());
-    submit.extend(slurm.options(&["sbatch", "squeue"]));
-    submit.push("--".into());
-    submit.extend(STABILITY.map(Into::into));
-    submit.push("--output-dir".into());
-    submit.push(out.clone().into());
-    let output = run_lab(&submit);
+    let output = submit_stability(&slurm, &job_dir, &out);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     // Edited by hand: no points left.
     std::fs::write(job_dir.join("points.txt"), "").unwrap();
@@ -851,15 +843,7 @@ fn a_merge_of_shards_no_run_writes_is_refused_before_the_csv_is_written() {
     let temp = tempfile::tempdir().unwrap();
     let slurm = FakeSlurm::in_folder(temp.path(), "exit 0");
     let (job_dir, out) = (temp.path().join("job"), temp.path().join("map"));
-    let mut submit: Vec<std::ffi::OsString> =
-        ["slurm", "submit", "--job-dir"].map(Into::into).to_vec();
-    submit.push(job_dir.clone().into());
-    submit.extend(slurm.options(&["sbatch", "squeue"]));
-    submit.push("--".into());
-    submit.extend(STABILITY.map(Into::into));
-    submit.push("--output-dir".into());
-    submit.push(out.clone().into());
-    assert_eq!(exit_code(&run_lab(&submit)), 0);
+    assert_eq!(exit_code(&submit_stability(&slurm, &job_dir, &out)), 0);
     for index in ["0", "1"] {
         let task = task_of_job_77(&job_dir, index, "node-a");
         assert_eq!(exit_code(&task), 0, "{}", stderr(&task));
@@ -888,4 +872,18 @@ fn a_merge_of_shards_no_run_writes_is_refused_before_the_csv_is_written() {
         !out.join("stability.csv").exists(),
         "no CSV of what no run writes"
     );
+}
+
+/// `fluid-lab slurm submit` of the [`STABILITY`] sweep to `job_dir`, its CSV in `out`, on
+/// `slurm`'s sbatch and squeue.
+fn submit_stability(slurm: &FakeSlurm, job_dir: &Path, out: &Path) -> std::process::Output {
+    let mut submit: Vec<std::ffi::OsString> =
+        ["slurm", "submit", "--job-dir"].map(Into::into).to_vec();
+    submit.push(job_dir.into());
+    submit.extend(slurm.options(&["sbatch", "squeue"]));
+    submit.push("--".into());
+    submit.extend(STABILITY.map(Into::into));
+    submit.push("--output-dir".into());
+    submit.push(out.into());
+    run_lab(&submit)
 }
