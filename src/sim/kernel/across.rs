@@ -31,10 +31,13 @@ fn pack(records: &mut Vec<Record>, n: usize, of: impl Fn(usize) -> Record, far: 
 }
 
 /// The slots of a row's lanes from `from` (the first `L::LANES` of the 8), checked below
-/// the records' count.
+/// the records' count (written out: the water model's loop did not inline an array's
+/// `from_fn` here).
 #[inline(always)]
-fn lanes_of(row: &[u32; ROW], from: usize, records: usize) -> Slots {
-    Slots::new(std::array::from_fn(|k| row[(from + k) % ROW]), records)
+pub(super) fn lanes_of(row: &[u32; ROW], from: usize, records: usize) -> Slots {
+    let at = |k: usize| row[(from + k) % ROW];
+    let slots = [at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7)];
+    Slots::new(slots, records)
 }
 
 /// The lanes' own slots from `first` (the padding slot past `n`).
@@ -45,7 +48,13 @@ fn own(first: usize, n: usize, records: usize) -> Slots {
 
 /// Adds the first lanes of `sums` to `values` from `first`, up to `n`.
 #[inline(always)]
-fn add_lanes(values: &mut [f64], first: usize, n: usize, sums: [f64; ROW], lanes: usize) {
+pub(super) fn add_lanes(
+    values: &mut [f64],
+    first: usize,
+    n: usize,
+    sums: [f64; ROW],
+    lanes: usize,
+) {
     let count = lanes.min(n - first);
     for (value, sum) in values[first..first + count].iter_mut().zip(sums) {
         *value += sum;

@@ -23,6 +23,7 @@
 //! take one division per group where [`pair`] takes four (the viscosity's and the
 //! diffusion's quotients from one reciprocal), which moves the last bits only.
 
+use super::across::{add_lanes, lanes_of};
 use super::reference::Neumaier;
 use super::simd::{assert_padded, slots_used, Lanes, Site};
 use super::PairPass;
@@ -1050,10 +1051,6 @@ pub(super) fn across<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists,
             // SAFETY (each): first + LANES <= the last block's end, within every array
             // (asserted above).
             let own = |values: &[f64]| unsafe { L::load_f64(values, first) };
-            let row_of = |row: &[u32; ROW]| -> [u32; 8] {
-                let at = |k: usize| row[(from + k) % ROW];
-                [at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7)]
-            };
             let lanes = Lanesful::<L> {
                 p: [own(x), own(y), own(z)],
                 v: [own(vx), own(vy), own(vz)],
@@ -1064,7 +1061,7 @@ pub(super) fn across<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists,
             let length = unsafe { L::load(&lengths, from) };
             let mut sums = [L::ZERO_SUM; 4];
             for (m, row) in rows.rows(block).iter().enumerate() {
-                let at = Slots::new(row_of(row), bound + 1);
+                let at = lanes_of(row, from, bound + 1);
                 // The lanes whose lists reach this row (past them, the padding slot).
                 let listed = L::lt(L::splat(m as f64), length);
                 // SAFETY: every slot of `at` is at most `bound`, within every array of the
@@ -1075,11 +1072,8 @@ pub(super) fn across<L: Lanes>(pass: WeaklyCompressible, lists: &NeighbourLists,
                     }
                 }
             }
-            let count = L::LANES.min(bound - first);
             for (target, sum) in targets.iter_mut().zip(sums) {
-                for (value, lane) in target[first..first + count].iter_mut().zip(L::lanes(sum)) {
-                    *value += lane;
-                }
+                add_lanes(target, first, bound, L::lanes(sum), L::LANES);
             }
         }
     }
