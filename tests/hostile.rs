@@ -1313,7 +1313,7 @@ fn bad_flag_values_found_after_parsing_are_usage_errors_that_leave_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let small = input("small").to_str().unwrap().to_string();
-    let cases: [(Vec<String>, String); 6] = [
+    let cases: [(Vec<String>, String); 8] = [
         (
             vec![
                 "validate".into(),
@@ -1369,6 +1369,29 @@ fn bad_flag_values_found_after_parsing_are_usage_errors_that_leave_nothing() {
             "fluid-lab: error: --particles sets the size of random-cloud and corner-block only; \
              dam-break follows from --ppm"
                 .into(),
+        ),
+        (
+            vec![
+                "scene".into(),
+                "random-cloud".into(),
+                at("c.fld"),
+                "--particles".into(),
+                "0".into(),
+            ],
+            "fluid-lab: error: --particles 0 makes no scene: give at least 1".into(),
+        ),
+        (
+            vec![
+                "scene".into(),
+                "corner-block".into(),
+                at("c.fld"),
+                "--particles".into(),
+                usize::MAX.to_string(),
+            ],
+            format!(
+                "fluid-lab: error: --particles {} is past the limit of 50000000 particles",
+                usize::MAX
+            ),
         ),
     ];
     for (mut args, message) in cases {

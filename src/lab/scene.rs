@@ -52,15 +52,20 @@ impl SceneKind {
         matches!(self, SceneKind::RandomCloud | SceneKind::CornerBlock)
     }
 
-    /// Refuses a particle count for a scene whose size follows from ppm.
+    /// Refuses a particle count for a scene whose size follows from ppm, and a count of
+    /// none or past [`MAX_PARTICLES`].
     pub fn check_particle_count(self, particles: Option<usize>) -> Result<(), String> {
-        match particles.is_some() && !self.takes_particle_count() {
-            true => Err(format!(
+        match particles {
+            Some(_) if !self.takes_particle_count() => Err(format!(
                 "--particles sets the size of random-cloud and corner-block only; {} follows \
                  from --ppm",
                 self.name()
             )),
-            false => Ok(()),
+            Some(0) => Err("--particles 0 makes no scene: give at least 1".to_string()),
+            Some(count) if count > MAX_PARTICLES => Err(format!(
+                "--particles {count} is past the limit of {MAX_PARTICLES} particles"
+            )),
+            _ => Ok(()),
         }
     }
 }
