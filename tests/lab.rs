@@ -621,6 +621,68 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     let native = fluid::Kernel::NATIVE.name();
     assert!(at(&format!("{native} dt 2 ms")) > 1.5 * at(&format!("{native} dt 1 ms")));
 
+    // The CSV charts again with `--from-csv`; one whose times are not finite numbers >= 0
+    // (or whose errors are NaN or negative) is refused, and draws nothing.
+    let redraw = |csv: &std::path::Path, folder: &std::path::Path| {
+        run_lab(&[
+            "accuracy".as_ref(),
+            small.as_os_str(),
+            "--kernels".as_ref(),
+            kernels.as_ref(),
+            "--dt-factors".as_ref(),
+            "1,2".as_ref(),
+            "--adaptive".as_ref(),
+            "0.3".as_ref(),
+            "--integrators".as_ref(),
+            "leapfrog,verlet".as_ref(),
+            "--times".as_ref(),
+            "0.002,0.004".as_ref(),
+            "--from-csv".as_ref(),
+            csv.as_os_str(),
+            "--output-dir".as_ref(),
+            folder.as_os_str(),
+        ])
+    };
+    let again = redraw(&dir.path().join("accuracy.csv"), &dir.path().join("again"));
+    assert_eq!(exit_code(&again), 0, "{}", stderr(&again));
+    assert!(dir.path().join("again/accuracy-speed.png").is_file());
+    // The last method's row (a reference's has no errors to check), as the CSV numbers it.
+    let last = 2 + rows
+        .iter()
+        .rposition(|r| r[column("kernel")] != "reference")
+        .unwrap();
+    for (name, value, what) in [
+        ("time_s", "nan", "a finite number >= 0"),
+        ("time_s", "inf", "a finite number >= 0"),
+        ("requested_time_s", "-0.002", "a finite number >= 0"),
+        ("cpu_s", "-1", "a finite number >= 0"),
+        ("median_error_m", "NaN", "an error >= 0"),
+        ("max_error_m", "-1e-3", "an error >= 0"),
+    ] {
+        let k = column(name);
+        let mut edited: Vec<String> = vec![header.join(",")];
+        for (i, row) in rows.iter().enumerate() {
+            let mut row = row.clone();
+            if i + 2 == last {
+                row[k] = value;
+            }
+            edited.push(row.join(","));
+        }
+        let csv = dir.path().join("edited.csv");
+        std::fs::write(&csv, edited.join("\n") + "\n").unwrap();
+        let folder = dir.path().join("edited");
+        let refused = redraw(&csv, &folder);
+        assert_eq!(exit_code(&refused), 1, "{name} {value}");
+        assert_eq!(
+            stderr(&refused),
+            format!(
+                "fluid-lab: error: {}: row {last}: {name} is {value}, not {what}\n",
+                csv.display()
+            )
+        );
+        assert!(!folder.exists(), "{name} {value}");
+    }
+
     let bad = run_lab(&[
         "accuracy".as_ref(),
         small.as_os_str(),

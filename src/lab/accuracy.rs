@@ -904,14 +904,24 @@ pub fn read_runs(text: &str) -> Result<Vec<Run>, String> {
             let k = names.iter().position(|n| *n == name).expect("a column");
             &record[columns[k]]
         };
-        let number = |name: &str| -> Result<f64, String> {
-            cell(name)
-                .parse()
-                .map_err(|_| bad(format!("{name} {:?} is not a number", cell(name))))
+        // A time, step, rule or cost: a finite number >= 0; an error: a number >= 0, where
+        // infinity is a particle's blown-up distance.
+        let read = |name: &str, holds: fn(f64) -> bool, what: &str| -> Result<f64, String> {
+            match cell(name).parse::<f64>() {
+                Ok(value) if holds(value) => Ok(value),
+                Ok(_) => Err(bad(format!("{name} is {}, not {what}", cell(name)))),
+                Err(_) => Err(bad(format!("{name} {:?} is not a number", cell(name)))),
+            }
         };
+        let number = |name: &str| read(name, |v| v.is_finite() && v >= 0.0, "a finite number >= 0");
+        let error = |name: &str| read(name, |v| v >= 0.0, "an error >= 0");
         let optional = |name: &str| match cell(name) {
             "" => Ok(None),
             _ => number(name).map(Some),
+        };
+        let optional_error = |name: &str| match cell(name) {
+            "" => Ok(None),
+            _ => error(name).map(Some),
         };
         let count = |name: &str| -> Result<u64, String> {
             cell(name)
@@ -955,16 +965,16 @@ pub fn read_runs(text: &str) -> Result<Vec<Run>, String> {
             run.failure = Some((number("time_s")?, failure));
             continue;
         }
-        let errors = match optional("median_error_m")? {
+        let errors = match optional_error("median_error_m")? {
             None => None,
             Some(median_position) => Some(Errors {
                 median_position,
-                max_position: number("max_error_m")?,
-                centre: number("centre_error_m")?,
-                kinetic: optional("kinetic_error")?,
-                mean_density: number("mean_density_error")?,
-                max_density: number("max_density_error")?,
-                front: optional("front_error_m")?,
+                max_position: error("max_error_m")?,
+                centre: error("centre_error_m")?,
+                kinetic: optional_error("kinetic_error")?,
+                mean_density: error("mean_density_error")?,
+                max_density: error("max_density_error")?,
+                front: optional_error("front_error_m")?,
             }),
         };
         run.samples.push(Sample {
