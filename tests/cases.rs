@@ -317,6 +317,22 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
             "name = \"wcsph\"\nsmoothing_spacings = nan",
             "smoothing_spacings must be",
         ),
+        // Past the range a run can go (the pressure's stiffness overflows at step 1).
+        (
+            "name = \"wcsph\"",
+            "name = \"wcsph\"\nsound_speed_factor = 1e300",
+            "sound_speed_factor must be between 1 and 1000",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = \"wcsph\"\nsound_speed_factor = 1e-300",
+            "sound_speed_factor must be between 1 and 1000",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = \"wcsph\"\nsmoothing_spacings = 27.0",
+            "smoothing_spacings must be between 0.5 and 26",
+        ),
         // Found when the scene is made, still at their key.
         (
             "particles_per_m = 400.0",
@@ -1727,9 +1743,9 @@ fn a_final_state_through_a_folder_not_made_is_the_path_it_names() {
         text,
         "the case is intact"
     );
-    // A run that fails at its first step (a sound speed beyond reason).
+    // A run that fails at its second step (a density diffusion beyond reason).
     let state = format!("{}/newd/../x.fld", dir.path().display());
-    std::fs::write(&case, with_state(&state, "\nsound_speed_factor = 1e300")).unwrap();
+    std::fs::write(&case, with_state(&state, "\ndensity_diffusion = 1e300")).unwrap();
     let output = run_lab(&["run".as_ref(), "--case".as_ref(), case.as_os_str()]);
     assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
     assert_eq!(entries(dir.path()), ["c.toml"]);

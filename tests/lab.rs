@@ -1021,6 +1021,21 @@ fn the_water_s_settings_are_the_weakly_compressible_model_s_and_are_checked() {
             "sound speed factor inf is not finite and positive",
         ),
         (
+            "--sound-speed",
+            "1e300",
+            "sound speed factor must be between 1 and 1000",
+        ),
+        (
+            "--sound-speed",
+            "1e-300",
+            "sound speed factor must be between 1 and 1000",
+        ),
+        (
+            "--smoothing",
+            "0.4",
+            "smoothing length must be between 0.5 and 26",
+        ),
+        (
             "--artificial-viscosity",
             "-0.1",
             "artificial viscosity -0.1 is not finite and at least 0",

@@ -853,7 +853,7 @@ impl Case {
 impl ModelSettings {
     /// The weakly compressible model's settings: each the model's, each in its range.
     fn check_water(&self) -> Result<(), Fault> {
-        use crate::sim::model::wcsph::Settings;
+        use crate::sim::model::wcsph::{SMOOTHINGS, SOUND_SPEED_FACTORS};
         use crate::sim::model::Model;
         let numbers = [
             ("artificial_viscosity", &self.artificial_viscosity, false),
@@ -898,13 +898,24 @@ impl ModelSettings {
                 return Err((value.span(), format!("{key} must be {want}")));
             }
         }
-        // The smoothing length sets the grid: at most the box's smallest side over 3.
-        if let Some(smoothing) = &self.smoothing_spacings {
-            let default = Settings::default().smoothing;
-            if *smoothing.get_ref() > 20.0 * default {
+        let ranges = [
+            ("smoothing_spacings", &self.smoothing_spacings, SMOOTHINGS),
+            (
+                "sound_speed_factor",
+                &self.sound_speed_factor,
+                SOUND_SPEED_FACTORS,
+            ),
+        ];
+        for (key, value, range) in ranges {
+            let Some(value) = value else { continue };
+            if !range.contains(value.get_ref()) {
                 return Err((
-                    smoothing.span(),
-                    format!("smoothing_spacings must be at most {}", 20.0 * default),
+                    value.span(),
+                    format!(
+                        "{key} must be between {} and {}",
+                        range.start(),
+                        range.end()
+                    ),
                 ));
             }
         }

@@ -92,10 +92,11 @@ pub struct WaterArgs {
     /// (wcsph) [default: the validated one]
     #[arg(long, value_name = "NU", allow_negative_numbers = true)]
     pub laminar_viscosity: Option<f64>,
-    /// Smoothing length h in lattice spacings (wcsph) [default: the validated one]
+    /// Smoothing length h in lattice spacings, 0.5 to 26 (wcsph) [default: the validated
+    /// one]
     #[arg(long, value_name = "SPACINGS", allow_negative_numbers = true)]
     pub smoothing: Option<f64>,
-    /// Sound speed over sqrt(2 g H), H the fluid's height at the start (wcsph)
+    /// Sound speed over sqrt(2 g H), H the fluid's height at the start, 1 to 1000 (wcsph)
     /// [default: the validated one]
     #[arg(long, value_name = "FACTOR", allow_negative_numbers = true)]
     pub sound_speed: Option<f64>,

@@ -43,6 +43,7 @@ use crate::sim::stages::{self, Stage};
 use crate::sim::timestep::{largest_acceleration_and_speed, Integrator, Leapfrog, Limit, TimeStep};
 use std::collections::HashMap;
 use std::f64::consts::PI;
+use std::ops::RangeInclusive;
 
 /// The smoothing length in lattice spacings of the default settings: h = 1.3 / ppm, so
 /// the kernel's support 2h holds about 74 neighbours.
@@ -52,6 +53,14 @@ pub const GAMMA: i32 = 7;
 /// The default sound speed over the fastest expected flow speed (sqrt(2 g H) of a fall
 /// from the top of the fluid): a Mach number of 0.1 keeps density variations near 1%.
 pub const SOUND_SPEED_FACTOR: f64 = 10.0;
+/// The sound speed factors the model takes: from 1 (a slower sound would leave the fall
+/// from the top supersonic, not weakly compressible) to 1000 (already a hundred times the
+/// default's steps; beyond, the pressure's stiffness overflows long before f64 does).
+pub const SOUND_SPEED_FACTORS: RangeInclusive<f64> = 1.0..=1000.0;
+/// The smoothing lengths the model takes, in lattice spacings: from half a spacing (a
+/// support reaching the nearest neighbour) to 20 times the default (the box's smallest
+/// side over 3 at the course's coarsest resolution).
+pub const SMOOTHINGS: RangeInclusive<f64> = 0.5..=20.0 * SMOOTHING;
 /// The default Monaghan's artificial viscosity alpha.
 pub const ARTIFICIAL_VISCOSITY: f64 = 0.1;
 /// The delta-SPH density diffusion coefficient delta.
@@ -139,7 +148,8 @@ impl Settings {
     }
 
     /// Whether every value is one the model can run with: finite, the viscosities and
-    /// the diffusion not negative, h and the sound speed positive.
+    /// the diffusion not negative, h in [`SMOOTHINGS`] and the sound speed factor in
+    /// [`SOUND_SPEED_FACTORS`].
     pub fn check(&self) -> Result<(), String> {
         let values = [
             ("artificial viscosity", self.artificial_viscosity, false),
@@ -153,6 +163,23 @@ impl Settings {
             if bad {
                 let want = if positive { "positive" } else { "at least 0" };
                 return Err(format!("its {name} {value} is not finite and {want}"));
+            }
+        }
+        let ranges = [
+            ("smoothing length", self.smoothing, SMOOTHINGS),
+            (
+                "sound speed factor",
+                self.sound_speed_factor,
+                SOUND_SPEED_FACTORS,
+            ),
+        ];
+        for (name, value, range) in ranges {
+            if !range.contains(&value) {
+                return Err(format!(
+                    "its {name} must be between {} and {}",
+                    range.start(),
+                    range.end()
+                ));
             }
         }
         Ok(())
