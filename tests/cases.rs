@@ -1704,11 +1704,11 @@ fn a_validation_case_of_another_shape_is_refused_at_its_place() {
         assert!(stderr(&output).starts_with(&start), "{}", stderr(&output));
         assert!(!folder.exists());
     }
-    // Still water without [run]: the case, exit 2.
+    // Still water without [run]: at the file's start, as a missing table is, exit 2.
     let still = shipped("still-water").replace("[run]\nuntil_s = 2.0\n", "");
     let (output, path) = validate("still-water", still);
     let message = format!(
-        "fluid-lab: error: {}: a still-water case runs to [run] until_s: give it one",
+        "fluid-lab: error: {}:1:1: missing table [run]: a still-water case runs to its until_s",
         path.display()
     );
     assert_refused(&output, 2, &message);

@@ -672,10 +672,11 @@ fn still_water(
         let message = "a still-water case runs to [run] until_s, not a count of steps";
         return Err(match &case.run.steps {
             Some(steps) => args.at_key(steps.span(), message.into()),
+            // Where a missing table is reported, as toml reports a missing key.
             None => Box::new(CaseError {
                 file: path.display().to_string(),
-                at: None,
-                message: "a still-water case runs to [run] until_s: give it one".into(),
+                at: Some((1, 1)),
+                message: "missing table [run]: a still-water case runs to its until_s".into(),
             }),
         });
     };
