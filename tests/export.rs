@@ -365,6 +365,42 @@ fn renders_write_png_series_and_gif_animations() {
 }
 
 #[test]
+fn a_failed_run_keeps_the_frames_of_its_series_and_says_so_and_no_animation() {
+    // Issue 47: a run that fails at its second step (a density diffusion past reason).
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let scene = run_lab(&["scene", "dam-break", &at("dam.fld"), "--ppm", "100"]);
+    assert_eq!(exit_code(&scene), 0, "{}", stderr(&scene));
+    let failing = |command: &str, output: &str, extra: &[&str]| {
+        let mut args = vec![command, "--model", "wcsph", "--density-diffusion", "1e300"];
+        args.extend(["--steps", "5", "--every", "1"]);
+        args.extend(extra);
+        let dam = at("dam.fld");
+        let output = at(output);
+        args.extend([dam.as_str(), output.as_str()]);
+        let run = run_lab(&args);
+        assert_eq!(exit_code(&run), 1, "{command}: {}", stderr(&run));
+        stderr(&run)
+    };
+    let failure = "fluid-lab: error: the run failed at step 2: particle 0 is not finite";
+    let kept = "; the 2 frames written before it are kept\n";
+    assert_eq!(failing("render", "a.png", &[]), format!("{failure}{kept}"));
+    assert_eq!(failing("render", "a.gif", &[]), format!("{failure}\n"));
+    assert_eq!(
+        failing("export", "frames", &["--format", "vtp"]),
+        format!("{failure}{kept}")
+    );
+    let mut left: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name().into_string().unwrap())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["a_000000.png", "a_000001.png", "dam.fld", "frames"]);
+    let pvd = std::fs::read_to_string(dir.path().join("frames/dam.pvd")).unwrap();
+    assert_eq!(pvd.matches("<DataSet ").count(), 2, "{pvd}");
+}
+
+#[test]
 fn render_refuses_unknown_outputs_and_empty_ranges() {
     let dir = tempfile::tempdir().unwrap();
     let small = input("small");

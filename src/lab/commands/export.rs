@@ -1,7 +1,9 @@
 //! `fluid-lab export`: a state, or a run every k steps or every t simulated seconds, as VTK (legacy ASCII, or XML with
 //! binary arrays and a `.pvd` time series, for ParaView) or CSV files.
 
-use super::simulation_args::{load, needed, run_visiting, Loaded, SimulationArgs, Span};
+use super::simulation_args::{
+    keeping_frames, load, needed, run_visiting, Loaded, SimulationArgs, Span,
+};
 use crate::io::export::{frames_index, pvd_collection, Snapshot};
 use crate::io::output::OutputFile;
 use crate::lab::UsageError;
@@ -99,7 +101,8 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         };
         OutputFile::create(&collection)?.commit(index.as_bytes())?;
         Ok(())
-    })?;
+    })
+    .map_err(|error| keeping_frames(error, frames.len()))?;
     writeln!(stdout, "wrote {}", collection.display())?;
     Ok(())
 }

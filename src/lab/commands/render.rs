@@ -1,7 +1,7 @@
 //! `fluid-lab render`: a state as a PNG, or a run as an animated GIF or a PNG series.
 
 use super::simulation_args::{
-    load, needed, run_visiting, Extent, Frames, Loaded, SimulationArgs, Span,
+    keeping_frames, load, needed, run_visiting, Extent, Frames, Loaded, SimulationArgs, Span,
 };
 use crate::io::export::Snapshot;
 use crate::io::output::OutputFile;
@@ -119,6 +119,7 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         }
         Picture::Png => {
             let frames = args.span.frames(args.every);
+            let mut written = 0;
             run_visiting(&mut simulation, extent, frames, |simulation, step| {
                 let path = frame_path(step);
                 let file = match first.take() {
@@ -128,9 +129,11 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
                 let staged = file.staged()?;
                 render::render_png(&Snapshot::of(simulation, step), &style, staged.path())?;
                 staged.commit()?;
+                written += 1;
                 writeln!(stdout, "wrote {}", path.display())?;
                 Ok(())
-            })?;
+            })
+            .map_err(|error| keeping_frames(error, written))?;
         }
     }
     Ok(())

@@ -731,6 +731,16 @@ pub fn run_visiting(
     Ok(())
 }
 
+/// A run's failure after `written` files of a series of frames, saying that those are
+/// kept: the frames before a failure show how it came.
+pub fn keeping_frames(error: Box<dyn Error>, written: usize) -> Box<dyn Error> {
+    match written {
+        0 => error,
+        1 => format!("{error}; the frame written before it is kept").into(),
+        n => format!("{error}; the {n} frames written before it are kept").into(),
+    }
+}
+
 /// Parses a physical time in seconds: finite and positive.
 pub fn parse_seconds(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
