@@ -902,6 +902,42 @@ fn the_metre_long_tank_runs_from_its_case_in_its_own_box() {
     assert_eq!(last[far], "", "{csv}");
 }
 
+#[test]
+fn a_planar_case_runs_in_the_plane_z_0() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("dam2.fld");
+    let path = case("dam-break-2d");
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&OsStr> = vec!["run".as_ref(), "--case".as_ref(), path.as_os_str()];
+        args.push(out.as_os_str());
+        args.extend(extra.iter().map(OsStr::new));
+        run_lab(&args)
+    };
+    let output = run(&["--until", "0.05"]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // 8 x 16 lattice points, one layer: the column's section at 300 per metre.
+    let at = positions(&out);
+    assert_eq!(at.len(), 128);
+    assert!(at.iter().all(|p| p[2] == 0.0), "every particle at z = 0");
+    let inside = |p: &[f32; 3]| {
+        (0..2).all(|axis| p[axis] >= [-0.065, -0.08][axis] && p[axis] <= [0.065, 0.1][axis])
+    };
+    assert!(at.iter().all(inside));
+    // The surge has left the column (a = 26.7 mm from the wall at x = -0.065).
+    let reach = at.iter().map(|p| p[0]).fold(f32::MIN, f32::max);
+    assert!(reach > -0.065 + 0.0267 * 1.5, "{reach}");
+    // Only the water model runs in 2-D.
+    let output = run(&["--model", "fluidanimate"]);
+    assert_refused(
+        &output,
+        2,
+        &format!(
+            "fluid-lab: error: {}:8:14: a 2-D case runs the water model (wcsph), not fluidanimate",
+            path.display()
+        ),
+    );
+}
+
 /// A case of `model` in a box 2 m high whose floor is 1 m below the course's, a ball of
 /// water falling from y = 0, with `gravity`, run for `until` seconds.
 fn tall_box(model: &str, gravity: &str, until: f64) -> String {

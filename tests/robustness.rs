@@ -1191,8 +1191,8 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 }
 
 /// The offset of the last step's length in a checkpoint's encoding (after the magic,
-/// step, input CRC, case, ppm, time, box and gravity, the six names and the time step's
-/// value).
+/// step, input CRC, case, ppm, time, box and gravity, the planar flag, the six names and
+/// the time step's value).
 fn last_step_offset(decoded: &Checkpoint) -> usize {
     let state = &decoded.state;
     let rule = match state.time_step {
@@ -1209,9 +1209,9 @@ fn last_step_offset(decoded: &Checkpoint) -> usize {
         state.structure.name(),
     ];
     // The magic, step, input CRC, ppm and time; the case block (a flag, then its length
-    // and text); the box's corners and gravity (9 f64).
+    // and text); the box's corners and gravity (9 f64) and the planar flag (a u8).
     let case = decoded.case.as_ref().map_or(1, |text| 1 + 8 + text.len());
-    36 + case + 72 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
+    36 + case + 72 + 1 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
 }
 
 /// The properties of [`checkpoint::decode`] on `bytes`: no panic; an error is a non-empty
@@ -1253,7 +1253,7 @@ proptest! {
         magic in any::<bool>(),
         tail in prop::collection::vec(any::<u8>(), 0..300),
     ) {
-        let mut bytes = if magic { b"FLUIDCK9".to_vec() } else { Vec::new() };
+        let mut bytes = if magic { b"FLUIDCKA".to_vec() } else { Vec::new() };
         bytes.extend(tail);
         check_checkpoint(&bytes)?;
     }

@@ -90,6 +90,10 @@ pub struct HeightGauge {
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Domain {
+    /// 2 for a scene in the x-y plane (its points as [x, y], its height gauges' lines as
+    /// [x]), or 3, the default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dimensions: Option<Spanned<u64>>,
     /// The box's low corner (m), SPEC.md's by default.
     #[serde(default = "course_min", deserialize_with = "exactly_spanned")]
     pub box_min_m: Spanned<[f64; 3]>,
@@ -131,6 +135,7 @@ fn is_course_gravity(gravity: &Spanned<[f64; 3]>) -> bool {
 impl Default for Domain {
     fn default() -> Domain {
         Domain {
+            dimensions: None,
             box_min_m: course_min(),
             box_max_m: course_max(),
             gravity_m_s2: course_gravity(),
@@ -146,7 +151,13 @@ impl Domain {
             min: vector(&self.box_min_m),
             max: vector(&self.box_max_m),
             gravity: vector(&self.gravity_m_s2),
+            planar: self.is_planar(),
         }
+    }
+
+    /// Whether the scene is two-dimensional (`dimensions = 2`).
+    pub fn is_planar(&self) -> bool {
+        self.dimensions.as_ref().is_some_and(|d| *d.get_ref() == 2)
     }
 }
 
@@ -384,7 +395,16 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
     if let Some((span, message)) = misshapen(text) {
         return Err(error_at(Some(span), message));
     }
-    let case: Case = toml::from_str(text).map_err(|error| {
+    let zs = planar_zs(text).map_err(|(span, message)| error_at(Some(span), message))?;
+    let read = match toml::de::DeTable::parse(text) {
+        Ok(mut document) if !zs.is_empty() => {
+            in_the_plane(&mut document, &zs)
+                .map_err(|(span, message)| error_at(Some(span), message))?;
+            Case::deserialize(toml::de::Deserializer::from(document))
+        }
+        _ => toml::from_str(text),
+    };
+    let case: Case = read.map_err(|error| {
         // toml's message may run over lines (a snippet of the file): its first line.
         let message = error
             .message()
@@ -411,6 +431,128 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
     case.check()
         .map_err(|(span, message)| error_at(Some(span), message))?;
     Ok(case)
+}
+
+/// The z values a 2-D case's points are completed with, as TOML numbers: none for a
+/// case that is not 2-D (`[domain] dimensions = 2`; a number other than 2 or 3 is
+/// refused), else the plane, z = 0, and the two
+/// faces of the slab one lattice spacing deep around it (a spacing of 1 m where the
+/// particles per metre are not a number > 0, which the checks then refuse).
+fn planar_zs(text: &str) -> Result<Vec<String>, Fault> {
+    use toml::de::{DeTable, DeValue};
+    let Ok(document) = DeTable::parse(text) else {
+        return Ok(Vec::new());
+    };
+    // Any other number of dimensions is refused before the points are read.
+    let given = document.get_ref().get("domain").and_then(|domain| {
+        let value = domain.get_ref().as_table()?.get("dimensions")?;
+        Some((
+            value.span(),
+            value.get_ref().as_integer()?.as_str().parse::<u64>(),
+        ))
+    });
+    if let Some((span, dimensions)) = given {
+        if !matches!(dimensions, Ok(2 | 3)) {
+            return Err((span, "dimensions must be 2 or 3".into()));
+        }
+    }
+    let number = |table: &str, key: &str| {
+        let table = document.get_ref().get(table)?.get_ref().as_table()?;
+        match table.get(key)?.get_ref() {
+            DeValue::Integer(value) => value.as_str().parse::<f64>().ok(),
+            DeValue::Float(value) => value.as_str().parse::<f64>().ok(),
+            _ => None,
+        }
+    };
+    if number("domain", "dimensions") != Some(2.0) {
+        return Ok(Vec::new());
+    }
+    let ppm = number("fluid", "particles_per_m").filter(|ppm| ppm.is_finite() && *ppm > 0.0);
+    let half = 0.5 * (1.0 / ppm.unwrap_or(1.0));
+    Ok([0.0, -half, half].map(|z| format!("{z:?}")).to_vec())
+}
+
+/// A 2-D case's points, each checked to have its 2 numbers (x, y; a height gauge's line
+/// its 1, x), completed with their z from `zs` ([`planar_zs`]): 0 for a point or a vector,
+/// the slab's faces for the corners of the box and of its fills. The case is then read
+/// and checked as the 3-D case of the slab, whose particles all lie at z = 0.
+fn in_the_plane<'i>(
+    document: &mut toml::Spanned<toml::de::DeTable<'i>>,
+    zs: &'i [String],
+) -> Result<(), Fault> {
+    use toml::de::DeValue;
+    let [plane, low, high] = [0, 1, 2].map(|k| DeValue::parse(&zs[k]).expect("a number"));
+    // Each vector's key, its table (or list of tables), and its z.
+    let vectors = [
+        ("domain", None, "box_min_m", &low, 2),
+        ("domain", None, "box_max_m", &high, 2),
+        ("domain", None, "gravity_m_s2", &plane, 2),
+        ("fluid", Some("box"), "min_m", &low, 2),
+        ("fluid", Some("box"), "max_m", &high, 2),
+        ("fluid", Some("sphere"), "centre_m", &plane, 2),
+        ("gauges", Some("point"), "at_m", &plane, 2),
+        ("gauges", Some("height"), "at_m", &plane, 1),
+    ];
+    let root = document.get_mut();
+    let dimensions = root
+        .get("domain")
+        .and_then(|domain| domain.get_ref().as_table()?.get("dimensions"))
+        .map(|value| value.span())
+        .unwrap_or_default();
+    for corner in ["box_min_m", "box_max_m"] {
+        let given = root
+            .get("domain")
+            .and_then(|domain| domain.get_ref().as_table()?.get(corner))
+            .is_some();
+        if !given {
+            return Err((
+                dimensions.clone(),
+                format!("a 2-D case gives its box: {corner} = [x, y]"),
+            ));
+        }
+    }
+    for (table, list, key, z, count) in vectors {
+        let Some(DeValue::Table(table)) = root.get_mut(table).map(|t| t.get_mut()) else {
+            continue;
+        };
+        let mut items: Vec<&mut toml::de::DeTable<'i>> = match list {
+            None => vec![table],
+            Some(list) => match table.get_mut(list).map(|l| l.get_mut()) {
+                Some(DeValue::Array(items)) => items
+                    .iter_mut()
+                    .filter_map(|item| match item.get_mut() {
+                        DeValue::Table(table) => Some(table),
+                        _ => None,
+                    })
+                    .collect(),
+                _ => continue,
+            },
+        };
+        for item in &mut items {
+            let Some(value) = item.get_mut(key) else {
+                continue;
+            };
+            let span = value.span();
+            let DeValue::Array(numbers) = value.get_mut() else {
+                continue;
+            };
+            if numbers.len() != count {
+                let what = match count {
+                    1 => "its 1 number, x (the vertical line through it)",
+                    _ => "its 2 numbers, x and y",
+                };
+                return Err((
+                    span,
+                    format!(
+                        "{key} has {} numbers, but in a 2-D case (dimensions = 2) it takes {what}",
+                        numbers.len()
+                    ),
+                ));
+            }
+            numbers.push(z.clone());
+        }
+    }
+    Ok(())
 }
 
 /// The tables of a case (`[model]`), and the tables of its lists of tables
@@ -601,13 +743,25 @@ impl Case {
                 .map(|axis| max_m[axis] - min_m[axis])
                 .product::<f64>()
         });
-        let spheres = (fluid.spheres.iter())
-            .map(|fill| 4.0 / 3.0 * std::f64::consts::PI * fill.get_ref().radius_m.powi(3));
+        // In 2-D, boxes one spacing deep and discs, their spheres' sections.
+        let planar = self.domain.is_planar();
+        let spheres = fluid.spheres.iter().map(|fill| {
+            let r = fill.get_ref().radius_m;
+            match planar {
+                true => std::f64::consts::PI * r * r / fluid.particles_per_m.get_ref(),
+                false => 4.0 / 3.0 * std::f64::consts::PI * r.powi(3),
+            }
+        });
         boxes.chain(spheres).sum::<f64>() * fluid.particles_per_m.get_ref().powi(3)
     }
 
     /// The checks beyond types: sizes, ranges, fills inside the box, names.
     fn check(&self) -> Result<(), Fault> {
+        if let Some(dimensions) = &self.domain.dimensions {
+            if ![2, 3].contains(dimensions.get_ref()) {
+                return Err((dimensions.span(), "dimensions must be 2 or 3".into()));
+            }
+        }
         let (low, high) = (&self.domain.box_min_m, &self.domain.box_max_m);
         // A corner left out has no place of its own: its fault is shown at the other.
         let at = |key: &Spanned<[f64; 3]>, other: &Spanned<[f64; 3]>| match key.span().is_empty() {
@@ -699,7 +853,13 @@ impl Case {
                     "a sphere needs a finite centre and a radius > 0".into(),
                 ));
             }
-            let corner = |sign: f64| centre_m.map(|x| x + sign * radius_m);
+            // A 2-D case's sphere is the disc of its section by the plane.
+            let reach = |axis: usize| match axis == 2 && self.domain.is_planar() {
+                true => 0.0,
+                false => *radius_m,
+            };
+            let corner =
+                |sign: f64| std::array::from_fn(|axis| centre_m[axis] + sign * reach(axis));
             if !(inside(corner(-1.0)) && inside(corner(1.0))) {
                 return Err((
                     fill.span(),
@@ -1105,6 +1265,104 @@ until_s = 0.01
             parse(DAM, "dam.toml").unwrap().domain.simulated(),
             params::Domain::COURSE
         );
+    }
+
+    /// `DAM` in 2-D: its points as [x, y], and a height gauge's line as [x].
+    const PLANAR_DAM: &str = r#"
+[domain]
+dimensions = 2
+box_min_m = [-0.065, -0.08]
+box_max_m = [0.065, 0.1]
+gravity_m_s2 = [0.0, -9.81]
+
+[fluid]
+particles_per_m = 200.0
+
+[[fluid.box]]
+min_m = [-0.065, -0.08]
+max_m = [-0.013, 0.046]
+
+[[fluid.sphere]]
+centre_m = [0.0, 0.05]
+radius_m = 0.01
+
+[model]
+name = "wcsph"
+
+[gauges]
+interval_s = 0.01
+
+[[gauges.point]]
+name = "p"
+at_m = [0.0, -0.07]
+
+[[gauges.height]]
+name = "h"
+at_m = [0.0]
+
+[output]
+folder = "out"
+"#;
+
+    #[test]
+    fn a_planar_case_is_the_slab_one_spacing_deep_at_z_0() {
+        let case = parse(PLANAR_DAM, "dam2.toml").unwrap();
+        let domain = case.domain.simulated();
+        assert!(domain.planar);
+        assert_eq!(domain.dimensions(), 2);
+        let half = 0.5 * (1.0 / 200.0);
+        assert_eq!(domain.min, DVec3::new(-0.065, -0.08, -half));
+        assert_eq!(domain.max, DVec3::new(0.065, 0.1, half));
+        assert_eq!(domain.gravity, DVec3::new(0.0, -9.81, 0.0));
+        let fill = case.fluid.boxes[0].get_ref();
+        assert_eq!((fill.min_m[2], fill.max_m[2]), (-half, half));
+        assert_eq!(case.fluid.spheres[0].get_ref().centre_m, [0.0, 0.05, 0.0]);
+        assert_eq!(case.gauges.points[0].get_ref().at_m, [0.0, -0.07, 0.0]);
+        assert_eq!(case.gauges.heights[0].get_ref().at_m, [0.0, 0.0]);
+        // Areas, not volumes: the box's 0.052 x 0.126 m and the disc's pi 0.01^2 m^2.
+        let area = 0.052 * 0.126 + std::f64::consts::PI * 1e-4;
+        let most = case.particles_at_most();
+        assert!((most - area * 200.0 * 200.0).abs() < 1e-6 * most, "{most}");
+        // A 3-D case is not planar, and says nothing of dimensions when written.
+        let course = parse(DAM, "dam.toml").unwrap();
+        assert!(!course.domain.simulated().planar);
+        assert!(!toml::to_string(&course).unwrap().contains("dimensions"));
+    }
+
+    #[test]
+    fn a_planar_case_takes_its_points_in_two_numbers_and_gives_its_box() {
+        let fault = |from: &str, to: &str| {
+            assert!(PLANAR_DAM.contains(from), "{from}");
+            let error = parse(&PLANAR_DAM.replacen(from, to, 1), "dam2.toml").unwrap_err();
+            (error.at.unwrap(), error.message)
+        };
+        let (at, message) = fault(
+            "\nmin_m = [-0.065, -0.08]",
+            "\nmin_m = [-0.065, -0.08, 0.0]",
+        );
+        assert_eq!(at, (12, 9));
+        assert_eq!(
+            message,
+            "min_m has 3 numbers, but in a 2-D case (dimensions = 2) it takes its 2 numbers, \
+             x and y"
+        );
+        let (at, message) = fault("at_m = [0.0]", "at_m = [0.0, 0.0]");
+        assert_eq!(at, (31, 8));
+        assert!(message.ends_with("takes its 1 number, x (the vertical line through it)"));
+        let (at, message) = fault("box_max_m = [0.065, 0.1]\n", "");
+        assert_eq!(at, (3, 14));
+        assert_eq!(message, "a 2-D case gives its box: box_max_m = [x, y]");
+        let (at, message) = fault("dimensions = 2", "dimensions = 4");
+        assert_eq!(at, (3, 14));
+        assert_eq!(message, "dimensions must be 2 or 3");
+        // A sphere is a disc: its radius reaches along x and y only.
+        let wide = fault("radius_m = 0.01", "radius_m = 0.07").1;
+        assert_eq!(wide, "a sphere of fluid reaches outside the domain");
+        parse(
+            &PLANAR_DAM.replace("radius_m = 0.01", "radius_m = 0.04"),
+            "d.toml",
+        )
+        .unwrap();
     }
 
     /// The error of `DAM` with `from` replaced by `to`.

@@ -1,12 +1,12 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCK9`; the step count (u64); the CRC-32 of the
+//! Layout (little-endian): the magic `FLUIDCKA` (version 10); the step count (u64); the CRC-32 of the
 //! input file the run started from (u32, so a resume from another input is refused); the
 //! case file it started from, if it did (a u8, 0 for none, else 1, then its length, u64,
 //! and its UTF-8 text: a resume needs nothing else);
 //! particles per metre and the time (f64); the box's low and high corners and gravity
-//! (x, y, z each, f64); the model, kernel, time-step rule, last step's
+//! (x, y, z each, f64) and whether it is planar (u8); the model, kernel, time-step rule, last step's
 //! limit, integrator and pair structure (which decides the order of the pair sums) as
 //! length-prefixed names (u8 length); the time step's value (f64: dt or the Courant
 //! constant), the last step's length (f64, NaN before the first step); what the model
@@ -19,10 +19,10 @@
 //! the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a (x,
 //! y, z) and rho, n f64 each; a built skin's positions at its last build (x, y, z, n f64
 //! each); last, the CRC-32 of every byte before it (u32), so a corrupted checkpoint is
-//! refused. Versions 1-7 (before the integrators; version 3 before the models kept
+//! refused. Versions 1-9 (before the integrators; version 3 before the models kept
 //! their own state; version 5 before the skin and the pair structure; version 6 before
-//! the case; version 7 before the box and gravity) are refused, with a message that says
-//! so.
+//! the case; version 7 before the box and gravity; version 9 before planar scenes) are
+//! refused, with a message that says so.
 
 use crate::sim::kernel::Kernel;
 use crate::sim::lists::PairStructure;
@@ -35,13 +35,14 @@ use crate::sim::skin::KeptSkin;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
 use glam::DVec3;
 
-/// The first bytes of every checkpoint (format version 9: version 8 holds the same
-/// fields, but its particles were ordered within a cell by the order they came in, not by
-/// id, so a resume from it would not go on as its run did).
-const MAGIC: &[u8; 8] = b"FLUIDCK9";
+/// The first bytes of every checkpoint (format version 10, which adds the planar flag to
+/// version 9; version 8 holds version 9's fields, but its particles were ordered within a
+/// cell by the order they came in, not by id, so a resume from it would not go on as its
+/// run did).
+const MAGIC: &[u8; 8] = b"FLUIDCKA";
 
 /// The first bytes of a checkpoint of an earlier format, which is refused.
-const OLDER: [&[u8; 8]; 8] = [
+const OLDER: [&[u8; 8]; 9] = [
     b"FLUIDCK1",
     b"FLUIDCK2",
     b"FLUIDCK3",
@@ -50,6 +51,7 @@ const OLDER: [&[u8; 8]; 8] = [
     b"FLUIDCK6",
     b"FLUIDCK7",
     b"FLUIDCK8",
+    b"FLUIDCK9",
 ];
 
 /// A checkpoint's content: the steps run and the state after them.
@@ -98,6 +100,7 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     {
         bytes.extend_from_slice(&value.to_le_bytes());
     }
+    bytes.push(u8::from(domain.planar));
     let (rule, value) = match state.time_step {
         TimeStep::Fixed(dt) => ("fixed", dt),
         TimeStep::Adaptive { courant } => ("adaptive", courant),
@@ -171,7 +174,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         ));
     }
     if magic != Some(&MAGIC[..]) {
-        return Err("it is not a fluid checkpoint (version 7)".into());
+        return Err("it is not a fluid checkpoint (format version 10)".into());
     }
     let (body, checksum) = bytes.split_at(bytes.len().saturating_sub(4).max(MAGIC.len()));
     if checksum.len() != 4 || crc32fast::hash(body).to_le_bytes() != checksum {
@@ -200,6 +203,11 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         min: vector()?,
         max: vector()?,
         gravity: vector()?,
+        planar: match reader.take(1)? {
+            [0] => false,
+            [1] => true,
+            _ => return Err("bad planar flag".into()),
+        },
     };
     let corners = [domain.min, domain.max, domain.gravity];
     if !corners.iter().all(|v| v.is_finite()) || !domain.min.cmplt(domain.max).all() {
@@ -515,7 +523,7 @@ mod tests {
         wrong_magic[6] = b'X';
         assert_eq!(
             decode(&wrong_magic).unwrap_err(),
-            "it is not a fluid checkpoint (version 7)"
+            "it is not a fluid checkpoint (format version 10)"
         );
         let mut older = bytes.clone();
         older[7] = b'3';

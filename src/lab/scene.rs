@@ -366,7 +366,12 @@ fn lattice_within(
                 let point = domain.min + (k + 0.5) * spacing;
                 if inside(point) {
                     let jitter = DVec3::new(random.f64(), random.f64(), random.f64());
-                    points.push(point + (jitter * 2.0 - 1.0) * (JITTER * spacing));
+                    let mut point = point + (jitter * 2.0 - 1.0) * (JITTER * spacing);
+                    // A planar scene's particles lie in the plane z = 0.
+                    if domain.planar {
+                        point.z = 0.0;
+                    }
+                    points.push(point);
                 }
             }
         }

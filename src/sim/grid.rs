@@ -72,10 +72,14 @@ pub struct Grid {
 
 impl Grid {
     /// Builds the grid over `domain`'s box for smoothing length `h`:
-    /// n_d = floor(extent_d / h), s_d = extent_d / n_d.
+    /// n_d = floor(extent_d / h), s_d = extent_d / n_d; one block along z in a planar
+    /// domain, whose particles all lie in one plane.
     pub fn new(h: f64, domain: &Domain) -> Result<Self, GridSizeError> {
         let extent = domain.max - domain.min;
-        let counts = (extent / h).floor();
+        let mut counts = (extent / h).floor();
+        if domain.planar {
+            counts.z = 1.0;
+        }
         let blocks_per_axis = counts.to_array();
         let fits = blocks_per_axis
             .iter()
@@ -170,6 +174,24 @@ mod tests {
             error.to_string().ends_with("at most 67108864 blocks"),
             "{error}"
         );
+    }
+
+    #[test]
+    fn a_planar_box_has_one_block_along_z() {
+        let slab = Domain {
+            min: DVec3::new(0.0, 0.0, -0.001),
+            max: DVec3::new(1.0, 0.5, 0.001),
+            planar: true,
+            ..Domain::COURSE
+        };
+        let grid = Grid::new(0.01, &slab).unwrap();
+        assert_eq!(grid.dims, [100, 50, 1]);
+        assert_eq!(grid.block_size.z, 0.002);
+        let deep = Domain {
+            max: DVec3::new(1.0, 0.5, 1.0),
+            ..slab
+        };
+        assert_eq!(Grid::new(0.01, &deep).unwrap().dims, [100, 50, 1]);
     }
 
     #[test]

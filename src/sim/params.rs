@@ -37,6 +37,10 @@ pub struct Domain {
     pub max: DVec3,
     /// Gravity (m/s^2).
     pub gravity: DVec3,
+    /// A two-dimensional scene: every particle in the plane z = 0 with no motion along
+    /// z, the box's z walls absent, and the water model's kernel and mass per unit depth
+    /// (its z extent is a slab one lattice spacing deep, which exports and renders show).
+    pub planar: bool,
 }
 
 impl Default for Domain {
@@ -51,6 +55,7 @@ impl Domain {
         min: BOX_MIN,
         max: BOX_MAX,
         gravity: GRAVITY,
+        planar: false,
     };
 
     /// The box's edge lengths (m).
@@ -63,6 +68,15 @@ impl Domain {
     pub fn downward_pull(&self) -> Option<f64> {
         let DVec3 { x, y, z } = self.gravity;
         (x == 0.0 && z == 0.0 && y < 0.0).then_some(-y)
+    }
+
+    /// The number of dimensions the particles move in: 2 ([`Self::planar`]) or 3.
+    pub fn dimensions(&self) -> usize {
+        if self.planar {
+            2
+        } else {
+            3
+        }
     }
 
     /// Whether `p` is inside the box, walls included.

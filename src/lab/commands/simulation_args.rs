@@ -362,7 +362,7 @@ const MIN_WATER_GRAVITY: f64 = 0.01;
 
 /// What a model asks of a case's domain, or the key that breaks it and why: the course
 /// model keeps SPEC.md's box and gravity; the water model's floor is the box's low y
-/// wall, so its gravity points down y.
+/// wall, so its gravity points down y; only the water model runs in 2-D.
 fn check_domain(domain: &case::Domain, model: Model) -> Result<(), (Range<usize>, String)> {
     let simulated = domain.simulated();
     let course = params::Domain::COURSE;
@@ -375,6 +375,17 @@ fn check_domain(domain: &case::Domain, model: Model) -> Result<(), (Range<usize>
         .iter()
         .find(|(key, value)| *key.get_ref() != value.to_array());
     let pull = simulated.downward_pull();
+    if let Some(dimensions) = domain.dimensions.as_ref().filter(|_| simulated.planar) {
+        if model != Model::Wcsph {
+            return Err((
+                dimensions.span(),
+                format!(
+                    "a 2-D case runs the water model (wcsph), not {}",
+                    model.name()
+                ),
+            ));
+        }
+    }
     match (model, differing) {
         (Model::Course, Some((key, _))) => Err((
             key.span(),

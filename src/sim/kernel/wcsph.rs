@@ -87,13 +87,15 @@ pub struct NearWalls {
 }
 
 impl NearWalls {
-    /// The walls of `domain`'s box within `support` of `position`.
+    /// The walls of `domain`'s box within `support` of `position` (none along z in a
+    /// planar domain).
     pub fn of(position: [f64; 3], support: f64, domain: &Domain) -> Self {
         let mut near = NearWalls {
             axes: 0,
             at: [0.0; 3],
         };
-        for (axis, x) in position.into_iter().enumerate() {
+        let axes = position.into_iter().take(domain.dimensions());
+        for (axis, x) in axes.enumerate() {
             let (low, high) = (x - domain.min[axis], domain.max[axis] - x);
             if low.min(high) < support {
                 near.axes |= 1 << axis;

@@ -247,6 +247,8 @@ impl Settings {
 pub struct Wcsph {
     /// Its choices.
     pub settings: Settings,
+    /// Particles per metre.
+    ppm: f64,
     /// The pair terms' constants (h, support, mass, sound speed, ...).
     pub constants: WcsphConstants,
     /// Tait's stiffness B = c_0^2 rho_0 / gamma (Pa).
@@ -278,13 +280,14 @@ impl Wcsph {
     /// `sound_speed` (m/s).
     pub fn with_settings(settings: Settings, ppm: f64, sound_speed: f64) -> Self {
         let h = settings.smoothing / ppm;
-        let alpha_d = 21.0 / (16.0 * PI * h.powi(3));
+        let (mass, alpha_d) = per_dimensions(3, ppm, h);
         Wcsph {
             settings,
+            ppm,
             constants: WcsphConstants {
                 h,
                 support: settings.support(ppm),
-                mass: FLUID_DENSITY / ppm.powi(3),
+                mass,
                 sound_speed,
                 eta2: 0.01 * h * h,
                 gradient_factor: 5.0 * alpha_d / (h * h),
@@ -299,10 +302,15 @@ impl Wcsph {
         }
     }
 
-    /// This model with the walls and gravity of `domain` (SPEC.md's box and gravity
-    /// unless given).
+    /// This model with the walls, gravity and dimensions of `domain` (SPEC.md's box and
+    /// gravity, in 3-D, unless given): in 2-D, the mass per unit depth and the kernel
+    /// normalised over the plane.
     pub fn within(mut self, domain: Domain) -> Self {
-        self.constants.domain = domain;
+        let constants = &mut self.constants;
+        let (mass, alpha_d) = per_dimensions(domain.dimensions(), self.ppm, constants.h);
+        constants.mass = mass;
+        constants.gradient_factor = 5.0 * alpha_d / (constants.h * constants.h);
+        constants.domain = domain;
         self
     }
 
@@ -563,6 +571,16 @@ impl Dynamics for Wcsph {
     }
 }
 
+/// The particle mass at `ppm` particles per metre (kg; per metre of depth in 2-D:
+/// rho_0 / ppm^d) and the Wendland C2 kernel's normalisation alpha_D for smoothing length
+/// `h` in `dimensions` (2 or 3): 7 / (4 pi h^2) or 21 / (16 pi h^3).
+fn per_dimensions(dimensions: usize, ppm: f64, h: f64) -> (f64, f64) {
+    match dimensions {
+        2 => (FLUID_DENSITY / (ppm * ppm), 7.0 / (4.0 * PI * h * h)),
+        _ => (FLUID_DENSITY / ppm.powi(3), 21.0 / (16.0 * PI * h.powi(3))),
+    }
+}
+
 /// The velocity the pair loop of a step takes for a particle whose half-step velocity
 /// is `hv` (hv_{n-1/2}) and velocity `v` (v_{n-1}): hv_{n+1/2} predicted from the last
 /// step's acceleration, hv + dt a_{n-1} = 3 hv - 2 v (exact for equal steps, where
@@ -589,6 +607,48 @@ mod tests {
     use super::*;
     use crate::sim::kernel::NearWalls;
     use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY};
+    use glam::DVec3;
+
+    #[test]
+    fn the_kernel_and_mass_are_normalised_in_the_scene_s_dimensions() {
+        // Sum_j (m_j / rho_0) W(r_ij) over a lattice at rest is 1 (to the lattice's
+        // quadrature error), in 3-D and, per unit depth, in 2-D; W from the gradient's
+        // factor, alpha_D = G(0) h^2 / 5.
+        let ppm = 300.0;
+        let planar = Domain {
+            planar: true,
+            ..Domain::COURSE
+        };
+        for (domain, layers) in [(Domain::COURSE, -6..=6), (planar, 0..=0)] {
+            let model = Wcsph::new(ppm, 10.0).within(domain);
+            let c = model.constants;
+            let alpha_d = c.gradient_factor * c.h * c.h / 5.0;
+            let w = |r: f64| {
+                let q = r / c.h;
+                alpha_d * (1.0 - q / 2.0).max(0.0).powi(4) * (2.0 * q + 1.0)
+            };
+            let mut sum = 0.0;
+            for i in -6..=6 {
+                for j in -6..=6 {
+                    for k in layers.clone() {
+                        let r = DVec3::new(i as f64, j as f64, k as f64).length() / ppm;
+                        sum += c.mass / FLUID_DENSITY * w(r);
+                    }
+                }
+            }
+            assert!(
+                (sum - 1.0).abs() < 0.02,
+                "{} dimensions: {sum}",
+                domain.dimensions()
+            );
+        }
+        // In 3-D, within the course's domain, the constants are those it was made with.
+        let made = Wcsph::new(ppm, 10.0);
+        assert_eq!(
+            made.clone().within(Domain::COURSE).constants,
+            made.constants
+        );
+    }
 
     #[test]
     fn the_equation_of_state_is_tait_s_with_gamma_7() {
