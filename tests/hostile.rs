@@ -1809,3 +1809,156 @@ fn the_workbench_names_the_input_whose_particle_count_is_wrong() {
         assert!(!out.exists());
     }
 }
+
+/// Makes a FIFO at `path`.
+fn mkfifo(path: &Path) {
+    let name = std::ffi::CString::new(path.as_os_str().as_bytes()).unwrap();
+    // SAFETY: mkfifo reads a NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(name.as_ptr(), 0o600) }, 0);
+}
+
+#[test]
+fn a_fifo_given_as_a_csv_to_read_or_an_output_to_write_is_refused_at_once() {
+    // Issue 47, third hostile pass: chart, accuracy --from-csv and sweep --resume waited
+    // for ever on a FIFO no program wrote or read.
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("ff.csv");
+    mkfifo(&fifo);
+    let fifo_name = fifo.to_str().unwrap();
+    let out = dir.path().join("o").to_str().unwrap().to_string();
+    let small = input("small");
+    let small = small.to_str().unwrap();
+    let tries: [(Vec<&str>, String); 3] = [
+        (
+            vec!["chart", fifo_name],
+            format!("fluid-lab: error: cannot read {fifo_name}: not a regular file"),
+        ),
+        (
+            vec![
+                "accuracy",
+                small,
+                "--from-csv",
+                fifo_name,
+                "--output-dir",
+                &out,
+            ],
+            format!("fluid-lab: error: cannot read {fifo_name}: not a regular file"),
+        ),
+        (
+            vec![
+                "sweep",
+                small,
+                "--output",
+                fifo_name,
+                "--resume",
+                "--iterations",
+                "1",
+                "--repeats",
+                "1",
+                "--idle-seconds",
+                "0",
+            ],
+            format!("fluid-lab: error: Cannot open {fifo_name} for writing"),
+        ),
+    ];
+    for (args, message) in tries {
+        let started = Instant::now();
+        let output = run_lab(&args);
+        assert!(started.elapsed() < Duration::from_secs(20), "{args:?}");
+        assert_eq!(exit_code(&output), 1, "{args:?}: {}", stderr(&output));
+        assert!(stderr(&output).starts_with(&message), "{}", stderr(&output));
+        assert_eq!(entries(dir.path()), ["ff.csv"], "{args:?}");
+    }
+}
+
+#[test]
+fn an_export_of_a_state_beyond_f32_is_an_error_not_an_infinity() {
+    // Issue 47, third hostile pass: export wrote `inf` and exited 0 where run refuses.
+    let dir = tempfile::tempdir().unwrap();
+    let far = dir.path().join("far.fld");
+    let at = |x: f32| [x, -x, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    fld(&far, 204.0, &[at(3e38), at(1e-3)]);
+    for format in ["vtk", "csv", "vtp"] {
+        let frames = dir.path().join("frames");
+        let output = run_lab(&[
+            "export".as_ref(),
+            far.as_os_str(),
+            frames.as_os_str(),
+            "--steps".as_ref(),
+            "1".as_ref(),
+            "--model".as_ref(),
+            "fluidanimate".as_ref(),
+            "--format".as_ref(),
+            format.as_ref(),
+        ]);
+        assert_eq!(exit_code(&output), 1, "{format}: {}", stderr(&output));
+        let message = stderr(&output);
+        assert!(
+            message.starts_with(&format!(
+                "fluid-lab: error: cannot write {}/far_000001.",
+                frames.display()
+            )) && message.ends_with(", beyond what the frame's f32 values hold\n"),
+            "{message}"
+        );
+        assert_eq!(entries(dir.path()), ["far.fld"], "{format}");
+    }
+}
+
+#[test]
+fn a_render_never_draws_over_its_input() {
+    // Issue 47, third hostile pass: `render st.png st.png` replaced the input with its
+    // picture, and so did a series' first frame named as the input.
+    let dir = tempfile::tempdir().unwrap();
+    let original = std::fs::read(input("small")).unwrap();
+    for (input_name, output_name, every) in [
+        ("st.png", "st.png", None),
+        ("st.gif", "st.gif", None),
+        ("st_000000.png", "st.png", Some("1")),
+    ] {
+        let input_path = dir.path().join(input_name);
+        std::fs::write(&input_path, &original).unwrap();
+        let output_path = dir.path().join(output_name);
+        let mut args: Vec<&OsStr> = vec![
+            "render".as_ref(),
+            input_path.as_os_str(),
+            output_path.as_os_str(),
+            "--steps".as_ref(),
+            "1".as_ref(),
+        ];
+        if let Some(every) = every {
+            args.extend([OsStr::new("--every"), OsStr::new(every)]);
+        }
+        let output = run_lab(&args);
+        assert_refused(
+            &output,
+            2,
+            &format!(
+                "fluid-lab: error: {}: the picture would replace the input {}: give it a file \
+                 of its own",
+                output_path.display(),
+                input_path.display()
+            ),
+        );
+        assert_eq!(
+            std::fs::read(&input_path).unwrap(),
+            original,
+            "{input_name}"
+        );
+        std::fs::remove_file(&input_path).unwrap();
+        assert!(entries(dir.path()).is_empty());
+    }
+    // A series beside an input of another name draws.
+    let other = dir.path().join("other_000000.png");
+    std::fs::write(&other, &original).unwrap();
+    let output = run_lab(&[
+        "render".as_ref(),
+        other.as_os_str(),
+        dir.path().join("st.png").as_os_str(),
+        "--steps".as_ref(),
+        "0".as_ref(),
+        "--every".as_ref(),
+        "1".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert_eq!(std::fs::read(&other).unwrap(), original);
+}

@@ -9,7 +9,8 @@
 //!   the umask, an existing one keeps its mode;
 //! - an existing file with other hard links, or in a folder that takes no new file, is
 //!   rewritten where it is, with the ending signals held back while it is written;
-//! - an existing special file (`/dev/null`, a pipe, a device) is written directly.
+//! - an existing special file (`/dev/null`, a pipe, a device) is written directly; a FIFO
+//!   that no program reads is refused when opened, not waited on.
 //!
 //! Temporary files are removed when an output is dropped unwritten, and when a signal
 //! ends the process ([`crate::io::signals`]).
@@ -71,7 +72,7 @@ impl OutputFile {
         let sink = match std::fs::metadata(&target) {
             Ok(meta) if meta.is_dir() => return Err(cannot_open()),
             Ok(meta) if !meta.is_file() => {
-                let mut file = open_for_writing(&target).map_err(|_| cannot_open())?;
+                let mut file = open_special(&target).map_err(|_| cannot_open())?;
                 file.write(&[]).map_err(|_| cannot_open())?;
                 Sink::Direct(file)
             }
@@ -318,6 +319,27 @@ fn open_for_writing(path: &Path) -> std::io::Result<File> {
     OpenOptions::new().write(true).open(path)
 }
 
+/// Opens the special file at `path` (a device, a FIFO) for writing without waiting: a FIFO
+/// with no reader is refused at once (ENXIO) instead of blocking; once open, its writes
+/// block as a pipe's do.
+fn open_special(path: &Path) -> std::io::Result<File> {
+    use std::os::fd::AsRawFd;
+    use std::os::unix::fs::OpenOptionsExt;
+    let file = OpenOptions::new()
+        .write(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)?;
+    // SAFETY: fcntl on a descriptor this function owns, with flags it read from it.
+    let cleared = unsafe {
+        let flags = libc::fcntl(file.as_raw_fd(), libc::F_GETFL);
+        flags >= 0 && libc::fcntl(file.as_raw_fd(), libc::F_SETFL, flags & !libc::O_NONBLOCK) == 0
+    };
+    match cleared {
+        true => Ok(file),
+        false => Err(std::io::Error::last_os_error()),
+    }
+}
+
 /// Whether creating a file failed because the folder takes no new file (the error's kind
 /// is kept by the `tempfile` crate, which wraps the OS error with its path).
 fn folder_refuses(error: &std::io::Error) -> bool {
@@ -508,6 +530,35 @@ mod tests {
             OutputFile::create(Path::new("/dev/full")).unwrap_err(),
             FileError::CannotOpenOutput("/dev/full".into())
         );
+    }
+
+    #[test]
+    fn a_fifo_is_written_to_its_reader_and_refused_at_once_without_one() {
+        use std::os::unix::ffi::OsStrExt;
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe");
+        let name = std::ffi::CString::new(fifo.as_os_str().as_bytes()).unwrap();
+        // SAFETY: mkfifo reads a NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(name.as_ptr(), 0o600) }, 0);
+        // No reader: refused, not waited on.
+        assert_eq!(
+            OutputFile::create(&fifo).unwrap_err(),
+            FileError::CannotOpenOutput(fifo.clone().into())
+        );
+        // A reader: the bytes reach it, written in blocking mode (more than a pipe holds).
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read(fifo).unwrap())
+        };
+        let bytes = vec![7u8; 1 << 20];
+        let output = loop {
+            match OutputFile::create(&fifo) {
+                Ok(output) => break output,
+                Err(_) => std::thread::sleep(std::time::Duration::from_millis(5)),
+            }
+        };
+        output.commit(&bytes).unwrap();
+        assert_eq!(reader.join().unwrap(), bytes);
     }
 
     #[test]

@@ -398,7 +398,7 @@ impl AccuracyArgs {
     }
 
     pub fn chart(&self, csv: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-        let text = std::fs::read_to_string(csv)
+        let text = crate::io::input::read_regular_text(csv)
             .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;
         let sweep = Sweep::read(&text, self.model)
             .map_err(|error| format!("{}: {error}", csv.display()))?;

@@ -36,7 +36,7 @@ pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
 
 /// Reads and checks the sweep CSV at `csv`.
 pub fn read(csv: &Path) -> Result<SweepTable, String> {
-    let text = std::fs::read_to_string(csv)
+    let text = crate::io::input::read_regular_text(csv)
         .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;
     SweepTable::parse(&text).map_err(|error| format!("{}: {error}", csv.display()))
 }

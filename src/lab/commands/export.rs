@@ -5,6 +5,7 @@ use super::simulation_args::{
     keeping_frames, load, needed, run_visiting, Loaded, SimulationArgs, Span,
 };
 use crate::io::export::{frames_index, pvd_collection, Snapshot};
+use crate::io::fld;
 use crate::io::output::OutputFile;
 use crate::lab::UsageError;
 use clap::builder::RangedI64ValueParser;
@@ -84,6 +85,13 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         };
         let file = format!("{stem}_{step:06}.{extension}");
         let path = output_dir.join(&file);
+        // Every format holds positions and velocities as f32: an infinity is no frame.
+        fld::check_storable(simulation.particles()).map_err(|unstorable| {
+            format!(
+                "cannot write {}: {unstorable}, beyond what the frame's f32 values hold",
+                path.display()
+            )
+        })?;
         OutputFile::create(&path)?.commit(&bytes)?;
         writeln!(stdout, "wrote {}", path.display())?;
         // The index of the frames and their times, rewritten with every frame, so a

@@ -81,6 +81,20 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         }
         false => output.clone(),
     };
+    // A picture over the input would lose it (a series' frames are checked by name).
+    let input = args.simulation.source();
+    let over_input = match series {
+        false => super::same_file(output, input),
+        true => is_frame_of(output, input),
+    };
+    if over_input {
+        return Err(UsageError(format!(
+            "{}: the picture would replace the input {}: give it a file of its own",
+            output.display(),
+            input.display()
+        ))
+        .into());
+    }
     let first = match (picture, series) {
         (Picture::Png, true) => frame_path(0),
         _ => output.clone(),
@@ -137,6 +151,29 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         }
     }
     Ok(())
+}
+
+/// Whether `path` is in the folder of `output` and named as one of its frames,
+/// `STEM_NNNNNN.EXT` (six digits or more).
+fn is_frame_of(output: &Path, path: &Path) -> bool {
+    let (stem, extension) = (output.file_stem(), output.extension());
+    let (Some(stem), Some(extension), Some(name)) = (stem, extension, path.file_name()) else {
+        return false;
+    };
+    let step = name
+        .to_str()
+        .zip(stem.to_str().zip(extension.to_str()))
+        .and_then(|(name, (stem, extension))| {
+            name.strip_prefix(stem)?
+                .strip_prefix('_')?
+                .strip_suffix(extension)?
+                .strip_suffix('.')
+        });
+    let numbered = step.is_some_and(|digits| {
+        digits.len() >= 6 && digits.bytes().all(|byte| byte.is_ascii_digit())
+    });
+    let folder = |path: &Path| path.parent().map(PathBuf::from).unwrap_or_default();
+    numbered && super::same_file(&folder(output).join("."), &folder(path).join("."))
 }
 
 /// Parses `LOW,HIGH` into a non-empty range of finite numbers.

@@ -296,7 +296,8 @@ impl Tool {
                 super::chart::draw(&super::chart::read(csv)?, &folder, stdout)
             }
             Tool::Stability(args) => {
-                let text = std::fs::read_to_string(csv)?;
+                let text = crate::io::input::read_regular_text(csv)
+                    .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;
                 let outcomes = stability::read_csv(&text)
                     .map_err(|error| format!("{}: {error}", csv.display()))?;
                 args.draw(&outcomes, stdout)
