@@ -743,6 +743,98 @@ fn the_dam_break_validation_from_its_case_gives_the_fronts_of_its_flags() {
 }
 
 #[test]
+fn the_dam_break_validates_in_2_d_from_its_flags_and_its_case() {
+    let dir = tempfile::tempdir().unwrap();
+    let validate = |extra: &[&str], folder: &Path| {
+        let mut args: Vec<&OsStr> = vec!["validate".as_ref(), "dam-break".as_ref()];
+        args.extend(extra.iter().map(OsStr::new));
+        args.extend(["--until-t", "3.65", "--output-dir"].map(OsStr::new));
+        args.push(folder.as_os_str());
+        run_lab(&args)
+    };
+    let (flags, from_case) = (dir.path().join("flags"), dir.path().join("case"));
+    let output = validate(
+        &["--dimensions", "2", "--ppms", "300", "--width", "0.026"],
+        &flags,
+    );
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // The column's section, 8 x 16 particles, compared with both experiments.
+    let summary = stdout(&output);
+    assert!(
+        summary.starts_with("model=wcsph ppm=300 dimensions=2 particles=128 "),
+        "{summary}"
+    );
+    let csv = std::fs::read_to_string(flags.join("dam-break-errors.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|&c| c == name).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(
+        rows.len(),
+        6 + 8,
+        "Martin and Moyce's six points to T = 3.6, Koshizuka and Oka's eight"
+    );
+    for row in &rows {
+        assert_eq!(row[column("dimensions")], "2");
+        let error: f64 = row[column("relative_error")].parse().unwrap();
+        assert!(error.abs() < 0.15, "{row:?}");
+    }
+    // Its case gives the same fronts, to the last digit.
+    let path = case("dam-break-2d").into_os_string();
+    let output = validate(&["--case", path.to_str().unwrap()], &from_case);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    for file in ["dam-break.csv", "dam-break-errors.csv"] {
+        let a = std::fs::read(flags.join(file)).unwrap();
+        assert!(a == std::fs::read(from_case.join(file)).unwrap(), "{file}");
+    }
+    // Only the water model runs in 2-D.
+    let output = validate(
+        &["--dimensions", "2", "--models", "wcsph,fluidanimate"],
+        &dir.path().join("no"),
+    );
+    assert_refused(
+        &output,
+        2,
+        "fluid-lab: error: --dimensions 2 runs the water model (wcsph), not fluidanimate",
+    );
+    assert!(!dir.path().join("no").exists());
+}
+
+#[test]
+fn still_water_holds_in_2_d() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("still");
+    let output = validate_still_water(&case("still-water-2d"), &folder);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // Every check passes; the pressures within 2% of rho0 g d (the target in 2-D).
+    let checks = std::fs::read_to_string(folder.join("still-water-checks.csv")).unwrap();
+    let header: Vec<&str> = checks.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|&c| c == name).unwrap();
+    let rows: Vec<Vec<&str>> = checks
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 7, "{checks}");
+    for row in &rows {
+        assert_eq!(row[column("passed")], "true", "{row:?}");
+    }
+    let pressures: Vec<f64> = rows
+        .iter()
+        .filter(|row| row[column("unit")] == "Pa")
+        .map(|row| row[column("deviation")].parse().unwrap())
+        .collect();
+    assert_eq!(pressures.len(), 4);
+    assert!(
+        pressures.iter().all(|d: &f64| d.abs() < 0.02),
+        "{pressures:?}"
+    );
+}
+
+#[test]
 fn a_validation_whose_checks_fail_exits_1_after_writing_its_outputs() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("coarse-step.toml");

@@ -304,11 +304,18 @@ pub fn check_ppm(ppm: f64, domain: &Domain) -> Result<(), String> {
     }
 }
 
-/// A column of fluid against the low-x wall, `width` wide and `height` high (metres),
-/// through the box's whole depth, on the jittered lattice at `ppm` (the dam break of the
-/// experiments: the full depth makes it the quasi-2D column of a channel).
-pub fn water_column(ppm: f64, seed: u64, width: f64, height: f64) -> Result<Particles, String> {
-    let extent = BOX_MAX - BOX_MIN;
+/// A column of fluid against the low-x wall of `domain` (SPEC.md's box, or its planar
+/// section), `width` wide and `height` high (metres), through the box's whole depth, on
+/// the jittered lattice at `ppm` (the dam break of the experiments: the full depth makes
+/// it the quasi-2D column of a channel; a planar domain, the 2-D one).
+pub fn water_column(
+    ppm: f64,
+    seed: u64,
+    width: f64,
+    height: f64,
+    domain: &Domain,
+) -> Result<Particles, String> {
+    let extent = domain.extent();
     let fits = |size: f64, room: f64| size.is_finite() && size > 0.0 && size <= room;
     if !(fits(width, extent.x) && fits(height, extent.y)) {
         return Err(format!(
@@ -316,9 +323,10 @@ pub fn water_column(ppm: f64, seed: u64, width: f64, height: f64) -> Result<Part
             extent.x, extent.y
         ));
     }
-    check_ppm(ppm, &Domain::COURSE)?;
-    let column = lattice(ppm, seed, |p| {
-        p.x < BOX_MIN.x + width && p.y < BOX_MIN.y + height
+    check_ppm(ppm, domain)?;
+    let [nx, ny, nz] = lattice_dims(ppm, domain);
+    let column = lattice_within(ppm, seed, domain, [0..nx, 0..ny, 0..nz], |p| {
+        p.x < domain.min.x + width && p.y < domain.min.y + height
     });
     if column.is_empty() {
         return Err(format!(

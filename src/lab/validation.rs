@@ -3,7 +3,7 @@
 //! SPH codes people trust (DualSPHysics, PySPH, SPHysics) validate with.
 //!
 //! A column `a` wide and `2a` high stands against the low-x wall, through the box's whole
-//! depth, and is released at t = 0. Its front, the distance x from that wall (a high
+//! depth (or, in 2-D, in the plane of its section), and is released at t = 0. Its front, the distance x from that wall (a high
 //! quantile of x among the particles near the floor, [`FRONT_QUANTILE`], plus half a
 //! lattice spacing), is followed in the experiment's dimensionless variables: Z = x / a
 //! against T = t sqrt(2 g / a).
@@ -11,7 +11,7 @@
 use crate::lab::diagnostics::{self, Checks, Diagnostics, Failure, Vitals};
 use crate::lab::progress::Progress;
 use crate::lab::scene;
-use crate::sim::params::{BOX_MAX, BOX_MIN, GRAVITY, RADIUS_MULTIPLIER};
+use crate::sim::params::{Domain, BOX_MAX, BOX_MIN, GRAVITY, RADIUS_MULTIPLIER};
 use crate::sim::particles::Particles;
 use crate::sim::simulation::Simulation;
 
@@ -84,13 +84,28 @@ pub struct DamBreak {
     pub ppm: f64,
     /// Seed of the lattice jitter.
     pub seed: u64,
+    /// In 2-D: the course box's x-y section, the column's section in the plane.
+    pub planar: bool,
 }
 
 impl DamBreak {
     /// The column's particles, at rest: a wide and 2a high (see [`Self::column_width`]).
     pub fn particles(&self) -> Result<Particles, String> {
         let a = self.column_width();
-        scene::water_column(self.ppm, self.seed, a, 2.0 * a)
+        scene::water_column(self.ppm, self.seed, a, 2.0 * a, &self.domain())
+    }
+
+    /// The box it runs in: the course's, or in 2-D its section ([`Domain::section`]).
+    pub fn domain(&self) -> Domain {
+        match self.planar {
+            true => Domain::COURSE.section(self.ppm),
+            false => Domain::COURSE,
+        }
+    }
+
+    /// Its number of dimensions, 2 or 3.
+    pub fn dimensions(&self) -> usize {
+        self.domain().dimensions()
     }
 
     /// The width of the column the lattice gives: its columns of particles (those whose
@@ -272,6 +287,7 @@ mod tests {
             width: 0.03,
             ppm: 200.0,
             seed: 1,
+            planar: false,
         }
     }
 
@@ -371,6 +387,7 @@ mod tests {
             width: 0.03,
             ppm: 150.0,
             seed: 1,
+            planar: false,
         };
         let method = crate::sim::method::Method {
             model: crate::sim::model::Model::Fluidanimate,

@@ -70,6 +70,18 @@ impl Domain {
         (x == 0.0 && z == 0.0 && y < 0.0).then_some(-y)
     }
 
+    /// This box's x-y section as a planar domain at `ppm` particles per metre: the slab one
+    /// lattice spacing deep around the plane z = 0 (as a 2-D case's).
+    pub fn section(self, ppm: f64) -> Domain {
+        let half = 0.5 * (1.0 / ppm);
+        Domain {
+            min: DVec3::new(self.min.x, self.min.y, -half),
+            max: DVec3::new(self.max.x, self.max.y, half),
+            planar: true,
+            ..self
+        }
+    }
+
     /// The number of dimensions the particles move in: 2 ([`Self::planar`]) or 3.
     pub fn dimensions(&self) -> usize {
         if self.planar {

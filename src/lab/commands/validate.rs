@@ -95,15 +95,38 @@ pub struct ValidateArgs {
     /// Seed of the lattice jitter [default: 1]
     #[arg(long)]
     seed: Option<u64>,
+    /// 2 for the dam break in the plane of the box's x-y section (the water model only),
+    /// or 3 [default: 3]
+    #[arg(long, value_parser = clap::builder::RangedI64ValueParser::<u8>::new().range(2..=3))]
+    dimensions: Option<u8>,
     /// The weakly compressible model's choices (its runs only).
     #[command(flatten)]
     water: WaterArgs,
 }
 
 impl ValidateArgs {
-    /// The models to run.
+    /// The models to run: every model, or in 2-D the water model.
     fn models(&self) -> Vec<Model> {
-        self.models.clone().unwrap_or(Model::ALL.to_vec())
+        let every = match self.planar() {
+            true => vec![Model::Wcsph],
+            false => Model::ALL.to_vec(),
+        };
+        self.models.clone().unwrap_or(every)
+    }
+
+    /// Whether the dam break runs in 2-D.
+    fn planar(&self) -> bool {
+        self.dimensions == Some(2)
+    }
+
+    /// The dam break at `ppm` particles per metre.
+    fn dam(&self, ppm: f64) -> DamBreak {
+        DamBreak {
+            width: self.width(),
+            ppm,
+            seed: self.seed(),
+            planar: self.planar(),
+        }
     }
 
     /// The resolutions to run each model at.
@@ -150,6 +173,7 @@ impl ValidateArgs {
             ("--dt", self.dt.is_some()),
             ("--adaptive", self.adaptive.is_some()),
             ("--seed", self.seed.is_some()),
+            ("--dimensions", self.dimensions.is_some()),
         ];
         given
             .into_iter()
@@ -160,10 +184,10 @@ impl ValidateArgs {
 
 /// The CSV columns of the fronts.
 const FRONTS_HEADER: &str = "model,kernel,ppm,width_m,time_step,step,time_s,T,front_m,Z,\
-                             mean_density_error,max_density_error";
+                             mean_density_error,max_density_error,dimensions";
 /// The CSV columns of the comparisons.
 const ERRORS_HEADER: &str = "model,kernel,ppm,width_m,time_step,experiment,T,Z_experiment,\
-                             Z_model,relative_error";
+                             Z_model,relative_error,dimensions";
 /// The longest dam break in the experiment's T (the experiments end by T = 4; the
 /// column has long settled by this).
 const MOST_T: f64 = 1000.0;
@@ -240,12 +264,18 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         ))
         .into());
     }
+    if let Some(other) = models
+        .iter()
+        .find(|&&model| model != Model::Wcsph && args.planar())
+    {
+        return Err(UsageError(format!(
+            "--dimensions 2 runs the water model (wcsph), not {}",
+            other.name()
+        ))
+        .into());
+    }
     for &ppm in &args.ppms() {
-        let dam = DamBreak {
-            width: args.width(),
-            ppm,
-            seed: args.seed(),
-        };
+        let dam = args.dam(ppm);
         dam.particles().map_err(|why| {
             let (width, ppm) = (format_g(args.width()), format_g(ppm));
             UsageError(format!("--width {width} at {ppm} per m: {why}"))
@@ -258,12 +288,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             let TimeStep::Fixed(dt) = asked.unwrap_or(model.default_time_step()) else {
                 continue;
             };
-            let unit = DamBreak {
-                width: args.width(),
-                ppm,
-                seed: args.seed(),
-            }
-            .time_unit();
+            let unit = args.dam(ppm).time_unit();
             let end = args.until.unwrap_or(until_t * unit);
             if let Some(steps) = steps_beyond_limit(end, dt) {
                 return Err(UsageError(format!(
@@ -289,11 +314,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     let mut runs = Vec::new();
     for &model in &models {
         for &ppm in &args.ppms() {
-            let dam = DamBreak {
-                width: args.width(),
-                ppm,
-                seed: args.seed(),
-            };
+            let dam = args.dam(ppm);
             let method = Method {
                 model,
                 kernel: args.kernel(),
@@ -306,7 +327,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
                 _ => (model.dynamics(), "its own constants".to_string()),
             };
             let mut simulation =
-                Simulation::with_dynamics(ppm, Domain::COURSE, dam.particles()?, method, dynamics)
+                Simulation::with_dynamics(ppm, dam.domain(), dam.particles()?, method, dynamics)
                     .map_err(|error| format!("--ppms {ppm}: {error}"))?;
             let time_step = asked.unwrap_or(model.default_time_step());
             simulation.set_time_step(time_step);
@@ -345,17 +366,23 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
                     sample.max_density_error,
                 ]
                 .map(format_shortest);
-                fronts += &format!("{cells},{},{}\n", sample.step, numbers.join(","));
+                fronts += &format!(
+                    "{cells},{},{},{}\n",
+                    sample.step,
+                    numbers.join(","),
+                    dam.dimensions()
+                );
             }
             for comparison in &comparisons {
                 let optional = |value: Option<f64>| value.map_or(String::new(), format_shortest);
                 errors += &format!(
-                    "{cells},{},{},{},{},{}\n",
+                    "{cells},{},{},{},{},{},{}\n",
                     comparison.experiment,
                     format_shortest(comparison.t),
                     format_shortest(comparison.z_experiment),
                     optional(comparison.z_model),
-                    optional(comparison.relative_error())
+                    optional(comparison.relative_error()),
+                    dam.dimensions()
                 );
             }
             let densest = |until: f64| {
@@ -388,14 +415,18 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             });
             writeln!(
                 stdout,
-                "model={} ppm={ppm} particles={} T_le={SUMMARY_T}{agreement} \
+                "model={} ppm={ppm} dimensions={} particles={} T_le={SUMMARY_T}{agreement} \
                  max_density_error_T_le_{SUMMARY_T}={densest_compared:.3} \
                  max_density_error={densest:.3} seconds={seconds:.3} \
                  seconds_per_simulated_s={per_simulated_second}{failed} settings: {settings}",
                 model.name(),
+                dam.dimensions(),
                 simulation.particles().len(),
             )?;
-            let mut label = format!("{} at {ppm} per m", model.name());
+            let mut label = match dam.planar {
+                true => format!("{} 2-D at {ppm} per m", model.name()),
+                false => format!("{} at {ppm} per m", model.name()),
+            };
             if let Some((t, _)) = collapse.failure {
                 label += &format!(" (failed at T = {t:.2})");
             }
@@ -416,8 +447,12 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     let machine = Machine::this();
     let rule = asked.map_or("each model's own time step".to_string(), rule_name);
     let footer = format!(
-        "column a = {} m, 2a high, {rule}, {} kernel; {}, commit {}; {:.0} CPU s in all{}",
+        "column a = {} m, 2a high{}, {rule}, {} kernel; {}, commit {}; {:.0} CPU s in all{}",
         args.width(),
+        match args.planar() {
+            true => " in 2-D",
+            false => "",
+        },
         args.kernel().name(),
         machine.cpu_model,
         machine.commit,
@@ -587,10 +622,16 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     simulation.water = args.water.clone();
     simulation.read_case(&mut None)?;
     let case = simulation.read.as_ref().expect("a case read");
-    if case.domain.simulated() != Domain::COURSE {
+    let ppm = *case.fluid.particles_per_m.get_ref();
+    let planar = case.domain.is_planar();
+    let course = match planar {
+        true => Domain::COURSE.section(ppm),
+        false => Domain::COURSE,
+    };
+    if case.domain.simulated() != course {
         // At the first key that differs from the course's.
         let domain = &case.domain;
-        let course = [BOX_MIN, BOX_MAX, GRAVITY].map(|v| v.to_array());
+        let course = [course.min, course.max, course.gravity].map(|v| v.to_array());
         let keys = [&domain.box_min_m, &domain.box_max_m, &domain.gravity_m_s2];
         let (key, _) = (keys.iter().zip(course))
             .find(|(key, course)| *key.get_ref() != *course)
@@ -616,21 +657,21 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
             None => simulation.at_key(fills.particles_per_m.span(), message.into()),
         });
     };
-    let ppm = *case.fluid.particles_per_m.get_ref();
     let (low, high) = (fill.get_ref().min_m, fill.get_ref().max_m);
     let dam = DamBreak {
         width: high[0] - low[0],
         ppm,
         seed: case.fluid.seed,
+        planar,
     };
     let a = dam.column_width();
     let column = [
         (low[0], BOX_MIN.x),
         (low[1], BOX_MIN.y),
-        (low[2], BOX_MIN.z),
+        (low[2], dam.domain().min.z),
         (high[0], BOX_MIN.x + a),
         (high[1], BOX_MIN.y + 2.0 * a),
-        (high[2], BOX_MAX.z),
+        (high[2], dam.domain().max.z),
     ];
     if column.iter().any(|(x, y)| (x - y).abs() > 1e-9) {
         let message = format!(
@@ -647,6 +688,7 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     args.ppms = Some(vec![ppm]);
     args.width = Some(dam.width);
     args.seed = Some(dam.seed);
+    args.dimensions = Some(dam.dimensions() as u8);
     args.kernel = Some(simulation.kernel());
     args.dt = simulation.dt;
     args.adaptive = simulation.adaptive;
