@@ -790,6 +790,38 @@ fn the_dam_break_validates_in_2_d_from_its_flags_and_its_case() {
         let a = std::fs::read(flags.join(file)).unwrap();
         assert!(a == std::fs::read(from_case.join(file)).unwrap(), "{file}");
     }
+    // Side by side with 3-D: the cost chart has a line per dimensions and experiment.
+    let both = dir.path().join("both");
+    let output = validate(
+        &[
+            "--dimensions",
+            "2,3",
+            "--models",
+            "wcsph",
+            "--ppms",
+            "200",
+            "--width",
+            "0.026",
+        ],
+        &both,
+    );
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let summary = stdout(&output);
+    assert!(
+        summary.contains("model=wcsph ppm=200 dimensions=2 particles=50 "),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("model=wcsph ppm=200 dimensions=3 particles=1300 "),
+        "{summary}"
+    );
+    let svg = std::fs::read_to_string(both.join("dam-break-cost.svg")).unwrap();
+    for line in [
+        "wcsph 2-D, Martin and Moyce (1952)",
+        "wcsph 3-D, Koshizuka and Oka (1996)",
+    ] {
+        assert!(svg.contains(line), "{line}");
+    }
     // Only the water model runs in 2-D.
     let output = validate(
         &["--dimensions", "2", "--models", "wcsph,fluidanimate"],

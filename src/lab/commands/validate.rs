@@ -96,36 +96,48 @@ pub struct ValidateArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// 2 for the dam break in the plane of the box's x-y section (the water model only),
-    /// or 3 [default: 3]
-    #[arg(long, value_parser = clap::builder::RangedI64ValueParser::<u8>::new().range(2..=3))]
-    dimensions: Option<u8>,
+    /// 3, or 2,3 for both side by side [default: 3]
+    #[arg(long, value_delimiter = ',', num_args = 1..,
+          value_parser = clap::builder::RangedI64ValueParser::<u8>::new().range(2..=3))]
+    dimensions: Option<Vec<u8>>,
     /// The weakly compressible model's choices (its runs only).
     #[command(flatten)]
     water: WaterArgs,
 }
 
 impl ValidateArgs {
-    /// The models to run: every model, or in 2-D the water model.
+    /// The models to run: every model, or in 2-D alone the water model.
     fn models(&self) -> Vec<Model> {
-        let every = match self.planar() {
-            true => vec![Model::Wcsph],
-            false => Model::ALL.to_vec(),
+        let every = match self.dimensions().as_slice() {
+            [2] => vec![Model::Wcsph],
+            _ => Model::ALL.to_vec(),
         };
         self.models.clone().unwrap_or(every)
     }
 
-    /// Whether the dam break runs in 2-D.
-    fn planar(&self) -> bool {
-        self.dimensions == Some(2)
+    /// The numbers of dimensions to run in, each once.
+    fn dimensions(&self) -> Vec<u8> {
+        self.dimensions.clone().unwrap_or(vec![3])
     }
 
-    /// The dam break at `ppm` particles per metre.
-    fn dam(&self, ppm: f64) -> DamBreak {
+    /// The runs' models and whether each is 2-D, in the order of --dimensions: in 2-D the
+    /// water model's only.
+    fn plan(&self) -> Vec<(Model, bool)> {
+        let dimensions = self.dimensions();
+        let planar = dimensions.iter().map(|&d| d == 2);
+        planar
+            .flat_map(|planar| self.models().into_iter().map(move |model| (model, planar)))
+            .filter(|&(model, planar)| !planar || model == Model::Wcsph)
+            .collect()
+    }
+
+    /// The dam break at `ppm` particles per metre, in 2-D if `planar`.
+    fn dam(&self, ppm: f64, planar: bool) -> DamBreak {
         DamBreak {
             width: self.width(),
             ppm,
             seed: self.seed(),
-            planar: self.planar(),
+            planar,
         }
     }
 
@@ -201,6 +213,10 @@ const SUMMARY_T: f64 = 3.6;
 struct Validated {
     model: Model,
     ppm: f64,
+    /// Run in 2-D.
+    planar: bool,
+    /// The simulated time it reached (s).
+    simulated: f64,
     label: String,
     collapse: Collapse,
     comparisons: Vec<Comparison>,
@@ -264,9 +280,14 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         ))
         .into());
     }
+    let dimensions = args.dimensions();
+    if (1..dimensions.len()).any(|k| dimensions[k..].contains(&dimensions[k - 1])) {
+        return Err(UsageError("--dimensions names each number once".into()).into());
+    }
+    let only_planar = dimensions == [2];
     if let Some(other) = models
         .iter()
-        .find(|&&model| model != Model::Wcsph && args.planar())
+        .find(|&&model| model != Model::Wcsph && only_planar)
     {
         return Err(UsageError(format!(
             "--dimensions 2 runs the water model (wcsph), not {}",
@@ -274,21 +295,23 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         ))
         .into());
     }
-    for &ppm in &args.ppms() {
-        let dam = args.dam(ppm);
-        dam.particles().map_err(|why| {
-            let (width, ppm) = (format_g(args.width()), format_g(ppm));
-            UsageError(format!("--width {width} at {ppm} per m: {why}"))
-        })?;
+    let plan = args.plan();
+    for planar in dimensions.iter().map(|&d| d == 2) {
+        for &ppm in &args.ppms() {
+            args.dam(ppm, planar).particles().map_err(|why| {
+                let (width, ppm) = (format_g(args.width()), format_g(ppm));
+                UsageError(format!("--width {width} at {ppm} per m: {why}"))
+            })?;
+        }
     }
     // A fixed step that would take more steps than any run to a time may: refused before
     // anything is made.
-    for &model in &models {
+    for &(model, planar) in &plan {
         for &ppm in &args.ppms() {
             let TimeStep::Fixed(dt) = asked.unwrap_or(model.default_time_step()) else {
                 continue;
             };
-            let unit = args.dam(ppm).time_unit();
+            let unit = args.dam(ppm, planar).time_unit();
             let end = args.until.unwrap_or(until_t * unit);
             if let Some(steps) = steps_beyond_limit(end, dt) {
                 return Err(UsageError(format!(
@@ -312,9 +335,9 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     let mut fronts = format!("{FRONTS_HEADER}\n");
     let mut errors = format!("{ERRORS_HEADER}\n");
     let mut runs = Vec::new();
-    for &model in &models {
+    for &(model, planar) in &plan {
         for &ppm in &args.ppms() {
-            let dam = args.dam(ppm);
+            let dam = args.dam(ppm, planar);
             let method = Method {
                 model,
                 kernel: args.kernel(),
@@ -433,6 +456,8 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             runs.push(Validated {
                 model,
                 ppm,
+                planar,
+                simulated,
                 label,
                 collapse,
                 comparisons,
@@ -449,9 +474,10 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     let footer = format!(
         "column a = {} m, 2a high{}, {rule}, {} kernel; {}, commit {}; {:.0} CPU s in all{}",
         args.width(),
-        match args.planar() {
-            true => " in 2-D",
-            false => "",
+        match dimensions.as_slice() {
+            [2] => " in 2-D",
+            [3] => "",
+            _ => " in 2-D and 3-D",
         },
         args.kernel().name(),
         machine.cpu_model,
@@ -462,11 +488,14 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             false => String::new(),
         }
     );
-    let charts = std::iter::once(front_chart(&runs, &footer)).chain(
-        models
-            .iter()
-            .filter_map(|&model| convergence_chart(&runs, model, &footer)),
-    );
+    let charts = [front_chart(&runs, &footer)]
+        .into_iter()
+        .chain(cost_chart(&runs, &footer))
+        .chain(
+            models
+                .iter()
+                .filter_map(|&model| convergence_chart(&runs, model, &footer)),
+        );
     for chart in charts {
         for path in chart::render(&chart, &args.output_dir, chart::SIZE)? {
             writeln!(stdout, "wrote {}", path.display())?;
@@ -479,7 +508,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         .flat_map(|experiment| experiment.points.iter().map(|&(t, _)| t))
         .fold(f64::INFINITY, f64::min);
     let failed = runs.iter().filter_map(|run| {
-        let name = format!("{} at {} per m", run.model.name(), run.ppm);
+        let name = run.label.clone();
         if let Some((t, failure)) = run.collapse.failure.as_ref() {
             return Some(format!("{name} failed at T = {t:.3} ({failure})"));
         }
@@ -544,6 +573,54 @@ fn convergence_chart(runs: &[Validated], model: Model, footer: &str) -> Option<P
         lines: true,
         fronts: Vec::new(),
         notes: Vec::new(),
+        legend: SeriesLabelPosition::UpperRight,
+        footer: footer.to_string(),
+    })
+}
+
+/// The mean front error against each experiment (T <= [`SUMMARY_T`], in %) against the
+/// CPU seconds per simulated second, a line per model, dimensions and experiment through
+/// its resolutions (each point marked with its particles per metre), if any run compared
+/// a front: what accuracy costs, and what the third dimension adds to it.
+/// `dam-break-cost`.
+fn cost_chart(runs: &[Validated], footer: &str) -> Option<PointChart> {
+    let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    let mut notes = Vec::new();
+    for run in runs {
+        let cost = run.seconds / run.simulated;
+        if !(cost.is_finite() && cost > 0.0) || run.collapse.failure.is_some() {
+            continue;
+        }
+        for experiment in EXPERIMENTS {
+            let Some((_, mean)) =
+                validation::errors(&run.comparisons, Some(experiment.name), SUMMARY_T)
+            else {
+                continue;
+            };
+            let dimensions = if run.planar { "2-D" } else { "3-D" };
+            let label = format!("{} {dimensions}, {}", run.model.name(), experiment.name);
+            let point = (cost, 100.0 * mean);
+            match series.iter_mut().find(|(name, _)| *name == label) {
+                Some((_, points)) => points.push(point),
+                None => series.push((label, vec![point])),
+            }
+            notes.push((point.0, point.1, format!("{}", run.ppm)));
+        }
+    }
+    (!series.is_empty()).then(|| PointChart {
+        name: "dam-break-cost",
+        title: format!(
+            "Dam break: mean front error (T <= {SUMMARY_T}) against cost, by resolution"
+        ),
+        x_label: "CPU seconds per simulated second".into(),
+        x_log: true,
+        y_label: "mean |Z_model - Z_experiment| / Z_experiment (%)".into(),
+        y_log: false,
+        series,
+        measured: 0,
+        lines: true,
+        fronts: Vec::new(),
+        notes,
         legend: SeriesLabelPosition::UpperRight,
         footer: footer.to_string(),
     })
@@ -688,7 +765,7 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     args.ppms = Some(vec![ppm]);
     args.width = Some(dam.width);
     args.seed = Some(dam.seed);
-    args.dimensions = Some(dam.dimensions() as u8);
+    args.dimensions = Some(vec![dam.dimensions() as u8]);
     args.kernel = Some(simulation.kernel());
     args.dt = simulation.dt;
     args.adaptive = simulation.adaptive;
