@@ -1,5 +1,5 @@
 //! Pictures of a state: three orthographic views of the box (front: x right, y up; side:
-//! z right, y up; top: x right, z down), particles drawn back to front and coloured by speed
+//! z right, y up; top: x right, z down; a planar domain's front alone), particles drawn back to front and coloured by speed
 //! or density on the viridis scale with its colour bar, the box's walls drawn. One PNG, or
 //! the frames of a run as an animated GIF. Drawn with plotters and the embedded DejaVu Sans.
 
@@ -119,6 +119,9 @@ pub struct Layout {
     pub high: DVec3,
     /// The space around it (m).
     pub margin: f64,
+    /// How many of [`VIEWS`] are drawn: all three, or the front alone for a planar
+    /// domain (whose side and top views would be slivers one spacing deep).
+    pub views: usize,
 }
 
 impl Layout {
@@ -127,7 +130,8 @@ impl Layout {
         let extent = domain.extent();
         let margin = MARGIN * extent.max_element();
         let (top, bottom) = (70.0, 40.0);
-        let across: f64 = VIEWS
+        let views = if domain.planar { 1 } else { VIEWS.len() };
+        let across: f64 = VIEWS[..views]
             .iter()
             .map(|view| extent[view.right] + 2.0 * margin)
             .sum();
@@ -138,7 +142,7 @@ impl Layout {
         let baseline = top + (extent.y + margin) * scale;
         let mut left = 30.0;
         let mut origins = [(0, 0); 3];
-        for (origin, view) in origins.iter_mut().zip(VIEWS) {
+        for (origin, view) in origins.iter_mut().zip(&VIEWS[..views]) {
             let x = left + margin * scale;
             let y = if view.down {
                 top + margin * scale
@@ -154,6 +158,7 @@ impl Layout {
             low: domain.min,
             high: domain.max,
             margin,
+            views,
         }
     }
 
@@ -256,7 +261,7 @@ where
     root.draw(&Text::new(subtitle, (30, 40), ("sans-serif", 15)))?;
     let radius = ((0.45 / style.ppm) * layout.scale).round().max(1.0) as i32;
     let extent = layout.high - layout.low;
-    for (index, view) in VIEWS.iter().enumerate() {
+    for (index, view) in VIEWS[..layout.views].iter().enumerate() {
         let (x0, y0) = layout.origins[index];
         let width = (extent[view.right] * layout.scale).round() as i32;
         let height = (extent[view.up] * layout.scale).round() as i32;
@@ -340,6 +345,28 @@ mod tests {
     use super::*;
     use crate::sim::params::{BOX_MAX, BOX_MIN};
     use crate::sim::simulation::Simulation;
+
+    #[test]
+    fn a_planar_domain_is_drawn_in_its_front_view_alone_and_larger() {
+        let long_tank = Domain {
+            min: DVec3::ZERO,
+            max: DVec3::new(1.0, 0.5, 0.3),
+            ..Domain::COURSE
+        };
+        let (solid, planar) = (
+            Layout::of(&long_tank),
+            Layout::of(&long_tank.section(100.0)),
+        );
+        assert_eq!((solid.views, planar.views), (3, 1));
+        assert!(
+            planar.scale > 1.5 * solid.scale,
+            "{} {}",
+            planar.scale,
+            solid.scale
+        );
+        let (x, y) = planar.pixel(0, DVec3::new(1.0, 0.5, 0.0));
+        assert!((0..SIZE.0 as i32).contains(&x) && (0..SIZE.1 as i32).contains(&y));
+    }
 
     #[test]
     fn the_layout_keeps_every_box_corner_in_the_frame_and_the_views_apart() {
