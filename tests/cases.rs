@@ -1062,6 +1062,76 @@ fn a_planar_case_runs_in_the_plane_z_0() {
     );
 }
 
+#[test]
+fn a_periodic_case_keeps_its_particles_and_refuses_what_it_cannot_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(case("dam-break-2d"))
+        .unwrap()
+        .replace("dimensions = 2", "dimensions = 2\nperiodic = [\"x\"]");
+    let path = dir.path().join("periodic.toml");
+    let out = dir.path().join("out.fld");
+    let run = |text: &str, extra: &[&str]| {
+        std::fs::write(&path, text).unwrap();
+        let mut args: Vec<&OsStr> = vec!["run".as_ref(), "--case".as_ref(), path.as_os_str()];
+        args.push(out.as_os_str());
+        args.extend(extra.iter().map(OsStr::new));
+        run_lab(&args)
+    };
+    // The surge runs out through the high-x face and in at the low one: 2,000 steps.
+    let output = run(&text, &["--steps", "2000"]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let at = positions(&out);
+    assert_eq!(at.len(), 128);
+    let inside = |p: &[f32; 3]| {
+        p.iter().all(|x| x.is_finite())
+            && (-0.065..=0.065).contains(&p[0])
+            && (-0.08..=0.1).contains(&p[1])
+    };
+    assert!(at.iter().all(inside), "{at:?}");
+    // What cannot run is refused at its key, exit 2.
+    for (from, to, column, message) in [
+        (
+            "periodic = [\"x\"]",
+            "periodic = [\"y\"]",
+            12,
+            "the water model's floor is the box's low y wall: y cannot be periodic",
+        ),
+        (
+            "periodic = [\"x\"]",
+            "periodic = [\"x\", \"x\"]",
+            12,
+            "periodic lists axes, each once: \"x\", \"y\" or \"z\"",
+        ),
+        (
+            "periodic = [\"x\"]",
+            "periodic = [\"z\"]",
+            12,
+            "a 2-D case has no z faces to make periodic",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = \"fluidanimate\"",
+            12,
+            "periodic faces are the water model's (wcsph), not fluidanimate's",
+        ),
+    ] {
+        let output = run(&text.replace(from, to), &[]);
+        let line = format!("fluid-lab: error: {}:9:{column}: {message}", path.display());
+        assert_refused(&output, 2, &line);
+        assert!(!out.exists() || std::fs::remove_file(&out).is_ok());
+    }
+    // A periodic axis at least 3 cut-offs long: the box's 0.13 m at 60 per metre (a
+    // cut-off of 2.6 spacings, 43 mm) is 3, at 50 per metre 2.
+    let coarse = text.replace("particles_per_m = 300.0", "particles_per_m = 50.0");
+    let output = run(&coarse, &[]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("a periodic axis needs at least 3 blocks (x has 2)"),
+        "{}",
+        stderr(&output)
+    );
+}
+
 /// A case of `model` in a box 2 m high whose floor is 1 m below the course's, a ball of
 /// water falling from y = 0, with `gravity`, run for `until` seconds.
 fn tall_box(model: &str, gravity: &str, until: f64) -> String {

@@ -94,6 +94,9 @@ pub struct Domain {
     /// [x]), or 3, the default.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dimensions: Option<Spanned<u64>>,
+    /// The axes whose two faces are periodic ("x", "y", "z"): none by default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub periodic: Option<Spanned<Vec<String>>>,
     /// The box's low corner (m), SPEC.md's by default.
     #[serde(default = "course_min", deserialize_with = "exactly_spanned")]
     pub box_min_m: Spanned<[f64; 3]>,
@@ -136,6 +139,7 @@ impl Default for Domain {
     fn default() -> Domain {
         Domain {
             dimensions: None,
+            periodic: None,
             box_min_m: course_min(),
             box_max_m: course_max(),
             gravity_m_s2: course_gravity(),
@@ -152,7 +156,19 @@ impl Domain {
             max: vector(&self.box_max_m),
             gravity: vector(&self.gravity_m_s2),
             planar: self.is_planar(),
+            periodic: self.periodic_axes(),
         }
+    }
+
+    /// Which axes are periodic ([`Self::periodic`]; names other than x, y and z are
+    /// refused by the checks).
+    pub fn periodic_axes(&self) -> [bool; 3] {
+        let named = |axis: &str| {
+            self.periodic
+                .as_ref()
+                .is_some_and(|axes| axes.get_ref().iter().any(|name| name == axis))
+        };
+        ["x", "y", "z"].map(named)
     }
 
     /// Whether the scene is two-dimensional (`dimensions = 2`).
@@ -760,6 +776,25 @@ impl Case {
         if let Some(dimensions) = &self.domain.dimensions {
             if ![2, 3].contains(dimensions.get_ref()) {
                 return Err((dimensions.span(), "dimensions must be 2 or 3".into()));
+            }
+        }
+        if let Some(periodic) = &self.domain.periodic {
+            let names = periodic.get_ref();
+            let known = names
+                .iter()
+                .all(|name| ["x", "y", "z"].contains(&name.as_str()));
+            let once = (1..names.len()).all(|k| !names[k..].contains(&names[k - 1]));
+            if !(known && once) {
+                return Err((
+                    periodic.span(),
+                    "periodic lists axes, each once: \"x\", \"y\" or \"z\"".into(),
+                ));
+            }
+            if self.domain.is_planar() && names.iter().any(|name| name == "z") {
+                return Err((
+                    periodic.span(),
+                    "a 2-D case has no z faces to make periodic".into(),
+                ));
             }
         }
         let (low, high) = (&self.domain.box_min_m, &self.domain.box_max_m);

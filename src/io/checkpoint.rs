@@ -6,7 +6,8 @@
 //! case file it started from, if it did (a u8, 0 for none, else 1, then its length, u64,
 //! and its UTF-8 text: a resume needs nothing else);
 //! particles per metre and the time (f64); the box's low and high corners and gravity
-//! (x, y, z each, f64) and whether it is planar (u8); the model, kernel, time-step rule, last step's
+//! (x, y, z each, f64) and its shape (u8: bit 0 planar, bits 1-3 the periodic axes x, y,
+//! z); the model, kernel, time-step rule, last step's
 //! limit, integrator and pair structure (which decides the order of the pair sums) as
 //! length-prefixed names (u8 length); the time step's value (f64: dt or the Courant
 //! constant), the last step's length (f64, NaN before the first step); what the model
@@ -21,7 +22,8 @@
 //! each); last, the CRC-32 of every byte before it (u32), so a corrupted checkpoint is
 //! refused. Versions 1-9 (before the integrators; version 3 before the models kept
 //! their own state; version 5 before the skin and the pair structure; version 6 before
-//! the case; version 7 before the box and gravity; version 9 before planar scenes) are
+//! the case; version 7 before the box and gravity; version 9 before planar and periodic
+//! scenes) are
 //! refused, with a message that says so.
 
 use crate::sim::kernel::Kernel;
@@ -35,8 +37,8 @@ use crate::sim::skin::KeptSkin;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
 use glam::DVec3;
 
-/// The first bytes of every checkpoint (format version 10, which adds the planar flag to
-/// version 9; version 8 holds version 9's fields, but its particles were ordered within a
+/// The first bytes of every checkpoint (format version 10, which adds the domain's shape,
+/// planar and periodic, to version 9; version 8 holds version 9's fields, but its particles were ordered within a
 /// cell by the order they came in, not by id, so a resume from it would not go on as its
 /// run did).
 const MAGIC: &[u8; 8] = b"FLUIDCKA";
@@ -100,7 +102,10 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     {
         bytes.extend_from_slice(&value.to_le_bytes());
     }
-    bytes.push(u8::from(domain.planar));
+    let periodic = (0..3).fold(0, |bits, axis| {
+        bits | u8::from(domain.periodic[axis]) << (axis + 1)
+    });
+    bytes.push(u8::from(domain.planar) | periodic);
     let (rule, value) = match state.time_step {
         TimeStep::Fixed(dt) => ("fixed", dt),
         TimeStep::Adaptive { courant } => ("adaptive", courant),
@@ -199,15 +204,17 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
     let ppm = reader.f64()?;
     let time = reader.f64()?;
     let mut vector = || Ok::<_, String>(DVec3::new(reader.f64()?, reader.f64()?, reader.f64()?));
+    let (min, max, gravity) = (vector()?, vector()?, vector()?);
+    let shape = match reader.take(1)? {
+        &[bits] if bits < 16 => bits,
+        _ => return Err("bad shape flags".into()),
+    };
     let domain = Domain {
-        min: vector()?,
-        max: vector()?,
-        gravity: vector()?,
-        planar: match reader.take(1)? {
-            [0] => false,
-            [1] => true,
-            _ => return Err("bad planar flag".into()),
-        },
+        min,
+        max,
+        gravity,
+        planar: shape & 1 != 0,
+        periodic: [1, 2, 3].map(|bit| shape & (1 << bit) != 0),
     };
     let corners = [domain.min, domain.max, domain.gravity];
     if !corners.iter().all(|v| v.is_finite()) || !domain.min.cmplt(domain.max).all() {

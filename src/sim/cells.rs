@@ -234,12 +234,14 @@ pub struct Walls {
     pub min: DVec3,
     /// The box's high corner (m).
     pub max: DVec3,
+    /// The axes whose faces are periodic, not walls.
+    pub periodic: [bool; 3],
 }
 
 impl Walls {
     /// Takes the walls to be those of `grid`'s box.
     fn set_box(&mut self, grid: &Grid) {
-        (self.min, self.max) = (grid.min, grid.max);
+        (self.min, self.max, self.periodic) = (grid.min, grid.max, grid.periodic);
     }
 
     /// The walls of every slot: bit 2 * axis for the low wall, 2 * axis + 1 for the high.
@@ -971,6 +973,7 @@ mod tests {
             block_size: (BOX_MAX - BOX_MIN) / glam::DVec3::new(1.0, 2.0, 3.0),
             min: BOX_MIN,
             max: BOX_MAX,
+            periodic: [false; 3],
         };
         let mut next = uniform(0x2545_f491_4f6c_dd1d);
         for grid in [course, small] {
@@ -1105,6 +1108,7 @@ mod tests {
             block_size: glam::DVec3::splat(0.13 / 360.0),
             min: BOX_MIN,
             max: BOX_MIN + 0.13,
+            periodic: [false; 3],
         };
         let limit = CELL_LIMIT as i32;
         let (lowest, highest) = (

@@ -22,6 +22,9 @@ pub const MAX_BLOCKS_PER_AXIS: usize = 511;
 pub struct GridSizeError {
     /// Blocks per axis that the smoothing length would give (floored, may be 0 or huge).
     pub blocks_per_axis: [f64; 3],
+    /// The periodic axes, which need 3 blocks (a pair across a face is then never also
+    /// one within the box).
+    pub periodic: [bool; 3],
 }
 
 impl fmt::Display for GridSizeError {
@@ -30,6 +33,16 @@ impl fmt::Display for GridSizeError {
         let [nx, ny, nz] = self.blocks_per_axis;
         let total_fits =
             self.blocks_per_axis.iter().all(|&n| n >= 1.0) && nx * ny * nz <= MAX_BLOCKS as f64;
+        let short = (0..3).find(|&axis| self.periodic[axis] && self.blocks_per_axis[axis] < 3.0);
+        if let (true, Some(axis)) = (total_fits, short) {
+            return write!(
+                f,
+                "a grid of {x} x {y} x {z} blocks, but a periodic axis needs at least 3 \
+                 blocks ({} has {})",
+                ["x", "y", "z"][axis],
+                self.blocks_per_axis[axis]
+            );
+        }
         if total_fits {
             return write!(
                 f,
@@ -68,6 +81,8 @@ pub struct Grid {
     pub min: DVec3,
     /// The box's high corner (m).
     pub max: DVec3,
+    /// The domain's periodic axes ([`Domain::periodic`]).
+    pub periodic: [bool; 3],
 }
 
 impl Grid {
@@ -81,18 +96,22 @@ impl Grid {
             counts.z = 1.0;
         }
         let blocks_per_axis = counts.to_array();
-        let fits = blocks_per_axis
-            .iter()
-            .all(|&n| (1.0..=MAX_BLOCKS_PER_AXIS as f64).contains(&n))
-            && counts.x * counts.y * counts.z <= MAX_BLOCKS as f64;
+        let least = |axis: usize| if domain.periodic[axis] { 3.0 } else { 1.0 };
+        let fits = (0..3).all(|axis| {
+            (least(axis)..=MAX_BLOCKS_PER_AXIS as f64).contains(&blocks_per_axis[axis])
+        }) && counts.x * counts.y * counts.z <= MAX_BLOCKS as f64;
         if !fits {
-            return Err(GridSizeError { blocks_per_axis });
+            return Err(GridSizeError {
+                blocks_per_axis,
+                periodic: domain.periodic,
+            });
         }
         Ok(Self {
             dims: blocks_per_axis.map(|n| n as usize),
             block_size: extent / counts,
             min: domain.min,
             max: domain.max,
+            periodic: domain.periodic,
         })
     }
 

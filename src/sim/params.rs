@@ -41,6 +41,9 @@ pub struct Domain {
     /// z, the box's z walls absent, and the water model's kernel and mass per unit depth
     /// (its z extent is a slab one lattice spacing deep, which exports and renders show).
     pub planar: bool,
+    /// The axes whose two faces are periodic: a particle leaving through one comes in at
+    /// the other, and pairs are found across them (the water model's).
+    pub periodic: [bool; 3],
 }
 
 impl Default for Domain {
@@ -56,6 +59,7 @@ impl Domain {
         max: BOX_MAX,
         gravity: GRAVITY,
         planar: false,
+        periodic: [false; 3],
     };
 
     /// The box's edge lengths (m).

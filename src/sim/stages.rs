@@ -294,11 +294,31 @@ pub fn advance_within_box(walls: &Walls, step: Leapfrog, particles: &mut Particl
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
         let bounds = bounds(walls, axis);
+        let periodic = walls.periodic[axis];
         for_each_group(n, &[], axis, fields, |_, [p, hv, v, a]| {
-            let [p, hv, v] = bounce(bounds, EVERY_WALL, motion(step, [p, hv, v, a]));
+            let moved = motion(step, [p, hv, v, a]);
+            let [p, hv, v] = match periodic {
+                true => wrap(bounds, moved),
+                false => bounce(bounds, EVERY_WALL, moved),
+            };
             [p, hv, v, a]
         });
     }
+}
+
+/// On a periodic axis (between `bounds`), [p, hv, v] with each particle beyond a face
+/// moved in at the other by the box's length, its velocities kept.
+#[inline(always)]
+fn wrap(bounds: (f64, f64), [p, hv, v]: [f64x8; 3]) -> [f64x8; 3] {
+    let (min, max) = (f64x8::splat(bounds.0), f64x8::splat(bounds.1));
+    let length = max - min;
+    let below = p.simd_lt(min);
+    let beyond = p.simd_ge(max);
+    [
+        below.select(p + length, beyond.select(p - length, p)),
+        hv,
+        v,
+    ]
 }
 
 /// The velocities the forces of a step read under the velocity Verlet: each particle's
@@ -321,8 +341,12 @@ pub fn reflect_into_box(walls: &Walls, particles: &mut Particles) {
     for axis in 0..3 {
         let fields = axis_fields(particles, axis);
         let bounds = bounds(walls, axis);
+        let periodic = walls.periodic[axis];
         for_each_group(n, &[], axis, fields, |_, [p, hv, v, a]| {
-            let [p, hv, v] = bounce(bounds, EVERY_WALL, [p, hv, v]);
+            let [p, hv, v] = match periodic {
+                true => wrap(bounds, [p, hv, v]),
+                false => bounce(bounds, EVERY_WALL, [p, hv, v]),
+            };
             [p, hv, v, a]
         });
     }
@@ -361,6 +385,7 @@ mod tests {
             block_size: (BOX_MAX - BOX_MIN) / 3.0,
             min: BOX_MIN,
             max: BOX_MAX,
+            periodic: [false; 3],
         };
         let mut particles = Particles::zeroed(1);
         for axis in 0..3 {
@@ -453,6 +478,7 @@ mod tests {
             block_size: (BOX_MAX - BOX_MIN) / 3.0,
             min: BOX_MIN,
             max: BOX_MAX,
+            periodic: [false; 3],
         };
         let mut particles = Particles::zeroed(13);
         for slot in 0..13 {

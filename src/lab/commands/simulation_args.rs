@@ -375,6 +375,24 @@ fn check_domain(domain: &case::Domain, model: Model) -> Result<(), (Range<usize>
         .iter()
         .find(|(key, value)| *key.get_ref() != value.to_array());
     let pull = simulated.downward_pull();
+    let periodic = domain.periodic.as_ref();
+    if let Some(periodic) = periodic.filter(|_| simulated.periodic.contains(&true)) {
+        if model != Model::Wcsph {
+            return Err((
+                periodic.span(),
+                format!(
+                    "periodic faces are the water model's (wcsph), not {}'s",
+                    model.name()
+                ),
+            ));
+        }
+        if simulated.periodic[1] {
+            return Err((
+                periodic.span(),
+                "the water model's floor is the box's low y wall: y cannot be periodic".into(),
+            ));
+        }
+    }
     if let Some(dimensions) = domain.dimensions.as_ref().filter(|_| simulated.planar) {
         if model != Model::Wcsph {
             return Err((

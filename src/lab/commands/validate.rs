@@ -508,7 +508,8 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         .flat_map(|experiment| experiment.points.iter().map(|&(t, _)| t))
         .fold(f64::INFINITY, f64::min);
     let failed = runs.iter().filter_map(|run| {
-        let name = run.label.clone();
+        let dimensions = if run.planar { " 2-D" } else { "" };
+        let name = format!("{}{dimensions} at {} per m", run.model.name(), run.ppm);
         if let Some((t, failure)) = run.collapse.failure.as_ref() {
             return Some(format!("{name} failed at T = {t:.3} ({failure})"));
         }

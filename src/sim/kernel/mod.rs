@@ -30,7 +30,7 @@ mod wcsph;
 
 pub(crate) use simd::Lanes;
 use simd::{F64x4, F64x8, MixedF32x8};
-pub use wcsph::{NearWalls, Rates, State, WcsphConstants, WeaklyCompressible};
+pub use wcsph::{periodic_pairs, NearWalls, Rates, State, WcsphConstants, WeaklyCompressible};
 
 use crate::sim::isa::Record;
 use crate::sim::lists::NeighbourLists;

@@ -88,14 +88,14 @@ pub struct NearWalls {
 
 impl NearWalls {
     /// The walls of `domain`'s box within `support` of `position` (none along z in a
-    /// planar domain).
+    /// planar domain, nor along a periodic axis).
     pub fn of(position: [f64; 3], support: f64, domain: &Domain) -> Self {
         let mut near = NearWalls {
             axes: 0,
             at: [0.0; 3],
         };
-        let axes = position.into_iter().take(domain.dimensions());
-        for (axis, x) in axes.enumerate() {
+        let axes = position.into_iter().take(domain.dimensions()).enumerate();
+        for (axis, x) in axes.filter(|&(axis, _)| !domain.periodic[axis]) {
             let (low, high) = (x - domain.min[axis], domain.max[axis] - x);
             if low.min(high) < support {
                 near.axes |= 1 << axis;
@@ -326,54 +326,140 @@ pub(super) fn scalar(pass: WeaklyCompressible) {
     let (rates, n) = (&mut rates, id.len());
     for tile in tiles {
         for i in tile.firsts() {
-            let (p_i, v_i) = (vector_at(state.p, i), vector_at(state.v, i));
+            let p_i = vector_at(state.p, i);
             let walls = NearWalls::of(p_i.to_array(), constants.support, &constants.domain);
             for j in tile.partners(i) {
-                let (p_j, v_j) = (vector_at(state.p, j), vector_at(state.v, j));
-                let (rho_i, rho_j) = (state.rho[i], state.rho[j]);
-                let (pressure_i, pressure_j) = (state.pressure_terms[i], state.pressure_terms[j]);
-                let images = std::iter::once(0).chain(walls.images());
-                for set in images {
-                    let image = mirrored(p_j, set, &walls);
-                    let dv = velocity_differences(constants, v_i, v_j, set);
-                    let (pressure_image, rho_image) =
-                        image_of(constants, pressure_j, rho_j, p_j, image);
-                    let pressures = [pressure_i, pressure_image];
-                    let d = p_i - image;
-                    let terms = pair(constants, d, dv, [rho_i, rho_image], pressures);
-                    if let Some((da, [rate_i, rate_j])) = terms {
-                        // j meets the image of i, which across the floor has its own
-                        // hydrostatic pressure and density, and across a no-slip wall
-                        // its own velocity.
-                        let floor = set & 0b010 != 0 && walls.at[1] == constants.domain.min.y;
-                        let own_terms = floor || constants.no_slip && set != 0;
-                        let (da_j, rate_j) = if !own_terms {
-                            (da, rate_j)
-                        } else {
-                            let (pressure_i, rho_i) = if floor {
-                                let image_i = mirrored(p_i, set, &walls);
-                                image_of(constants, pressure_i, rho_i, p_i, image_i)
-                            } else {
-                                (pressure_i, rho_i)
-                            };
-                            let pressures = [pressure_i, pressure_j];
-                            let dv = partner_differences(constants, dv, set);
-                            let terms = pair(constants, d, dv, [rho_i, rho_j], pressures);
-                            terms.map_or((DVec3::ZERO, 0.0), |(da_j, [_, rate_j])| (da_j, rate_j))
-                        };
-                        let back = reflected(da_j, set);
-                        for axis in 0..3 {
-                            rates.a[axis][i] += da[axis];
-                            rates.a[axis][j] -= back[axis];
-                        }
-                        rates.rho[i] += rate_i;
-                        rates.rho[j] += rate_j;
-                    }
-                }
+                let p_j = vector_at(state.p, j);
+                pair_with_images(constants, &state, rates, [i, j], &walls, p_j);
             }
         }
     }
     self_images(constants, state, n, rates);
+}
+
+/// The terms of particles `i` and `j` with each other, `j` taken at `p_j` (its position,
+/// or its copy across periodic faces), and with the images of `j` across the walls of
+/// `i` (`walls`), added to both: the scalar loop's body.
+#[inline(always)]
+fn pair_with_images(
+    constants: &WcsphConstants,
+    state: &State,
+    rates: &mut Rates,
+    [i, j]: [usize; 2],
+    walls: &NearWalls,
+    p_j: DVec3,
+) {
+    let (p_i, v_i) = (vector_at(state.p, i), vector_at(state.v, i));
+    let v_j = vector_at(state.v, j);
+    let (rho_i, rho_j) = (state.rho[i], state.rho[j]);
+    let (pressure_i, pressure_j) = (state.pressure_terms[i], state.pressure_terms[j]);
+    let images = std::iter::once(0).chain(walls.images());
+    for set in images {
+        let image = mirrored(p_j, set, walls);
+        let dv = velocity_differences(constants, v_i, v_j, set);
+        let (pressure_image, rho_image) = image_of(constants, pressure_j, rho_j, p_j, image);
+        let pressures = [pressure_i, pressure_image];
+        let d = p_i - image;
+        let terms = pair(constants, d, dv, [rho_i, rho_image], pressures);
+        if let Some((da, [rate_i, rate_j])) = terms {
+            // j meets the image of i, which across the floor has its own hydrostatic
+            // pressure and density, and across a no-slip wall its own velocity.
+            let floor = set & 0b010 != 0 && walls.at[1] == constants.domain.min.y;
+            let own_terms = floor || constants.no_slip && set != 0;
+            let (da_j, rate_j) = if !own_terms {
+                (da, rate_j)
+            } else {
+                let (pressure_i, rho_i) = if floor {
+                    let image_i = mirrored(p_i, set, walls);
+                    image_of(constants, pressure_i, rho_i, p_i, image_i)
+                } else {
+                    (pressure_i, rho_i)
+                };
+                let pressures = [pressure_i, pressure_j];
+                let dv = partner_differences(constants, dv, set);
+                let terms = pair(constants, d, dv, [rho_i, rho_j], pressures);
+                terms.map_or((DVec3::ZERO, 0.0), |(da_j, [_, rate_j])| (da_j, rate_j))
+            };
+            let back = reflected(da_j, set);
+            for axis in 0..3 {
+                rates.a[axis][i] += da[axis];
+                rates.a[axis][j] -= back[axis];
+            }
+            rates.rho[i] += rate_i;
+            rates.rho[j] += rate_j;
+        }
+    }
+}
+
+/// The pairs across the domain's periodic faces, added to `rates` after any kernel's
+/// pass (which finds only the pairs within the box): each particle within the support of
+/// a periodic face meets the copies, shifted by the box's length, of the particles
+/// within the support of the opposite face (and across two or three faces at an edge or
+/// a corner), as a pair of [`pair_with_images`], its walls' images included. Each pair is
+/// taken once, in id order (the first particle's, then its partners' in each cell of a
+/// fixed order), so its sums depend on the particles alone. A box at least 3 cut-offs
+/// long on each periodic axis ([`crate::sim::grid::Grid`]) has no pair both within it
+/// and across a face.
+pub fn periodic_pairs(constants: &WcsphConstants, state: State, id: &[u32], rates: &mut Rates) {
+    let domain = &constants.domain;
+    let axes: Vec<usize> = (0..3).filter(|&axis| domain.periodic[axis]).collect();
+    if axes.is_empty() {
+        return;
+    }
+    let (n, support) = (id.len(), constants.support);
+    let mut slot_of_id = vec![0usize; n];
+    for (slot, &i) in id.iter().enumerate() {
+        slot_of_id[i as usize] = slot;
+    }
+    let length = domain.max - domain.min;
+    let cell = |p: DVec3| (p / support).floor().as_i64vec3().to_array();
+    // Each shift s (per periodic axis -1, 0 or 1, not all 0) with its first non-zero
+    // component 1: j's copy at p_j + s L, i near the faces s points to, j near the others.
+    for code in 1..3usize.pow(axes.len() as u32) {
+        let mut shift = [0i32; 3];
+        let mut rest = code;
+        for &axis in &axes {
+            shift[axis] = (rest % 3) as i32 - 1;
+            rest /= 3;
+        }
+        if axes.iter().map(|&axis| shift[axis]).find(|&s| s != 0) != Some(1) {
+            continue;
+        }
+        let near = |p: DVec3, towards: i32| {
+            axes.iter().all(|&axis| match shift[axis] * towards {
+                1 => p[axis] >= domain.max[axis] - support,
+                -1 => p[axis] < domain.min[axis] + support,
+                _ => true,
+            })
+        };
+        let offset = DVec3::from_array(shift.map(f64::from)) * length;
+        let mut copies: std::collections::HashMap<[i64; 3], Vec<usize>> = Default::default();
+        for &slot in &slot_of_id {
+            let p = vector_at(state.p, slot);
+            if near(p, -1) {
+                copies.entry(cell(p + offset)).or_default().push(slot);
+            }
+        }
+        if copies.is_empty() {
+            continue;
+        }
+        for &i in &slot_of_id {
+            let p_i = vector_at(state.p, i);
+            if !near(p_i, 1) {
+                continue;
+            }
+            let walls = NearWalls::of(p_i.to_array(), support, domain);
+            let [x, y, z] = cell(p_i);
+            for (dx, dy, dz) in (-1..=1)
+                .flat_map(|dx| (-1..=1).flat_map(move |dy| (-1..=1).map(move |dz| (dx, dy, dz))))
+            {
+                for &j in copies.get(&[x + dx, y + dy, z + dz]).into_iter().flatten() {
+                    let p_j = vector_at(state.p, j) + offset;
+                    pair_with_images(constants, &state, rates, [i, j], &walls, p_j);
+                }
+            }
+        }
+    }
 }
 
 /// The pair loop with each particle's terms summed on their own over its partners and
