@@ -867,6 +867,64 @@ fn still_water_holds_in_2_d() {
 }
 
 #[test]
+fn poiseuille_flow_reaches_the_parabola_and_a_coarse_kernel_fails_the_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let validate = |extra: &[&str], folder: &Path| {
+        let path = case("poiseuille");
+        let mut args: Vec<&OsStr> = vec![
+            "validate".as_ref(),
+            "poiseuille".as_ref(),
+            "--case".as_ref(),
+            path.as_os_str(),
+            "--output-dir".as_ref(),
+            folder.as_os_str(),
+            "--quiet".as_ref(),
+        ];
+        args.extend(extra.iter().map(OsStr::new));
+        run_lab(&args)
+    };
+    let folder = dir.path().join("flow");
+    let output = validate(&["--across", "20,40"], &folder);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let errors = std::fs::read_to_string(folder.join("poiseuille-errors.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = errors
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 2, "{errors}");
+    assert_eq!(&rows[1][..2], ["40", "960"]);
+    let error = |row: &[&str]| row[2].parse::<f64>().unwrap();
+    // Within 2% of the peak at 40 across (the target), and less than at 20.
+    assert!(
+        error(&rows[1]) < 0.02 && error(&rows[1]) < error(&rows[0]),
+        "{errors}"
+    );
+    let profile = std::fs::read_to_string(folder.join("poiseuille.csv")).unwrap();
+    assert_eq!(
+        profile.lines().count(),
+        1 + 20 + 40,
+        "a row per lattice row"
+    );
+    assert!(folder.join("poiseuille.png").is_file());
+    // h = 1.3 spacings: the plane's lattice sums the viscous term 2.6% short, and the
+    // flow runs 4% fast; the check fails, exit 1, its outputs written.
+    let folder = dir.path().join("coarse");
+    let output = validate(&["--across", "40", "--smoothing", "1.3"], &folder);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("1 of 1 checks failed: the error at 40 across, 0.03"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(folder.join("poiseuille-errors.csv").is_file());
+    // A dam break's flag, or --across elsewhere: usage errors.
+    let output = validate(&["--ppms", "100"], &dir.path().join("no"));
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(!dir.path().join("no").exists());
+}
+
+#[test]
 fn a_validation_whose_checks_fail_exits_1_after_writing_its_outputs() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("coarse-step.toml");

@@ -749,6 +749,26 @@ pub fn choice<T: ValueEnum>(name: &Spanned<String>, key: &str) -> Result<T, Faul
 }
 
 impl Case {
+    /// This case at `ppm` particles per metre: in 2-D its slab, the box's and the boxes
+    /// of fluid's z, one lattice spacing deep at the new spacing.
+    pub fn at_particles_per_m(&self, ppm: f64) -> Case {
+        let mut case = self.clone();
+        let span = case.fluid.particles_per_m.span();
+        case.fluid.particles_per_m = Spanned::new(span, ppm);
+        if case.domain.is_planar() {
+            let half = 0.5 * (1.0 / ppm);
+            let set = |corner: &mut [f64; 3], z: f64| corner[2] = z;
+            set(case.domain.box_min_m.get_mut(), -half);
+            set(case.domain.box_max_m.get_mut(), half);
+            for fill in &mut case.fluid.boxes {
+                let fill = fill.get_mut();
+                set(&mut fill.min_m, -half);
+                set(&mut fill.max_m, half);
+            }
+        }
+        case
+    }
+
     /// About the most particles the fills hold: their volumes (overlaps counted twice)
     /// times the particles per cubic metre.
     pub fn particles_at_most(&self) -> f64 {

@@ -13,6 +13,7 @@ pub mod diagnostics;
 pub mod energy;
 pub mod gauges;
 pub mod machine;
+pub mod poiseuille;
 pub mod progress;
 pub mod render;
 pub mod scene;

@@ -41,6 +41,10 @@ pub enum Experiment {
     /// the pressures at four depths against hydrostatics, the surface's flatness, the
     /// largest speed, the particles lost.
     StillWater,
+    /// Water between two plates, periodic along the flow, driven by a body force (--case,
+    /// e.g. cases/poiseuille.toml): the steady velocity profile against the parabola at
+    /// each --across resolution, and the order of convergence.
+    Poiseuille,
 }
 
 /// The arguments of `fluid-lab validate`.
@@ -100,6 +104,11 @@ pub struct ValidateArgs {
     #[arg(long, value_delimiter = ',', num_args = 1..,
           value_parser = clap::builder::RangedI64ValueParser::<u8>::new().range(2..=3))]
     dimensions: Option<Vec<u8>>,
+    /// Poiseuille: particles across the channel, each a run of the case [default:
+    /// 20,40,80]
+    #[arg(long, value_delimiter = ',', num_args = 1..,
+          value_parser = clap::builder::RangedI64ValueParser::<usize>::new().range(4..=400))]
+    across: Option<Vec<usize>>,
     /// The weakly compressible model's choices (its runs only).
     #[command(flatten)]
     water: WaterArgs,
@@ -226,18 +235,33 @@ struct Validated {
 /// Runs every model at every resolution against the experiment and writes the CSVs, the
 /// chart and a summary line per run.
 pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let still_water_flag = match args.experiment {
-        Experiment::StillWater => args.dam_break_flag(),
+    let case_flag = match args.experiment {
+        Experiment::StillWater | Experiment::Poiseuille => args.dam_break_flag(),
         Experiment::DamBreak => None,
     };
-    if let Some(flag) = still_water_flag {
+    if let Some(flag) = case_flag {
+        let name = args.experiment.to_possible_value().expect("a name");
         return Err(UsageError(format!(
-            "{flag} is the dam break's: validate still-water runs its case's model, kernel, \
-             time step, scene and [run] until_s"
+            "{flag} is the dam break's: validate {} runs its case's model, kernel, \
+             time step, scene and [run] until_s",
+            name.get_name()
         ))
         .into());
     }
+    if args.across.is_some() && args.experiment != Experiment::Poiseuille {
+        return Err(UsageError("--across is the Poiseuille flow's".into()).into());
+    }
     match (args.experiment, &args.case) {
+        (Experiment::Poiseuille, Some(case)) => {
+            let across = args.across.clone().unwrap_or(vec![20, 40, 80]);
+            return poiseuille(case, &args.output_dir, &args.water, &across, stdout);
+        }
+        (Experiment::Poiseuille, None) => {
+            return Err(UsageError(
+                "validate poiseuille runs a case: give --case FILE (cases/poiseuille.toml)".into(),
+            )
+            .into());
+        }
         (Experiment::StillWater, Some(case)) => {
             return still_water(case, &args.output_dir, &args.water, stdout);
         }
@@ -772,6 +796,173 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     args.adaptive = simulation.adaptive;
     args.water = simulation.water.clone();
     Ok(())
+}
+
+/// The largest L2 error of the steady profile at 40 particles across, relative to the
+/// peak (the issue's target).
+const POISEUILLE_TOLERANCE: f64 = 0.02;
+
+/// Runs the Poiseuille case at `path` at each resolution of `across` (particles between
+/// the plates) to its end, the weakly compressible model's settings in `water`
+/// overriding the case's, and writes each profile, the errors and orders, and the chart
+/// of the profiles over the parabola. Fails where the error at 40 across passes
+/// [`POISEUILLE_TOLERANCE`] or the finest run's passes the coarsest's.
+fn poiseuille(
+    path: &Path,
+    folder: &Path,
+    water: &WaterArgs,
+    across: &[usize],
+    stdout: &mut impl Write,
+) -> Result<(), Box<dyn Error>> {
+    use crate::lab::poiseuille::{order, Channel, Profile};
+    let mut args = SimulationArgs::of_case(path);
+    args.water = water.clone();
+    args.read_case(&mut None)?;
+    let case = args.read.clone().expect("a case read");
+    let mut channel =
+        Channel::of_case(&case).map_err(|(span, message)| args.at_key(span, message))?;
+    // The viscosity the runs take: a flag's over the case's.
+    if let Some(nu) = water.laminar_viscosity.filter(|&nu| nu > 0.0) {
+        channel.viscosity = nu;
+    }
+    let Extent::Until(end) = args.extent(None)? else {
+        let at = case.run.steps.as_ref().map_or(0..0, |steps| steps.span());
+        return Err(args.at_key(at, "a Poiseuille case runs to [run] until_s".into()));
+    };
+    let mut runs = Vec::new();
+    for &count in across {
+        // The case at `count` particles across: its lattice spacing W / count.
+        let ppm = count as f64 / channel.width;
+        args.read = Some(case.at_particles_per_m(ppm));
+        let Loaded { mut simulation, .. } =
+            load(&args).map_err(|error| format!("--across {count} ({ppm} per metre): {error}"))?;
+        let started = Instant::now();
+        let mut progress = Progress::towards(Goal::Until(end)).labelled(format!("{count} across"));
+        let mut step = 0;
+        while !simulation.has_reached(end) {
+            simulation.step_towards(end);
+            step += 1;
+            progress.show(step, simulation.time());
+            if let Some(failure) = failure(&simulation, Extent::Until(end), step) {
+                progress.finish();
+                return Err(format!("--across {count}: {failure}").into());
+            }
+        }
+        progress.finish();
+        let seconds = started.elapsed().as_secs_f64();
+        let profile = Profile::of(&channel, simulation.particles(), count);
+        runs.push((count, simulation.particles().len(), seconds, profile));
+    }
+    let _folder = create_output_dir(folder)?;
+    let profiles_path = folder.join("poiseuille.csv");
+    let errors_path = folder.join("poiseuille-errors.csv");
+    let (profiles_file, errors_file) = (
+        OutputFile::create(&profiles_path)?,
+        OutputFile::create(&errors_path)?,
+    );
+    let mut profiles = "across,y_m,u_m_s,u_analytic_m_s\n".to_string();
+    let mut errors = "across,particles,l2_error,order,cpu_s\n".to_string();
+    for (index, (count, particles, seconds, profile)) in runs.iter().enumerate() {
+        for &(y, u) in &profile.rows {
+            let numbers = [y, u, channel.velocity(y)].map(format_shortest);
+            profiles += &format!("{count},{}\n", numbers.join(","));
+        }
+        let previous = index.checked_sub(1).map(|k| (runs[k].3.error, runs[k].0));
+        let order = previous.map(|coarse| order(coarse, (profile.error, *count)));
+        let shown = order.map_or(String::new(), format_shortest);
+        errors += &format!(
+            "{count},{particles},{},{shown},{}\n",
+            format_shortest(profile.error),
+            format_shortest(*seconds)
+        );
+        writeln!(
+            stdout,
+            "across={count} particles={particles} l2_error={:.4} order={} seconds={seconds:.3}",
+            profile.error,
+            order.map_or("none".to_string(), |order| format!("{order:.2}")),
+        )?;
+    }
+    profiles_file.commit(profiles.as_bytes())?;
+    errors_file.commit(errors.as_bytes())?;
+    let machine = Machine::this();
+    let footer = format!(
+        "{}: W = {} m, F = {} m/s^2, nu = {} m^2/s, peak {:.4} m/s, to {end} s; {}, commit {}",
+        path.display(),
+        channel.width,
+        channel.force,
+        channel.viscosity,
+        channel.peak(),
+        machine.cpu_model,
+        machine.commit
+    );
+    let parabola: Vec<(f64, f64)> = (0..=40)
+        .map(|k| {
+            let y = channel.low + k as f64 / 40.0 * channel.width;
+            (
+                (y - channel.low) / channel.width,
+                channel.velocity(y) / channel.peak(),
+            )
+        })
+        .collect();
+    let series = std::iter::once(("parabola".to_string(), parabola)).chain(runs.iter().map(
+        |(count, _, _, profile)| {
+            let points = profile
+                .rows
+                .iter()
+                .map(|&(y, u)| ((y - channel.low) / channel.width, u / channel.peak()));
+            (format!("{count} across"), points.collect())
+        },
+    ));
+    let chart = PointChart {
+        name: "poiseuille",
+        title: "Poiseuille flow: the steady profile against the parabola".into(),
+        x_label: "y / W".into(),
+        x_log: false,
+        y_label: "u / u_peak".into(),
+        y_log: false,
+        series: series.collect(),
+        measured: 1,
+        lines: false,
+        fronts: Vec::new(),
+        notes: Vec::new(),
+        legend: SeriesLabelPosition::LowerRight,
+        footer,
+    };
+    for written in chart::render(&chart, folder, chart::SIZE)?
+        .iter()
+        .chain([&profiles_path, &errors_path])
+    {
+        writeln!(stdout, "wrote {}", written.display())?;
+    }
+    // A validation is a test: the error at 40 across within the tolerance, and no larger
+    // at the finest resolution than at the coarsest.
+    let mut failed = Vec::new();
+    let mut checks = 0;
+    if let Some((_, _, _, profile)) = runs.iter().find(|run| run.0 == 40) {
+        checks += 1;
+        // A NaN error fails.
+        let within = profile.error <= POISEUILLE_TOLERANCE;
+        if !within {
+            failed.push(format!(
+                "the error at 40 across, {:.4}, is past {POISEUILLE_TOLERANCE}",
+                profile.error
+            ));
+        }
+    }
+    if let (Some(coarsest), Some(finest)) = (runs.first(), runs.last()) {
+        if runs.len() > 1 {
+            checks += 1;
+            let converging = finest.3.error <= coarsest.3.error;
+            if !converging {
+                failed.push(format!(
+                    "the error grows with resolution ({:.4} at {} across, {:.4} at {})",
+                    coarsest.3.error, coarsest.0, finest.3.error, finest.0
+                ));
+            }
+        }
+    }
+    let subject = format!("{}: ", path.display());
+    verdict(subject, failed, checks, "checks", ", ")
 }
 
 /// Runs the still-water case at `path` to its end (the weakly compressible model's

@@ -133,9 +133,10 @@ impl Settings {
     }
 
     /// The sound speed for `particles` in `domain`: [`Self::sound_speed_factor`] times
-    /// sqrt(2 g H), g the gravity's pull down y, H the height of the highest particle
-    /// above the floor (at least one support radius, so a film on the floor still gets
-    /// a stiff law).
+    /// sqrt(2 g H), g the gravity's pull down y (its magnitude where it also pulls along
+    /// a periodic axis, as a body force driving a channel flow), H the height of the
+    /// highest particle above the floor (at least one support radius, so a film on the
+    /// floor still gets a stiff law).
     pub fn sound_speed_for(&self, ppm: f64, domain: &Domain, particles: &Particles) -> f64 {
         let floor = domain.min.y;
         let top = particles.p[1][..particles.len()]
@@ -144,7 +145,12 @@ impl Settings {
             .filter(|y| y.is_finite())
             .fold(floor, f64::max);
         let height = (top - floor).max(self.support(ppm));
-        self.sound_speed_factor * (2.0 * -domain.gravity.y * height).sqrt()
+        let gravity = domain.gravity;
+        let pull = match gravity.x == 0.0 && gravity.z == 0.0 {
+            true => -gravity.y,
+            false => gravity.length(),
+        };
+        self.sound_speed_factor * (2.0 * pull * height).sqrt()
     }
 
     /// Whether every value is one the model can run with: finite, the viscosities and
@@ -381,16 +387,24 @@ impl Wcsph {
     /// The CFL time step of a state whose accelerations are computed: C times the
     /// smaller of the force criterion sqrt(h / |a|) and the acoustic one
     /// h / (c_0 + |hv|), of the particles with the largest acceleration and half-step
-    /// speed, and the criterion that set it. Non-finite values are skipped.
+    /// speed, and the criterion that set it; with a laminar viscosity nu, at most the
+    /// viscous diffusion's limit 0.125 h^2 / nu (Morris, Fox and Zhu 1997). Non-finite
+    /// values are skipped.
     pub fn time_step(&self, particles: &Particles, courant: f64) -> (f64, Limit) {
         let (acceleration, fastest) = largest_acceleration_and_speed(particles);
         let h = self.constants.h;
         let force = (h / acceleration).sqrt();
         let speed = h / (self.constants.sound_speed + fastest);
-        if force < speed {
+        let cfl = if force < speed {
             (courant * force, Limit::Force)
         } else {
             (courant * speed, Limit::Speed)
+        };
+        let nu = self.constants.laminar_viscosity;
+        let viscous = 0.125 * h * h / nu;
+        match nu > 0.0 && viscous < cfl.0 {
+            true => (viscous, Limit::Viscosity),
+            false => cfl,
         }
     }
 }

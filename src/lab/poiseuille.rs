@@ -1,0 +1,174 @@
+//! Poiseuille flow, the check of the water model's no-slip walls, periodic faces and
+//! laminar viscosity: water between two plates (the box's y walls), periodic along the
+//! flow (x), driven by a body force F along x (the case's gravity), reaches the parabola
+//! u(y) = F / (2 nu) y (W - y), y from the low plate, W the gap, peak F W^2 / (8 nu).
+//! The profile's error is the root mean square of each particle's u_x less the parabola
+//! at its y, over the peak.
+
+use crate::io::case::Case;
+use crate::sim::particles::Particles;
+use std::ops::Range;
+
+/// A channel of a case: its gap, its low plate, the force and the viscosity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Channel {
+    /// The plates' gap W (m): the box's y extent.
+    pub width: f64,
+    /// The low plate's y (m).
+    pub low: f64,
+    /// The body force per unit mass F along x (m/s^2).
+    pub force: f64,
+    /// The kinematic viscosity nu (m^2/s).
+    pub viscosity: f64,
+}
+
+/// Why a case is not a channel, and where in the case file (a byte range).
+pub type NotAChannel = (Range<usize>, String);
+
+impl Channel {
+    /// The channel of `case`: periodic along x, its gravity [F, 0, 0] with F > 0, the
+    /// laminar viscosity given, and one box of fluid from plate to plate.
+    pub fn of_case(case: &Case) -> Result<Channel, NotAChannel> {
+        let domain = &case.domain;
+        let periodic = domain.periodic_axes();
+        let whole = domain.box_min_m.span();
+        if !periodic[0] {
+            let at = domain.periodic.as_ref().map_or(whole, |p| p.span());
+            return Err((
+                at,
+                "a Poiseuille case is periodic along x: periodic = [\"x\"]".into(),
+            ));
+        }
+        let [force, gy, gz] = *domain.gravity_m_s2.get_ref();
+        if !(force > 0.0 && gy == 0.0 && gz == 0.0) {
+            return Err((
+                domain.gravity_m_s2.span(),
+                "a Poiseuille case is driven along x: gravity_m_s2 = [F, 0, 0], F > 0".into(),
+            ));
+        }
+        let viscosity = case.model.laminar_viscosity_m2_s.as_ref();
+        let Some(viscosity) = viscosity.filter(|nu| *nu.get_ref() > 0.0) else {
+            let at = case.model.name.as_ref().map_or(whole, |name| name.span());
+            return Err((
+                at,
+                "a Poiseuille case gives its laminar_viscosity_m2_s > 0".into(),
+            ));
+        };
+        let (low, high) = (domain.box_min_m.get_ref()[1], domain.box_max_m.get_ref()[1]);
+        let fills = &case.fluid;
+        let plate_to_plate =
+            |fill: &crate::io::case::BoxFill| fill.min_m[1] == low && fill.max_m[1] == high;
+        match (&fills.boxes[..], fills.spheres.first()) {
+            ([fill], None) if plate_to_plate(fill.get_ref()) => Ok(Channel {
+                width: high - low,
+                low,
+                force,
+                viscosity: *viscosity.get_ref(),
+            }),
+            _ => Err((
+                fills.particles_per_m.span(),
+                "a Poiseuille case's fluid is one box from plate to plate (the box's y walls)"
+                    .into(),
+            )),
+        }
+    }
+
+    /// The steady velocity along x at height `y` (m/s).
+    pub fn velocity(&self, y: f64) -> f64 {
+        let above = y - self.low;
+        self.force / (2.0 * self.viscosity) * above * (self.width - above)
+    }
+
+    /// The steady profile's peak, mid-channel (m/s).
+    pub fn peak(&self) -> f64 {
+        self.force * self.width * self.width / (8.0 * self.viscosity)
+    }
+}
+
+/// A run's profile: each lattice row's mean u_x against its height, and the error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Profile {
+    /// (y at the row's middle, mean u_x of its particles), m and m/s, low to high.
+    pub rows: Vec<(f64, f64)>,
+    /// The root mean square of u_x less the parabola over every particle, over the peak.
+    pub error: f64,
+}
+
+impl Profile {
+    /// The profile of `particles` in `channel`, binned into `across` rows.
+    pub fn of(channel: &Channel, particles: &Particles, across: usize) -> Profile {
+        let n = particles.len();
+        let (mut sums, mut counts) = (vec![0.0; across], vec![0usize; across]);
+        let mut squares = 0.0;
+        for slot in 0..n {
+            let (y, u) = (particles.p[1][slot], particles.v[0][slot]);
+            let row = ((y - channel.low) / channel.width * across as f64).floor();
+            let row = (row.max(0.0) as usize).min(across - 1);
+            sums[row] += u;
+            counts[row] += 1;
+            squares += (u - channel.velocity(y)).powi(2);
+        }
+        let rows = (0..across)
+            .filter(|&row| counts[row] > 0)
+            .map(|row| {
+                let y = channel.low + (row as f64 + 0.5) / across as f64 * channel.width;
+                (y, sums[row] / counts[row] as f64)
+            })
+            .collect();
+        Profile {
+            rows,
+            error: (squares / n as f64).sqrt() / channel.peak(),
+        }
+    }
+}
+
+/// The order of convergence between the errors `coarse` and `fine` at `across` particles
+/// across each: log(coarse / fine) / log(fine's across / coarse's).
+pub fn order((coarse, across_coarse): (f64, usize), (fine, across_fine): (f64, usize)) -> f64 {
+    (coarse / fine).ln() / (across_fine as f64 / across_coarse as f64).ln()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn channel() -> Channel {
+        Channel {
+            width: 0.01,
+            low: -0.005,
+            force: 0.08,
+            viscosity: 1e-4,
+        }
+    }
+
+    #[test]
+    fn the_parabola_peaks_mid_channel_and_vanishes_at_the_plates() {
+        let c = channel();
+        assert!((c.peak() - 0.01).abs() < 1e-15);
+        assert!((c.velocity(0.0) - c.peak()).abs() < 1e-15);
+        assert_eq!(c.velocity(-0.005), 0.0);
+        assert!(c.velocity(0.005).abs() < 1e-18);
+    }
+
+    #[test]
+    fn a_profile_bins_by_row_and_measures_against_the_peak() {
+        let c = channel();
+        // Four particles, two per row of two: exact, then each 1% of the peak fast.
+        let mut particles = Particles::zeroed(4);
+        let ys = [-0.004, -0.003, 0.003, 0.002];
+        for (slot, y) in ys.into_iter().enumerate() {
+            particles.p[1][slot] = y;
+            particles.v[0][slot] = c.velocity(y);
+        }
+        let exact = Profile::of(&c, &particles, 2);
+        assert_eq!(exact.error, 0.0);
+        assert_eq!(exact.rows.len(), 2);
+        assert!((exact.rows[0].0 - -0.0025).abs() < 1e-15);
+        for slot in 0..4 {
+            particles.v[0][slot] += 0.01 * c.peak();
+        }
+        let fast = Profile::of(&c, &particles, 2);
+        assert!((fast.error - 0.01).abs() < 1e-12, "{}", fast.error);
+        assert!((order((0.04, 20), (0.01, 40)) - 2.0).abs() < 1e-12);
+    }
+}
