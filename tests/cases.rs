@@ -1190,6 +1190,57 @@ fn a_periodic_case_keeps_its_particles_and_refuses_what_it_cannot_run() {
     );
 }
 
+#[test]
+fn a_face_s_friction_comes_from_the_case_or_its_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(case("dam-break-2d")).unwrap();
+    let path = dir.path().join("faces.toml");
+    let run = |text: &str, extra: &[&str], out: &str| {
+        std::fs::write(&path, text).unwrap();
+        let out = dir.path().join(out);
+        let mut args: Vec<&OsStr> = vec!["run".as_ref(), "--case".as_ref(), path.as_os_str()];
+        args.push(out.as_os_str());
+        args.extend(["--steps", "300"].map(OsStr::new));
+        args.extend(extra.iter().map(OsStr::new));
+        let output = run_lab(&args);
+        (output, std::fs::read(out).unwrap_or_default())
+    };
+    let floor = text.replace(
+        "name = \"wcsph\"",
+        "name = \"wcsph\"\nfaces = { y_low = \"free-slip\" }",
+    );
+    let (output, from_case) = run(&floor, &[], "case.fld");
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let (_, from_flag) = run(&text, &["--face", "y_low=free-slip"], "flag.fld");
+    let (_, every) = run(&text, &["--walls", "free-slip"], "every.fld");
+    let (_, default) = run(&text, &[], "default.fld");
+    // The column stands on the floor and against the low-x wall: the floor alone free.
+    assert_eq!(from_case, from_flag);
+    assert!(from_case != default && from_case != every);
+    // The flag overrides the case's face.
+    let (_, back) = run(&floor, &["--face", "y_low=no-slip"], "back.fld");
+    assert_eq!(back, default);
+    // A face that is none, or a friction that is none: refused at the key, or the flag.
+    let bad = text.replace(
+        "name = \"wcsph\"",
+        "name = \"wcsph\"\nfaces = { floor = \"free-slip\" }",
+    );
+    let (output, _) = run(&bad, &[], "bad.fld");
+    assert_eq!(exit_code(&output), 2);
+    assert!(
+        stderr(&output).contains(":22:9: \"floor\" is not a face: x_low, x_high, y_low"),
+        "{}",
+        stderr(&output)
+    );
+    let (output, _) = run(&text, &["--face", "y_low=sticky"], "bad.fld");
+    assert_eq!(exit_code(&output), 2);
+    assert!(
+        stderr(&output).contains("sticky is not a wall: free-slip or no-slip"),
+        "{}",
+        stderr(&output)
+    );
+}
+
 /// A case of `model` in a box 2 m high whose floor is 1 m below the course's, a ball of
 /// water falling from y = 0, with `gravity`, run for `until` seconds.
 fn tall_box(model: &str, gravity: &str, until: f64) -> String {
@@ -1915,7 +1966,7 @@ fn water_flags_beside_a_validation_s_case_override_it() {
     assert_refused(
         &output,
         2,
-        "fluid-lab: error: --walls, --artificial-viscosity, --laminar-viscosity, --smoothing, \
+        "fluid-lab: error: --walls, --face, --artificial-viscosity, --laminar-viscosity, --smoothing, \
          --sound-speed and --density-diffusion are the weakly compressible model's; --model \
          fluidanimate takes none",
     );

@@ -1637,7 +1637,7 @@ fn a_dam_break_s_column_and_water_flags_are_checked_before_anything_runs() {
         ),
         (
             "--walls=free-slip",
-            "--walls, --artificial-viscosity, --laminar-viscosity, --smoothing, --sound-speed \
+            "--walls, --face, --artificial-viscosity, --laminar-viscosity, --smoothing, --sound-speed \
              and --density-diffusion are the weakly compressible model's; the models run \
              (fluidanimate) take none",
         ),

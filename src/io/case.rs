@@ -247,6 +247,9 @@ pub struct ModelSettings {
     /// The weakly compressible model's walls, as `--walls` takes them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub walls: Option<Spanned<String>>,
+    /// Faces whose friction is not `walls`', by name (x_low, ..., z_high), as `--face`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub faces: Option<Spanned<std::collections::BTreeMap<String, Spanned<String>>>>,
     /// Monaghan's artificial viscosity alpha, as `--artificial-viscosity`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub artificial_viscosity: Option<Spanned<f64>>,
@@ -1084,7 +1087,8 @@ impl ModelSettings {
         let given = numbers
             .iter()
             .filter_map(|(key, value, _)| value.as_ref().map(|value| (*key, value.span())))
-            .chain(self.walls.as_ref().map(|walls| ("walls", walls.span())));
+            .chain(self.walls.as_ref().map(|walls| ("walls", walls.span())))
+            .chain(self.faces.as_ref().map(|faces| ("faces", faces.span())));
         let model = self
             .name
             .as_ref()
@@ -1158,6 +1162,17 @@ impl ModelSettings {
         }
         if let Some(name) = &self.walls {
             choice::<WallFriction>(name, "walls")?;
+        }
+        for (face, kind) in self.faces.iter().flat_map(|faces| faces.get_ref()) {
+            use crate::sim::model::wcsph::FACES;
+            if !FACES.contains(&face.as_str()) {
+                let faces = self.faces.as_ref().expect("a table");
+                return Err((
+                    faces.span(),
+                    format!("{face:?} is not a face: {}", FACES.join(", ")),
+                ));
+            }
+            choice::<WallFriction>(kind, face)?;
         }
         if let (Some(_), Some(courant)) = (&self.time_step_s, &self.adaptive_courant) {
             return Err((

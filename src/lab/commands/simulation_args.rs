@@ -13,7 +13,7 @@ use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
 use crate::sim::lists::PairStructure;
 use crate::sim::method::Method;
-use crate::sim::model::wcsph::{Settings, WallFriction};
+use crate::sim::model::wcsph::{Settings, WallFriction, FACES};
 use crate::sim::model::{Dynamics, Model, Wcsph};
 use crate::sim::params;
 use crate::sim::simulation::Simulation;
@@ -103,6 +103,25 @@ pub struct WaterArgs {
     /// delta-SPH density diffusion coefficient (wcsph) [default: the validated one]
     #[arg(long, value_name = "DELTA", allow_negative_numbers = true)]
     pub density_diffusion: Option<f64>,
+    /// One face's friction, FACE=KIND (x_low, x_high, y_low, y_high, z_low or z_high;
+    /// free-slip or no-slip), repeatable or comma-separated (wcsph) [default: --walls']
+    #[arg(long = "face", value_name = "FACE=KIND", value_delimiter = ',', value_parser = parse_face)]
+    pub faces: Vec<(usize, WallFriction)>,
+}
+
+/// Parses `FACE=KIND`: a face of [`FACES`] and a friction.
+fn parse_face(text: &str) -> Result<(usize, WallFriction), String> {
+    use clap::ValueEnum;
+    let (face, kind) = text
+        .split_once('=')
+        .ok_or_else(|| format!("{text} is not FACE=KIND (y_high=free-slip, say)"))?;
+    let face = FACES
+        .iter()
+        .position(|&name| name == face)
+        .ok_or_else(|| format!("{face} is not a face: {}", FACES.join(", ")))?;
+    let kind = WallFriction::from_str(kind, false)
+        .map_err(|_| format!("{kind} is not a wall: free-slip or no-slip"))?;
+    Ok((face, kind))
 }
 
 impl WaterArgs {
@@ -123,6 +142,10 @@ impl WaterArgs {
             smoothing: self.smoothing.unwrap_or(default.smoothing),
             sound_speed_factor: self.sound_speed.unwrap_or(default.sound_speed_factor),
             density_diffusion: self.density_diffusion.unwrap_or(default.density_diffusion),
+            faces: std::array::from_fn(|face| {
+                // The last one given for each face.
+                (self.faces.iter().rev()).find_map(|&(f, kind)| (f == face).then_some(kind))
+            }),
         };
         settings
             .check()
@@ -138,7 +161,7 @@ impl WaterArgs {
                 self.settings().map_err(UsageError)?,
             ))),
             _ if self.any() => Err(UsageError(format!(
-                "--walls, --artificial-viscosity, --laminar-viscosity, --smoothing, \
+                "--walls, --face, --artificial-viscosity, --laminar-viscosity, --smoothing, \
                  --sound-speed and --density-diffusion are the weakly compressible \
                  model's; --model {} takes none",
                 model.name()
@@ -316,6 +339,13 @@ impl SimulationArgs {
             .or(settings.skin_cutoffs.as_ref().map(|skin| *skin.get_ref()));
         let water = &mut self.water;
         water.walls = water.walls.or(named(&settings.walls));
+        // The case's faces first: a flag's for the same face comes later and wins.
+        let faces = settings.faces.iter().flat_map(|faces| faces.get_ref());
+        let from_case = faces.filter_map(|(face, kind)| {
+            let face = FACES.iter().position(|name| name == face)?;
+            Some((face, named(&Some(kind.clone()))?))
+        });
+        water.faces = from_case.chain(water.faces.drain(..)).collect();
         let number = |value: &Option<toml::Spanned<f64>>| value.as_ref().map(|v| *v.get_ref());
         water.artificial_viscosity = water
             .artificial_viscosity

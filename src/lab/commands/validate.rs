@@ -297,7 +297,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     if args.water.any() && !models.contains(&Model::Wcsph) {
         let names: Vec<&str> = models.iter().map(|model| model.name()).collect();
         return Err(UsageError(format!(
-            "--walls, --artificial-viscosity, --laminar-viscosity, --smoothing, \
+            "--walls, --face, --artificial-viscosity, --laminar-viscosity, --smoothing, \
              --sound-speed and --density-diffusion are the weakly compressible model's; \
              the models run ({}) take none",
             names.join(", ")

@@ -56,9 +56,9 @@ pub struct WcsphConstants {
     pub density_diffusion: f64,
     /// The kinematic viscosity nu of the laminar term (m^2/s; 0: none).
     pub laminar_viscosity: f64,
-    /// No-slip walls: the viscous terms meet images moving against their particles
-    /// (-v), instead of mirrored ones (free slip).
-    pub no_slip: bool,
+    /// The no-slip walls, per axis low and high: their viscous terms meet images moving
+    /// against their particles (-v), instead of mirrored ones (free slip).
+    pub no_slip: [[bool; 2]; 3],
     /// The box whose walls mirror the particles, and gravity (along -y: the floor is the
     /// box's low y wall).
     pub domain: Domain,
@@ -84,6 +84,8 @@ pub struct NearWalls {
     pub axes: u8,
     /// The coordinate of that wall, per axis (unused where the bit is clear).
     pub at: [f64; 3],
+    /// Bit k set if that wall of axis k is a no-slip one ([`Self::of_particle`]).
+    pub no_slip: u8,
 }
 
 impl NearWalls {
@@ -93,6 +95,7 @@ impl NearWalls {
         let mut near = NearWalls {
             axes: 0,
             at: [0.0; 3],
+            no_slip: 0,
         };
         let axes = position.into_iter().take(domain.dimensions()).enumerate();
         for (axis, x) in axes.filter(|&(axis, _)| !domain.periodic[axis]) {
@@ -107,6 +110,24 @@ impl NearWalls {
             }
         }
         near
+    }
+
+    /// The walls near a particle at `position` with the pair terms' `constants`: which,
+    /// and which of them are no-slip.
+    pub fn of_particle(position: [f64; 3], constants: &WcsphConstants) -> Self {
+        let mut near = Self::of(position, constants.support, &constants.domain);
+        for axis in 0..3 {
+            let high = usize::from(near.at[axis] == constants.domain.max[axis]);
+            let no_slip = near.axes & (1 << axis) != 0 && constants.no_slip[axis][high];
+            near.no_slip |= u8::from(no_slip) << axis;
+        }
+        near
+    }
+
+    /// Whether the images across the walls of `set` are no-slip ones (across any no-slip
+    /// wall of the set; `set` 0, the partner itself, is none).
+    pub fn is_no_slip(&self, set: u8) -> bool {
+        set & self.no_slip != 0
     }
 
     /// Every non-empty set of the near walls' axes (as bits): the images across one wall,
@@ -229,13 +250,9 @@ pub(super) fn pair(
 /// across the walls of `set` of a partner j (velocity `v_j`; `set` 0: j itself): the
 /// mirrored one, v_i - R v_j, and the viscous terms' (the same, or v_i + v_j across a
 /// no-slip wall).
-fn velocity_differences(constants: &WcsphConstants, v_i: DVec3, v_j: DVec3, set: u8) -> [DVec3; 2] {
+fn velocity_differences(no_slip: bool, v_i: DVec3, v_j: DVec3, set: u8) -> [DVec3; 2] {
     let dv = v_i - reflected(v_j, set);
-    let viscous = if constants.no_slip && set != 0 {
-        v_i + v_j
-    } else {
-        dv
-    };
+    let viscous = if no_slip { v_i + v_j } else { dv };
     [dv, viscous]
 }
 
@@ -243,12 +260,8 @@ fn velocity_differences(constants: &WcsphConstants, v_i: DVec3, v_j: DVec3, set:
 /// with the image of i are -R times [`pair`]'s at (`d`, these), R the reflection of
 /// `set`. The mirrored difference is i's own; the no-slip one is v_i + v_j negated off
 /// the walls' axes.
-fn partner_differences(
-    constants: &WcsphConstants,
-    [dv, viscous]: [DVec3; 2],
-    set: u8,
-) -> [DVec3; 2] {
-    if constants.no_slip && set != 0 {
+fn partner_differences(no_slip: bool, [dv, viscous]: [DVec3; 2], set: u8) -> [DVec3; 2] {
+    if no_slip {
         [dv, -reflected(viscous, set)]
     } else {
         [dv, viscous]
@@ -295,12 +308,12 @@ fn image_of(
 fn self_images(constants: &WcsphConstants, state: State, n: usize, rates: &mut Rates) {
     for i in 0..n {
         let p = vector_at(state.p, i);
-        let walls = NearWalls::of(p.to_array(), constants.support, &constants.domain);
+        let walls = NearWalls::of_particle(p.to_array(), constants);
         let v = vector_at(state.v, i);
         let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
         for set in walls.images() {
             let image = mirrored(p, set, &walls);
-            let dv = velocity_differences(constants, v, v, set);
+            let dv = velocity_differences(walls.is_no_slip(set), v, v, set);
             let (pressure_image, rho_image) = image_of(constants, pressure, rho, p, image);
             let (pressures, densities) = ([pressure, pressure_image], [rho, rho_image]);
             if let Some((da, [rate, _])) = pair(constants, p - image, dv, densities, pressures) {
@@ -327,7 +340,7 @@ pub(super) fn scalar(pass: WeaklyCompressible) {
     for tile in tiles {
         for i in tile.firsts() {
             let p_i = vector_at(state.p, i);
-            let walls = NearWalls::of(p_i.to_array(), constants.support, &constants.domain);
+            let walls = NearWalls::of_particle(p_i.to_array(), constants);
             for j in tile.partners(i) {
                 let p_j = vector_at(state.p, j);
                 pair_with_images(constants, &state, rates, [i, j], &walls, p_j);
@@ -356,7 +369,8 @@ fn pair_with_images(
     let images = std::iter::once(0).chain(walls.images());
     for set in images {
         let image = mirrored(p_j, set, walls);
-        let dv = velocity_differences(constants, v_i, v_j, set);
+        let no_slip = walls.is_no_slip(set);
+        let dv = velocity_differences(no_slip, v_i, v_j, set);
         let (pressure_image, rho_image) = image_of(constants, pressure_j, rho_j, p_j, image);
         let pressures = [pressure_i, pressure_image];
         let d = p_i - image;
@@ -365,7 +379,7 @@ fn pair_with_images(
             // j meets the image of i, which across the floor has its own hydrostatic
             // pressure and density, and across a no-slip wall its own velocity.
             let floor = set & 0b010 != 0 && walls.at[1] == constants.domain.min.y;
-            let own_terms = floor || constants.no_slip && set != 0;
+            let own_terms = floor || no_slip;
             let (da_j, rate_j) = if !own_terms {
                 (da, rate_j)
             } else {
@@ -376,7 +390,7 @@ fn pair_with_images(
                     (pressure_i, rho_i)
                 };
                 let pressures = [pressure_i, pressure_j];
-                let dv = partner_differences(constants, dv, set);
+                let dv = partner_differences(no_slip, dv, set);
                 let terms = pair(constants, d, dv, [rho_i, rho_j], pressures);
                 terms.map_or((DVec3::ZERO, 0.0), |(da_j, [_, rate_j])| (da_j, rate_j))
             };
@@ -448,7 +462,7 @@ pub fn periodic_pairs(constants: &WcsphConstants, state: State, id: &[u32], rate
             if !near(p_i, 1) {
                 continue;
             }
-            let walls = NearWalls::of(p_i.to_array(), support, domain);
+            let walls = NearWalls::of_particle(p_i.to_array(), constants);
             let [x, y, z] = cell(p_i);
             for (dx, dy, dz) in (-1..=1)
                 .flat_map(|dx| (-1..=1).flat_map(move |dy| (-1..=1).map(move |dz| (dx, dy, dz))))
@@ -491,7 +505,7 @@ pub(super) fn reference(pass: WeaklyCompressible) {
         list.push(i as u32);
         list.sort_unstable_by_key(|&j| id[j as usize]);
         let (p_i, v_i) = (vector_at(state.p, i), vector_at(state.v, i));
-        let walls = NearWalls::of(p_i.to_array(), constants.support, &constants.domain);
+        let walls = NearWalls::of_particle(p_i.to_array(), constants);
         let mut a = [0, 1, 2].map(|axis| Neumaier::new(rates.a[axis][i]));
         let mut rate = Neumaier::new(rates.rho[i]);
         for &j in list.iter() {
@@ -501,7 +515,7 @@ pub(super) fn reference(pass: WeaklyCompressible) {
             let own = usize::from(j == i);
             for set in std::iter::once(0).chain(walls.images()).skip(own) {
                 let image = mirrored(p_j, set, &walls);
-                let dv = velocity_differences(constants, v_i, v_j, set);
+                let dv = velocity_differences(walls.is_no_slip(set), v_i, v_j, set);
                 let (pressure_image, rho_image) =
                     image_of(constants, pressure_j, rho_j, p_j, image);
                 let pressure = [state.pressure_terms[i], pressure_image];
@@ -554,8 +568,6 @@ struct Pairs<'a, L: Lanes> {
     laminar: L::V,
     /// Whether there is a laminar term (nu > 0).
     laminar_term: bool,
-    /// Whether the walls are no-slip ones.
-    no_slip: bool,
 }
 
 /// One group's terms: i's acceleration and the partners' (before reflection; per axis),
@@ -765,7 +777,7 @@ impl First {
     /// Particle `i` of `state`.
     fn of(constants: &WcsphConstants, state: &State, i: usize) -> Self {
         let position = [0, 1, 2].map(|axis| state.p[axis][i]);
-        let walls = NearWalls::of(position, constants.support, &constants.domain);
+        let walls = NearWalls::of_particle(position, constants);
         let (rho, pressure) = (state.rho[i], state.pressure_terms[i]);
         let floor_image =
             (walls.axes & 0b010 != 0 && walls.at[1] == constants.domain.min.y).then(|| {
@@ -812,7 +824,6 @@ impl<'a, L: Lanes> Pairs<'a, L> {
             inverse_sound_speed2: L::splat(1.0 / (constants.sound_speed * constants.sound_speed)),
             laminar: L::splat(4.0 * constants.laminar_viscosity),
             laminar_term: constants.laminar_viscosity != 0.0,
-            no_slip: constants.no_slip,
         }
     }
 
@@ -955,7 +966,7 @@ impl<'a, L: Lanes> Pairs<'a, L> {
     ) {
         // SAFETY: guaranteed by the caller.
         // SAFETY (each): guaranteed by the caller.
-        let terms = match (self.no_slip && set != 0, self.laminar_term) {
+        let terms = match (first.walls.is_no_slip(set), self.laminar_term) {
             (false, false) => unsafe { self.group::<false, false>(first, at, lanes, set) },
             (false, true) => unsafe { self.group::<false, true>(first, at, lanes, set) },
             (true, false) => unsafe { self.group::<true, false>(first, at, lanes, set) },
@@ -1065,7 +1076,7 @@ unsafe fn over_half_lists<L: Lanes, const IMAGES_ONLY: bool>(
     for i in 0..bound {
         let range = lists.range(i);
         let position = || [0, 1, 2].map(|axis| state.p[axis][i]);
-        let near_walls = || NearWalls::of(position(), constants.support, &constants.domain);
+        let near_walls = || NearWalls::of_particle(position(), constants);
         if range.is_empty() || (IMAGES_ONLY && near_walls().axes == 0) {
             continue;
         }
@@ -1375,12 +1386,27 @@ mod tests {
     ) -> Vec<(DVec3, DVec3, DVec3)> {
         let settings = Settings {
             walls,
-            artificial_viscosity: 0.0,
-            laminar_viscosity: nu,
             ..Settings::default()
         };
+        laminar_with(ppm, particles, settings, Kernel::Simd, nu, inside)
+    }
+
+    /// [`laminar`]'s with the walls of `settings`, on `kernel`.
+    fn laminar_with(
+        ppm: f64,
+        particles: &Particles,
+        settings: Settings,
+        kernel: Kernel,
+        nu: f64,
+        inside: impl Fn(DVec3) -> bool,
+    ) -> Vec<(DVec3, DVec3, DVec3)> {
+        let settings = Settings {
+            artificial_viscosity: 0.0,
+            laminar_viscosity: nu,
+            ..settings
+        };
         let model = Wcsph::with_settings(settings, ppm, 10.0);
-        let (a, _) = pass(Kernel::Simd, PairStructure::Lists, &model, ppm, particles);
+        let (a, _) = pass(kernel, PairStructure::Lists, &model, ppm, particles);
         (0..particles.len())
             .filter(|&slot| inside(particles.position(slot)))
             .map(|slot| {
@@ -1434,6 +1460,50 @@ mod tests {
     }
 
     #[test]
+    fn each_face_takes_its_own_friction() {
+        // The Couette block of the test above, whose only near wall is the floor: the
+        // floor chosen by face gives the terms of the whole box chosen so, on every kernel.
+        let (ppm, nu, k) = (200.0, 1e-3, 10.0);
+        let corner = DVec3::new(-0.04, BOX_MIN.y, -0.04);
+        let particles = flowing(ppm, [16, 10, 16], corner, |p| {
+            DVec3::new(k * (p.y - BOX_MIN.y), 0.0, 0.0)
+        });
+        let every = |walls| Settings {
+            walls,
+            ..Settings::default()
+        };
+        let floor_only = |walls, floor| {
+            let mut faces = [None; 6];
+            faces[2] = Some(floor);
+            Settings {
+                walls,
+                faces,
+                ..Settings::default()
+            }
+        };
+        let (no, free) = (WallFriction::NoSlip, WallFriction::FreeSlip);
+        for kernel in [
+            Kernel::Scalar,
+            Kernel::Simd,
+            Kernel::NATIVE,
+            Kernel::Reference,
+        ] {
+            let terms = |settings| laminar_with(ppm, &particles, settings, kernel, nu, |_| true);
+            assert_eq!(terms(floor_only(free, no)), terms(every(no)), "{kernel:?}");
+            assert_eq!(
+                terms(floor_only(no, free)),
+                terms(every(free)),
+                "{kernel:?}"
+            );
+            // And the ceiling's choice, far away, changes nothing.
+            let mut ceiling = every(no);
+            ceiling.faces[3] = Some(free);
+            assert_eq!(terms(ceiling), terms(every(no)), "{kernel:?}");
+            assert_ne!(terms(every(free)), terms(every(no)));
+        }
+    }
+
+    #[test]
     fn a_shear_wave_decays_at_nu_k_squared() {
         // u_x = U sin(k y) away from every wall: the laminar term's acceleration is
         // nu d2u/dy2 = -nu k^2 u, so the wave decays at the rate nu k^2. Fitted over the
@@ -1482,6 +1552,7 @@ mod tests {
         let walls = NearWalls {
             axes,
             at: BOX_MIN.to_array(),
+            no_slip: 0,
         };
         // Mirrored particles move as the images of free-slip walls.
         let free_slip = Settings {

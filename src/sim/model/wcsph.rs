@@ -108,7 +108,12 @@ pub struct Settings {
     pub sound_speed_factor: f64,
     /// The delta-SPH density diffusion coefficient delta.
     pub density_diffusion: f64,
+    /// Each face's friction where it is not [`Self::walls`]'s, in [`FACES`]' order.
+    pub faces: [Option<WallFriction>; 6],
 }
+
+/// The box's faces by name, per axis low then high.
+pub const FACES: [&str; 6] = ["x_low", "x_high", "y_low", "y_high", "z_low", "z_high"];
 
 impl Default for Settings {
     fn default() -> Self {
@@ -119,13 +124,19 @@ impl Default for Settings {
             smoothing: SMOOTHING,
             sound_speed_factor: SOUND_SPEED_FACTOR,
             density_diffusion: DENSITY_DIFFUSION,
+            faces: [None; 6],
         }
     }
 }
 
 impl Settings {
     /// How many values [`Self::to_values`] gives.
-    const VALUES: usize = 6;
+    const VALUES: usize = 12;
+
+    /// The friction of face `face` (in [`FACES`]' order).
+    pub fn friction(&self, face: usize) -> WallFriction {
+        self.faces[face].unwrap_or(self.walls)
+    }
 
     /// The kernel's support radius at `ppm` (m): 2h, the pair cut-off.
     pub fn support(&self, ppm: f64) -> f64 {
@@ -192,21 +203,29 @@ impl Settings {
     }
 
     /// The settings as numbers, for a checkpoint: the walls (0 free slip, 1 no slip),
-    /// then the other fields in their order.
+    /// then the other fields in their order, each face's friction last (-1 the walls').
     fn to_values(self) -> [f64; Self::VALUES] {
+        let friction = |walls: WallFriction| f64::from(u8::from(walls == WallFriction::NoSlip));
+        let face = |face: Option<WallFriction>| face.map_or(-1.0, friction);
         [
-            f64::from(u8::from(self.walls == WallFriction::NoSlip)),
+            friction(self.walls),
             self.artificial_viscosity,
             self.laminar_viscosity,
             self.smoothing,
             self.sound_speed_factor,
             self.density_diffusion,
+            face(self.faces[0]),
+            face(self.faces[1]),
+            face(self.faces[2]),
+            face(self.faces[3]),
+            face(self.faces[4]),
+            face(self.faces[5]),
         ]
     }
 
     /// The settings of [`Self::to_values`]'s numbers, if they are valid ones.
     fn from_values(values: &[f64]) -> Result<Self, String> {
-        let [walls, artificial_viscosity, laminar_viscosity, smoothing, sound_speed_factor, density_diffusion] =
+        let [walls, artificial_viscosity, laminar_viscosity, smoothing, sound_speed_factor, density_diffusion, ref faces @ ..] =
             *values
         else {
             return Err(format!(
@@ -216,11 +235,27 @@ impl Settings {
                 Self::VALUES
             ));
         };
-        let walls = match walls {
-            0.0 => WallFriction::FreeSlip,
-            1.0 => WallFriction::NoSlip,
-            _ => return Err(format!("its walls {walls} are neither 0 nor 1")),
+        if faces.len() != 6 {
+            return Err(format!(
+                "it keeps {} settings of the weakly compressible model, not {} (a \
+                 checkpoint of an older fluid-lab?)",
+                values.len(),
+                Self::VALUES
+            ));
+        }
+        let friction = |value: f64| match value {
+            0.0 => Ok(WallFriction::FreeSlip),
+            1.0 => Ok(WallFriction::NoSlip),
+            _ => Err(format!("its walls {value} are neither 0 nor 1")),
         };
+        let walls = friction(walls)?;
+        let mut face_frictions = [None; 6];
+        for (face, &value) in face_frictions.iter_mut().zip(faces) {
+            *face = match value {
+                -1.0 => None,
+                _ => Some(friction(value)?),
+            };
+        }
         let settings = Settings {
             walls,
             artificial_viscosity,
@@ -228,14 +263,21 @@ impl Settings {
             smoothing,
             sound_speed_factor,
             density_diffusion,
+            faces: face_frictions,
         };
         settings.check().map(|()| settings)
     }
 
     /// The settings in words, for summaries and charts.
     pub fn describe(&self) -> String {
+        let faces: String = (0..6)
+            .filter_map(|face| {
+                let friction = self.faces[face].filter(|&f| f != self.walls)?;
+                Some(format!(" ({} {})", FACES[face], friction.name()))
+            })
+            .collect();
         format!(
-            "{} walls, artificial viscosity {}, laminar viscosity {} m2/s, h = {} spacings, \
+            "{} walls{faces}, artificial viscosity {}, laminar viscosity {} m2/s, h = {} spacings, \
              c0 = {} sqrt(2gH), delta = {}",
             self.walls.name(),
             self.artificial_viscosity,
@@ -300,7 +342,9 @@ impl Wcsph {
                 artificial_viscosity: settings.artificial_viscosity,
                 density_diffusion: settings.density_diffusion,
                 laminar_viscosity: settings.laminar_viscosity,
-                no_slip: settings.walls == WallFriction::NoSlip,
+                no_slip: [0, 1, 2].map(|axis| {
+                    [0, 1].map(|side| settings.friction(2 * axis + side) == WallFriction::NoSlip)
+                }),
                 domain: Domain::COURSE,
             },
             stiffness: sound_speed * sound_speed * FLUID_DENSITY / f64::from(GAMMA),
