@@ -1146,6 +1146,27 @@ fn a_periodic_case_keeps_its_particles_and_refuses_what_it_cannot_run() {
             && (-0.08..=0.1).contains(&p[1])
     };
     assert!(at.iter().all(inside), "{at:?}");
+    // The flag gives the case's periodic axes: the same bytes.
+    let with_key = std::fs::read(&out).unwrap();
+    let plain = std::fs::read_to_string(case("dam-break-2d")).unwrap();
+    let output = run(&plain, &["--steps", "2000", "--periodic", "x"]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert_eq!(std::fs::read(&out).unwrap(), with_key);
+    for (flags, message) in [
+        (
+            ["--periodic", "z"],
+            "fluid-lab: error: --periodic z: a 2-D case has no z faces",
+        ),
+        (
+            ["--periodic", "y"],
+            "fluid-lab: error: invalid value 'y' for '--periodic <AXES>'",
+        ),
+    ] {
+        let output = run(&plain, &flags);
+        assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+        assert!(stderr(&output).starts_with(message), "{}", stderr(&output));
+    }
+    std::fs::remove_file(&out).unwrap();
     // What cannot run is refused at its key, exit 2.
     for (from, to, column, message) in [
         (

@@ -125,19 +125,21 @@ impl Scene {
         method: Method,
         file: &(impl AsRef<OsStr> + ?Sized),
     ) -> Result<Simulation, FileError> {
-        self.into_simulation_with(method, method.model.dynamics(), file)
+        self.into_simulation_with(method, method.model.dynamics(), Domain::COURSE, file)
     }
 
     /// As [`Self::into_simulation`], with `dynamics`, the model `method` names with
-    /// choices of its own ([`Simulation::with_dynamics`]).
+    /// choices of its own ([`Simulation::with_dynamics`]), in `domain` (SPEC.md's box, or
+    /// the workbench's with periodic axes).
     pub fn into_simulation_with(
         self,
         method: Method,
         dynamics: Box<dyn Dynamics>,
+        domain: Domain,
         file: &(impl AsRef<OsStr> + ?Sized),
     ) -> Result<Simulation, FileError> {
         let ppm = self.ppm;
-        Simulation::with_dynamics(ppm.into(), Domain::COURSE, self.particles, method, dynamics)
+        Simulation::with_dynamics(ppm.into(), domain, self.particles, method, dynamics)
             .map_err(|e| invalid_ppm(ppm, file.as_ref(), e))
     }
 }

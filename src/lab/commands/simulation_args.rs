@@ -67,6 +67,10 @@ pub struct SimulationArgs {
     /// (perf/README.md).
     #[arg(long, allow_negative_numbers = true, value_name = "FRACTION_OF_CUTOFF", value_parser = parse_skin)]
     pub skin: Option<f64>,
+    /// Axes whose two faces are periodic, x and z, comma-separated (wcsph; over a case's
+    /// [domain] periodic) [default: none, or the case's]
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "AXES")]
+    pub periodic: Option<Vec<PeriodicAxis>>,
     /// The neighbour structure of the SIMD pair loops on dense scenes [default: lists]
     #[arg(long, value_enum)]
     pub pairs: Option<PairStructure>,
@@ -76,6 +80,41 @@ pub struct SimulationArgs {
     /// The weakly compressible model's choices.
     #[command(flatten)]
     pub water: WaterArgs,
+}
+
+/// An axis `--periodic` takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PeriodicAxis {
+    /// Along the flow.
+    X,
+    /// Across the tank (not in 2-D).
+    Z,
+}
+
+impl SimulationArgs {
+    /// The domain a run takes: `domain` (a case's, or SPEC.md's) with `--periodic`'s axes
+    /// if given, refused (a usage error) for a model other than the water model, or along
+    /// z in 2-D.
+    fn with_periodic(&self, mut domain: params::Domain) -> Result<params::Domain, UsageError> {
+        let Some(axes) = &self.periodic else {
+            return Ok(domain);
+        };
+        if self.model() != Model::Wcsph {
+            return Err(UsageError(format!(
+                "--periodic is the water model's (wcsph), not {}'s",
+                self.model().name()
+            )));
+        }
+        if domain.planar && axes.contains(&PeriodicAxis::Z) {
+            return Err(UsageError("--periodic z: a 2-D case has no z faces".into()));
+        }
+        domain.periodic = [
+            axes.contains(&PeriodicAxis::X),
+            false,
+            axes.contains(&PeriodicAxis::Z),
+        ];
+        Ok(domain)
+    }
 }
 
 /// The weakly compressible model's choices (`--model wcsph`), each defaulting to the
@@ -185,6 +224,7 @@ impl SimulationArgs {
             dt: None,
             adaptive: None,
             skin: None,
+            periodic: None,
             pairs: None,
             integrator: None,
             water: WaterArgs::default(),
@@ -532,7 +572,7 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             let spacing = &case.fluid.particles_per_m;
             let ppm = *spacing.get_ref();
             let regions = Region::of_case(&case.fluid);
-            let domain = case.domain.simulated();
+            let domain = args.with_periodic(case.domain.simulated())?;
             check_domain(&case.domain, method.model)
                 .map_err(|(span, why)| args.at_key(span, why))?;
             check_memory(case).map_err(|why| args.at_key(spacing.span(), why))?;
@@ -568,7 +608,11 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             let scene = fld::parse(&bytes, source).map_err(named)?;
             drop(bytes);
             let ppm = scene.ppm;
-            (scene.into_simulation_with(method, dynamics, &name)?, ppm)
+            let domain = args.with_periodic(params::Domain::COURSE)?;
+            (
+                scene.into_simulation_with(method, dynamics, domain, &name)?,
+                ppm,
+            )
         }
     };
     let stem = source.file_stem().unwrap_or_default();
