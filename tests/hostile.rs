@@ -94,7 +94,7 @@ fn item_1_a_corner_block_beyond_the_box_is_an_error_not_a_panic() {
     ]);
     assert_refused(
         &output,
-        1,
+        2,
         "fluid-lab: error: a box at 400 particles per metre holds a corner block of at most \
          194688 particles",
     );
@@ -1313,7 +1313,7 @@ fn bad_flag_values_found_after_parsing_are_usage_errors_that_leave_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let small = input("small").to_str().unwrap().to_string();
-    let cases: [(Vec<String>, String); 8] = [
+    let cases: [(Vec<String>, String); 10] = [
         (
             vec![
                 "validate".into(),
@@ -1368,6 +1368,32 @@ fn bad_flag_values_found_after_parsing_are_usage_errors_that_leave_nothing() {
             ],
             "fluid-lab: error: --particles sets the size of random-cloud and corner-block only; \
              dam-break follows from --ppm"
+                .into(),
+        ),
+        (
+            vec![
+                "scene".into(),
+                "dam-break".into(),
+                at("c.fld"),
+                "--ppm".into(),
+                "3000".into(),
+            ],
+            "fluid-lab: error: dam-break at 3000 particles per metre would hold up to \
+             82134000 particles; the limit is 50000000"
+                .into(),
+        ),
+        (
+            vec![
+                "scene".into(),
+                "corner-block".into(),
+                at("c.fld"),
+                "--ppm".into(),
+                "100".into(),
+                "--particles".into(),
+                "10000000".into(),
+            ],
+            "fluid-lab: error: a box at 100 particles per metre holds a corner block of at \
+             most 3042 particles"
                 .into(),
         ),
         (
@@ -1961,4 +1987,18 @@ fn a_render_never_draws_over_its_input() {
     ]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     assert_eq!(std::fs::read(&other).unwrap(), original);
+}
+
+#[test]
+fn a_file_name_with_a_newline_is_shown_on_one_line() {
+    // Issue 47, third hostile pass: names from the command line were echoed raw, so the
+    // error ran over two lines.
+    let dir = tempfile::tempdir().unwrap();
+    let odd = dir.path().join("x\ny.fld");
+    let out = dir.path().join("o.fld");
+    let output = run_lab(&["run".as_ref(), odd.as_os_str(), out.as_os_str()]);
+    assert_eq!(exit_code(&output), 1);
+    let message = stderr(&output);
+    assert_eq!(message.lines().count(), 1, "{message}");
+    assert!(message.contains("x\\ny.fld"), "{message}");
 }

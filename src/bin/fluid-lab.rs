@@ -44,7 +44,7 @@ fn main() -> ExitCode {
                 Some(file_error) => file_error.message(),
                 None => error.to_string().into_bytes(),
             };
-            let line = [&b"fluid-lab: error: "[..], &message, b"\n"].concat();
+            let line = [&b"fluid-lab: error: "[..], &one_line(&message), b"\n"].concat();
             let _ = std::io::stderr().write_all(&line);
             // A case file refused is a usage error, as clap's are.
             match error.is::<CaseError>() || error.is::<UsageError>() {
@@ -53,4 +53,20 @@ fn main() -> ExitCode {
             }
         }
     }
+}
+
+/// `message` on one line: each control character (a newline in a file name, say)
+/// escaped as Rust writes it (`\n`, `\x1b`); every other byte as it is.
+fn one_line(message: &[u8]) -> Vec<u8> {
+    let mut line = Vec::with_capacity(message.len());
+    for &byte in message {
+        match byte {
+            b'\n' => line.extend_from_slice(b"\\n"),
+            b'\r' => line.extend_from_slice(b"\\r"),
+            b'\t' => line.extend_from_slice(b"\\t"),
+            0..=0x1f | 0x7f => line.extend_from_slice(format!("\\x{byte:02x}").as_bytes()),
+            _ => line.push(byte),
+        }
+    }
+    line
 }

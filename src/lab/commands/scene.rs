@@ -50,7 +50,7 @@ pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
     if args.case_file {
         // Only a case whose scene can be made: the scene's own checks first.
         if args.kind.regions().is_some() {
-            scene::generate(args.kind, args.ppm.into(), args.seed, None)?;
+            scene::generate(args.kind, args.ppm.into(), args.seed, None).map_err(UsageError)?;
         }
         let case = args
             .kind
@@ -69,7 +69,10 @@ pub fn exec(args: SceneArgs) -> Result<(), Box<dyn Error>> {
         output.commit(text.as_bytes())?;
         return Ok(());
     }
-    let particles = scene::generate(args.kind, args.ppm.into(), args.seed, args.particles)?;
+    // What the flags ask for that cannot be made (too many particles, none, a block the
+    // box cannot hold) is a usage error.
+    let particles = scene::generate(args.kind, args.ppm.into(), args.seed, args.particles)
+        .map_err(UsageError)?;
     fld::check_storable(&particles)
         .map_err(|unstorable| unstorable.for_output(args.output.as_os_str()))?;
     output.commit_with(|out| fld::write(args.ppm, &particles, out))?;
