@@ -558,6 +558,46 @@ fn a_run_reads_its_gauges_into_a_table_and_charts() {
 }
 
 #[test]
+fn a_disk_too_full_for_the_gauges_charts_replaces_nothing() {
+    // Issue 47, third hostile pass: a run whose charts did not fit replaced the earlier
+    // gauges.csv, left its final state and said its charts were replaced. The gauges'
+    // folder is a 64 KiB tmpfs in a mount namespace of the run's own (`unshare`).
+    if !std::process::Command::new("unshare")
+        .args(["-rm", "true"])
+        .status()
+        .is_ok_and(|status| status.success())
+    {
+        eprintln!("skipped: no mount namespace here (unshare -rm)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("gauges");
+    std::fs::create_dir(&folder).unwrap();
+    let path = dir.path().join("tank.toml");
+    std::fs::write(&path, tank(&folder, 0.05)).unwrap();
+    let out = dir.path().join("tank.fld");
+    let script = "mount -t tmpfs -o size=64k none \"$1\" && printf OLD > \"$1/gauges.csv\" \
+                  && \"$2\" run --case \"$3\" \"$4\"; status=$?; cat \"$1/gauges.csv\"; \
+                  ls -a \"$1\" >&2; exit $status";
+    let output = std::process::Command::new("unshare")
+        .args(["-rm", "sh", "-c", script, "sh"])
+        .arg(&folder)
+        .arg(env!("CARGO_BIN_EXE_fluid-lab"))
+        .arg(&path)
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    let message = stderr(&output);
+    assert!(message.contains("fluid-lab: error: "), "{message}");
+    assert!(!message.contains("replaced an earlier run's"), "{message}");
+    // The table as it was, no temporary file, and no final state.
+    assert!(stdout(&output).ends_with("OLD"), "{}", stdout(&output));
+    assert!(message.ends_with(".\n..\ngauges.csv\n"), "{message}");
+    assert!(!out.exists());
+}
+
+#[test]
 fn bad_gauges_are_refused_with_their_line() {
     let dir = tempfile::tempdir().unwrap();
     let folder = dir.path().join("out");

@@ -422,15 +422,46 @@ impl ChartFiles {
         drawing: &D,
         size: (u32, u32),
     ) -> Result<[PathBuf; 2], Box<dyn Error>> {
+        self.draw(drawing, size)?.commit()
+    }
+
+    /// Draws `drawing`, `size` pixels, without replacing either file yet: the PNG into a
+    /// temporary file beside it, the SVG in memory. A command commits its charts once
+    /// everything that can fail has not.
+    pub fn draw<D: Drawing>(
+        self,
+        drawing: &D,
+        size: (u32, u32),
+    ) -> Result<DrawnChart, Box<dyn Error>> {
         register_font()?;
         let ChartFiles { png, svg, paths } = self;
-        let staged = png.staged()?;
-        drawing.draw_on(BitMapBackend::new(staged.path(), size).into_drawing_area())?;
-        staged.commit()?;
+        let png = png.staged()?;
+        drawing.draw_on(BitMapBackend::new(png.path(), size).into_drawing_area())?;
         let mut text = String::new();
         drawing.draw_on(SVGBackend::with_string(&mut text, size).into_drawing_area())?;
-        svg.commit(text.as_bytes())?;
-        Ok(paths)
+        Ok(DrawnChart {
+            png,
+            svg,
+            text,
+            paths,
+        })
+    }
+}
+
+/// A chart drawn and not yet written ([`ChartFiles::draw`]); dropped, it leaves nothing.
+pub struct DrawnChart {
+    png: crate::io::output::Staged,
+    svg: OutputFile,
+    text: String,
+    paths: [PathBuf; 2],
+}
+
+impl DrawnChart {
+    /// Makes the drawn files the chart's; returns both paths.
+    pub fn commit(self) -> Result<[PathBuf; 2], Box<dyn Error>> {
+        self.png.commit()?;
+        self.svg.commit(self.text.as_bytes())?;
+        Ok(self.paths)
     }
 }
 

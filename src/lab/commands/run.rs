@@ -380,7 +380,32 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         per_particle_step * 1e9,
         significant(simulated),
     )?;
-    // The final state first, then the diagnostics, which are written even when the state
+    // The gauges' charts are drawn first, none of them written: a disk too full for them
+    // fails the run before its state or table replaces anything.
+    let machine = Machine::this();
+    let footer = format!(
+        "{}: {} on {} particles, {} kernel; {}, commit {}",
+        args.simulation.source().display(),
+        args.simulation.model().name(),
+        particles,
+        args.simulation.kernel().name(),
+        machine.cpu_model,
+        machine.commit
+    );
+    let drawn = match &gauges_file {
+        Some((_, folder, _)) => {
+            // Every chart's files opened before any is drawn.
+            let charts = gauges.charts(&footer);
+            let opened = (charts.iter())
+                .map(|chart| chart::ChartFiles::open(folder, chart::Drawing::name(chart)))
+                .collect::<Result<Vec<_>, _>>()?;
+            (charts.iter().zip(opened))
+                .map(|(chart, files)| files.draw(chart, (900, 560)))
+                .collect::<Result<Vec<_>, _>>()?
+        }
+        None => Vec::new(),
+    };
+    // The final state, then the diagnostics, which are written even when the state
     // cannot be.
     let stored = match (output, &args.output) {
         (Some(output), Some(path)) => {
@@ -401,29 +426,14 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         );
     }
     if let Some((file, folder, replaces)) = gauges_file {
-        let machine = Machine::this();
-        let footer = format!(
-            "{}: {} on {} particles, {} kernel; {}, commit {}",
-            args.simulation.source().display(),
-            args.simulation.model().name(),
-            particles,
-            args.simulation.kernel().name(),
-            machine.cpu_model,
-            machine.commit
-        );
-        // Every chart's files opened before the table replaces an earlier one.
-        let charts = gauges.charts(&footer);
-        let opened = (charts.iter())
-            .map(|chart| chart::ChartFiles::open(folder, chart::Drawing::name(chart)))
-            .collect::<Result<Vec<_>, _>>()?;
         file.commit(gauges.csv().as_bytes())?;
+        for chart in drawn {
+            chart.commit()?;
+        }
         if replaces {
             let shown = folder.join(gauges::TABLE_FILE);
             let shown = shown.display();
             eprintln!("fluid-lab: note: {shown} and its charts replaced an earlier run's");
-        }
-        for (chart, files) in charts.iter().zip(opened) {
-            files.render(chart, (900, 560))?;
         }
     }
     Ok(())
