@@ -125,10 +125,17 @@ pub fn read_csv(text: &str) -> Result<Vec<Outcome>, String> {
         let record = record.map_err(|error| error.to_string())?;
         let bad = |what: &str| format!("row {}: {what}", line + 2);
         let cell = |k: usize| &record[columns[k]];
+        // A resolution, step, Courant number, duration or time: a finite number >= 0.
         let number = |k: usize| -> Result<f64, String> {
-            cell(k)
-                .parse()
-                .map_err(|_| bad(&format!("{:?} is not a number", cell(k))))
+            match cell(k).parse::<f64>() {
+                Ok(value) if value.is_finite() && value >= 0.0 => Ok(value),
+                Ok(_) => Err(bad(&format!(
+                    "{} is {}, not a finite number >= 0",
+                    &headers[columns[k]],
+                    cell(k)
+                ))),
+                Err(_) => Err(bad(&format!("{:?} is not a number", cell(k)))),
+            }
         };
         let named = |k: usize| bad(&format!("unknown {} {:?}", &headers[columns[k]], cell(k)));
         let scene = SceneKind::from_str(cell(0), false).map_err(|_| named(0))?;
@@ -605,5 +612,16 @@ mod tests {
         assert!(read_csv(&broken)
             .unwrap_err()
             .starts_with("row 3: unknown reason"));
+        // A step, a duration or a time that is no finite number >= 0 (a shard edited by
+        // hand): refused at its row, where it was merged as it was.
+        let fixed = text.lines().nth(3).unwrap();
+        for bad in ["nan", "inf", "-0.004"] {
+            let edited = text.replacen(fixed, &fixed.replacen("0.004", bad, 1), 1);
+            assert_eq!(
+                read_csv(&edited).unwrap_err(),
+                format!("row 4: dt_s is {bad}, not a finite number >= 0"),
+                "{edited}"
+            );
+        }
     }
 }
