@@ -134,12 +134,35 @@ fn flags_beside_a_case_override_it_and_its_run_and_outputs_apply() {
         "--until".as_ref(),
         "0.003".as_ref(),
     ]);
-    // The case's walls are the water model's: refused for another model.
+    // The case's walls are the water model's: refused for another model, at their key
+    // (issue 47, third hostile pass: it named flags no one gave, with no line).
     assert_eq!(exit_code(&output), 2, "{}", stdout(&output));
     assert!(
-        stderr(&output).contains("--model fluidanimate takes none"),
+        stderr(&output).ends_with(
+            ":8:9: walls is the weakly compressible model's (name = \"wcsph\"); the \
+             fluidanimate model takes none\n"
+        ),
         "{}",
         stderr(&output)
+    );
+    // And --model wcsph over a case that names none takes the case's water settings.
+    let unnamed = dir.path().join("unnamed.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(&unnamed, text.replace("name = \"wcsph\"\n", "")).unwrap();
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        unnamed.as_os_str(),
+        "--model".as_ref(),
+        "wcsph".as_ref(),
+        "--steps".as_ref(),
+        "2".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    assert!(
+        stdout(&output).starts_with("model=wcsph "),
+        "{}",
+        stdout(&output)
     );
     let output = run_lab(&[
         "run".as_ref(),

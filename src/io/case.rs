@@ -1069,7 +1069,28 @@ impl Case {
 }
 
 impl ModelSettings {
-    /// The weakly compressible model's settings: each the model's, each in its range.
+    /// The first of the weakly compressible model's settings the case gives, and where.
+    pub fn first_water_setting(&self) -> Option<(&'static str, Range<usize>)> {
+        let numbers = [
+            ("artificial_viscosity", &self.artificial_viscosity),
+            ("laminar_viscosity_m2_s", &self.laminar_viscosity_m2_s),
+            ("smoothing_spacings", &self.smoothing_spacings),
+            ("sound_speed_factor", &self.sound_speed_factor),
+            ("density_diffusion", &self.density_diffusion),
+        ];
+        let given = numbers
+            .into_iter()
+            .filter_map(|(key, value)| value.as_ref().map(|value| (key, value.span())));
+        let walls = self.walls.as_ref().map(|walls| ("walls", walls.span()));
+        let faces = self.faces.as_ref().map(|faces| ("faces", faces.span()));
+        let mut found: Vec<(&'static str, Range<usize>)> =
+            given.chain(walls).chain(faces).collect();
+        found.sort_by_key(|(_, span)| span.start);
+        found.into_iter().next()
+    }
+
+    /// The weakly compressible model's settings: each in its range (whether the model
+    /// run takes them is the command's to say, which knows its --model).
     fn check_water(&self) -> Result<(), Fault> {
         use crate::sim::model::wcsph::{SMOOTHINGS, SOUND_SPEED_FACTORS};
         use crate::sim::model::Model;
@@ -1084,26 +1105,8 @@ impl ModelSettings {
             ("sound_speed_factor", &self.sound_speed_factor, true),
             ("density_diffusion", &self.density_diffusion, false),
         ];
-        let given = numbers
-            .iter()
-            .filter_map(|(key, value, _)| value.as_ref().map(|value| (*key, value.span())))
-            .chain(self.walls.as_ref().map(|walls| ("walls", walls.span())))
-            .chain(self.faces.as_ref().map(|faces| ("faces", faces.span())));
-        let model = self
-            .name
-            .as_ref()
-            .map_or(Ok(Model::Course), |name| choice::<Model>(name, "name"))?;
-        if model != Model::Wcsph {
-            if let Some((key, span)) = given.into_iter().next() {
-                return Err((
-                    span,
-                    format!(
-                        "{key} is the weakly compressible model's (name = \"wcsph\"); \
-                         the {} model takes none",
-                        model.name()
-                    ),
-                ));
-            }
+        if let Some(name) = &self.name {
+            choice::<Model>(name, "name")?;
         }
         for (key, value, positive) in numbers {
             let Some(value) = value else { continue };

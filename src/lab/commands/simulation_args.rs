@@ -367,6 +367,21 @@ impl SimulationArgs {
         let case = case::parse(&text, name)?;
         let settings = &case.model;
         self.model = self.model.or(named(&settings.name));
+        // The water model's settings, refused at their key for the model that runs (the
+        // case's, or --model's over it).
+        let model = self.model.unwrap_or(Model::Course);
+        if let Some((key, span)) = settings.first_water_setting() {
+            if model != Model::Wcsph {
+                let message = format!(
+                    "{key} is the weakly compressible model's (name = \"wcsph\"); the {} \
+                     model takes none",
+                    model.name()
+                );
+                self.read = Some(case.clone());
+                self.case_text = Some(text.clone());
+                return Err(self.at_key(span, message));
+            }
+        }
         self.kernel = self.kernel.or(named(&settings.kernel));
         self.integrator = self.integrator.or(named(&settings.integrator));
         self.pairs = self.pairs.or(named(&settings.pairs));
