@@ -190,9 +190,7 @@ fn items_3_and_6_chart_refuses_measurements_that_are_not_measurements() {
 fn item_4_a_fifo_input_is_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let fifo = dir.path().join("in.fifo");
-    let name = std::ffi::CString::new(fifo.as_os_str().as_bytes()).unwrap();
-    // SAFETY: mkfifo reads a NUL-terminated path.
-    assert_eq!(unsafe { libc::mkfifo(name.as_ptr(), 0o600) }, 0);
+    mkfifo(&fifo);
     let out = dir.path().join("out.fld");
     let output = run_fluid(&["1".as_ref(), fifo.as_os_str(), out.as_os_str()]);
     assert_refused(

@@ -529,7 +529,8 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     // The native kernel (simd, or simd8 on AVX-512), whose default method is then one
     // of the six and not added.
     let kernels = format!("{},mixed", fluid::Kernel::NATIVE.name());
-    let output = run_lab(&[
+    // The methods (two kernels, three rules, two integrators) and the times.
+    let methods: [&std::ffi::OsStr; 12] = [
         "accuracy".as_ref(),
         small.as_os_str(),
         "--kernels".as_ref(),
@@ -542,11 +543,15 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         "leapfrog,verlet".as_ref(),
         "--times".as_ref(),
         "0.002,0.004".as_ref(),
+    ];
+    let mut args = methods.to_vec();
+    args.extend::<[&std::ffi::OsStr; 4]>([
         "--budget".as_ref(),
         "1,1e-30,0.5h".as_ref(),
         "--output-dir".as_ref(),
         dir.path().as_os_str(),
     ]);
+    let output = run_lab(&args);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     let report = stdout(&output);
     for name in [
@@ -624,24 +629,14 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     // The CSV charts again with `--from-csv`; one whose times are not finite numbers >= 0
     // (or whose errors are NaN or negative) is refused, and draws nothing.
     let redraw = |csv: &std::path::Path, folder: &std::path::Path| {
-        run_lab(&[
-            "accuracy".as_ref(),
-            small.as_os_str(),
-            "--kernels".as_ref(),
-            kernels.as_ref(),
-            "--dt-factors".as_ref(),
-            "1,2".as_ref(),
-            "--adaptive".as_ref(),
-            "0.3".as_ref(),
-            "--integrators".as_ref(),
-            "leapfrog,verlet".as_ref(),
-            "--times".as_ref(),
-            "0.002,0.004".as_ref(),
+        let mut args = methods.to_vec();
+        args.extend::<[&std::ffi::OsStr; 4]>([
             "--from-csv".as_ref(),
             csv.as_os_str(),
             "--output-dir".as_ref(),
             folder.as_os_str(),
-        ])
+        ]);
+        run_lab(&args)
     };
     let again = redraw(&dir.path().join("accuracy.csv"), &dir.path().join("again"));
     assert_eq!(exit_code(&again), 0, "{}", stderr(&again));
