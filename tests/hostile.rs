@@ -2000,3 +2000,41 @@ fn a_file_name_with_a_newline_is_shown_on_one_line() {
     assert_eq!(message.lines().count(), 1, "{message}");
     assert!(message.contains("x\\ny.fld"), "{message}");
 }
+
+#[test]
+fn a_sweep_names_its_input_when_the_input_is_at_fault() {
+    // Issue 47, third hostile pass: a truncated input was blamed on the CSV resumed
+    // (`--resume: s.csv: ...`), or named no file at all.
+    let dir = tempfile::tempdir().unwrap();
+    let short = dir.path().join("short.fld");
+    let mut bytes = std::fs::read(input("small")).unwrap();
+    bytes.truncate(100);
+    std::fs::write(&short, bytes).unwrap();
+    let csv = dir.path().join("s.csv");
+    std::fs::write(&csv, "x").unwrap();
+    for resume in [true, false] {
+        let mut args: Vec<&OsStr> = vec![
+            "sweep".as_ref(),
+            short.as_os_str(),
+            "--output".as_ref(),
+            csv.as_os_str(),
+            "--iterations".as_ref(),
+            "1".as_ref(),
+            "--repeats".as_ref(),
+            "1".as_ref(),
+        ];
+        if resume {
+            args.push("--resume".as_ref());
+        }
+        let output = run_lab(&args);
+        assert_refused(
+            &output,
+            1,
+            &format!(
+                "fluid-lab: error: {}: Number of particles mismatch. Header: 4800, Found: 2.",
+                short.display()
+            ),
+        );
+        assert_eq!(std::fs::read_to_string(&csv).unwrap(), "x");
+    }
+}

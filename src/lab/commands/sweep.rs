@@ -175,6 +175,8 @@ impl SweepArgs {
 pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let output = OutputFile::create(&args.output)?;
     let sweep = args.sweep()?;
+    // The inputs first: a fault of theirs is theirs, not the resumed CSV's.
+    sweep.inputs()?;
     let previous = match args.resume {
         true => match read_regular_text(&args.output) {
             Ok(text) => text,
