@@ -1325,6 +1325,125 @@ fn a_face_s_friction_comes_from_the_case_or_its_flag() {
     );
 }
 
+#[test]
+fn faces_periodic_axes_and_resolutions_that_cannot_be_are_usage_errors() {
+    // Issue 46's hostile pass: a periodic dam-break case panicked; faces with no wall,
+    // repeated flags, --periodic beside --resume and --dimensions beside a case were taken
+    // or ignored; --across in any order or twice, or too coarse for its box.
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let validation = std::fs::read_to_string(case("dam-break-validation")).unwrap();
+    let periodic = at("periodic.toml");
+    std::fs::write(
+        &periodic,
+        format!("[domain]\nperiodic = [\"x\"]\n\n{validation}"),
+    )
+    .unwrap();
+    let (poiseuille, dam_2d) = (case("poiseuille"), case("dam-break-2d"));
+    let (poiseuille, dam_2d) = (poiseuille.to_str().unwrap(), dam_2d.to_str().unwrap());
+    let out = at("o");
+    let tries: Vec<(Vec<&str>, String)> = vec![
+        (
+            vec![
+                "validate",
+                "dam-break",
+                "--case",
+                &periodic,
+                "--output-dir",
+                &out,
+            ],
+            format!(
+                "{periodic}:2:12: a dam-break validation runs between walls on every face: \
+                 leave periodic out"
+            ),
+        ),
+        (
+            vec![
+                "validate",
+                "dam-break",
+                "--case",
+                dam_2d,
+                "--dimensions",
+                "3",
+                "--output-dir",
+                &out,
+            ],
+            "--dimensions comes from the case's [domain] dimensions with --case".into(),
+        ),
+        (
+            vec![
+                "validate",
+                "poiseuille",
+                "--case",
+                poiseuille,
+                "--across",
+                "20,20",
+                "--output-dir",
+                &out,
+            ],
+            "--across names each resolution once".into(),
+        ),
+        (
+            vec![
+                "validate",
+                "poiseuille",
+                "--case",
+                poiseuille,
+                "--across",
+                "10",
+                "--output-dir",
+                &out,
+            ],
+            "--across 10 (1000 per metre): particles_per_m = 1000 gives a grid of 2 x 3 x 1 \
+             blocks, but a periodic axis needs at least 3 blocks (x has 2) for the model's \
+             cut-off"
+                .into(),
+        ),
+        (
+            vec![
+                "run",
+                "--case",
+                poiseuille,
+                &out,
+                "--face",
+                "x_low=free-slip",
+            ],
+            "the face x_low is periodic: it has no wall to choose".into(),
+        ),
+        (
+            vec!["run", "--case", dam_2d, &out, "--face", "z_high=free-slip"],
+            "the face z_high is not in a 2-D scene: it has no wall to choose".into(),
+        ),
+        (
+            vec![
+                "run",
+                "--case",
+                dam_2d,
+                &out,
+                "--face",
+                "y_low=free-slip,y_low=no-slip",
+            ],
+            "--face names each face once".into(),
+        ),
+        (
+            vec!["run", "--case", dam_2d, &out, "--periodic", "x,x"],
+            "--periodic names each axis once".into(),
+        ),
+        (
+            vec!["run", "--resume", &out, &out, "--periodic", "x"],
+            "--periodic: a resumed run keeps its checkpoint's periodic axes".into(),
+        ),
+    ];
+    for (args, message) in tries {
+        let output = run_lab(&args);
+        assert_refused(&output, 2, &format!("fluid-lab: error: {message}"));
+        assert!(
+            entries(dir.path()) == ["periodic.toml"],
+            "{args:?} left files"
+        );
+    }
+}
+
 /// A case of `model` in a box 2 m high whose floor is 1 m below the course's, a ball of
 /// water falling from y = 0, with `gravity`, run for `until` seconds.
 fn tall_box(model: &str, gravity: &str, until: f64) -> String {

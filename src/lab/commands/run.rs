@@ -106,6 +106,12 @@ fn resume(
 
 /// Runs the scene, timed, and writes the timing line, the diagnostics and the final state.
 pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    if args.resume.is_some() && args.simulation.periodic.is_some() {
+        return Err(UsageError(
+            "--periodic: a resumed run keeps its checkpoint's periodic axes".into(),
+        )
+        .into());
+    }
     // A checkpoint of a case carries it: the resume needs nothing else (its one positional
     // argument, if any, is the output). Read here, it is not read again to resume.
     let mut checkpoint = match (&args.resume, &args.simulation.case) {

@@ -96,9 +96,13 @@ impl SimulationArgs {
     /// if given, refused (a usage error) for a model other than the water model, or along
     /// z in 2-D.
     fn with_periodic(&self, mut domain: params::Domain) -> Result<params::Domain, UsageError> {
+        self.check_faces(&domain)?;
         let Some(axes) = &self.periodic else {
             return Ok(domain);
         };
+        if (1..axes.len()).any(|k| axes[k..].contains(&axes[k - 1])) {
+            return Err(UsageError("--periodic names each axis once".into()));
+        }
         if self.model() != Model::Wcsph {
             return Err(UsageError(format!(
                 "--periodic is the water model's (wcsph), not {}'s",
@@ -113,7 +117,33 @@ impl SimulationArgs {
             false,
             axes.contains(&PeriodicAxis::Z),
         ];
+        self.check_faces(&domain)?;
         Ok(domain)
+    }
+
+    /// Refuses a face's friction (from the case or --face) where `domain` has no wall:
+    /// along a periodic axis, or along z in 2-D; and --face naming a face twice.
+    fn check_faces(&self, domain: &params::Domain) -> Result<(), UsageError> {
+        let flags = &self.water.faces;
+        if (1..flags.len()).any(|k| flags[k..].iter().any(|f| f.0 == flags[k - 1].0)) {
+            return Err(UsageError("--face names each face once".into()));
+        }
+        let faces = self.water.case_faces.iter().chain(flags);
+        for &(face, _) in faces {
+            let axis = face / 2;
+            if domain.periodic[axis] || (domain.planar && axis == 2) {
+                let why = if domain.periodic[axis] {
+                    "is periodic"
+                } else {
+                    "is not in a 2-D scene"
+                };
+                return Err(UsageError(format!(
+                    "the face {} {why}: it has no wall to choose",
+                    FACES[face]
+                )));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -146,6 +176,9 @@ pub struct WaterArgs {
     /// free-slip or no-slip), repeatable or comma-separated (wcsph) [default: --walls']
     #[arg(long = "face", value_name = "FACE=KIND", value_delimiter = ',', value_parser = parse_face)]
     pub faces: Vec<(usize, WallFriction)>,
+    /// The faces a case gives (`[model] faces`), which --face's override.
+    #[arg(skip)]
+    pub case_faces: Vec<(usize, WallFriction)>,
 }
 
 /// Parses `FACE=KIND`: a face of [`FACES`] and a friction.
@@ -182,8 +215,11 @@ impl WaterArgs {
             sound_speed_factor: self.sound_speed.unwrap_or(default.sound_speed_factor),
             density_diffusion: self.density_diffusion.unwrap_or(default.density_diffusion),
             faces: std::array::from_fn(|face| {
-                // The last one given for each face.
-                (self.faces.iter().rev()).find_map(|&(f, kind)| (f == face).then_some(kind))
+                // A flag's over the case's.
+                let given = self.case_faces.iter().chain(&self.faces).rev();
+                given
+                    .clone()
+                    .find_map(|&(f, kind)| (f == face).then_some(kind))
             }),
         };
         settings
@@ -400,7 +436,7 @@ impl SimulationArgs {
             let face = FACES.iter().position(|name| name == face)?;
             Some((face, named(&Some(kind.clone()))?))
         });
-        water.faces = from_case.chain(water.faces.drain(..)).collect();
+        water.case_faces = from_case.collect();
         let number = |value: &Option<toml::Spanned<f64>>| value.as_ref().map(|v| *v.get_ref());
         water.artificial_viscosity = water
             .artificial_viscosity
