@@ -2038,3 +2038,35 @@ fn a_sweep_names_its_input_when_the_input_is_at_fault() {
         assert_eq!(std::fs::read_to_string(&csv).unwrap(), "x");
     }
 }
+
+#[test]
+fn a_disk_too_full_for_the_stability_map_leaves_no_csv() {
+    // Issue 47, third hostile pass: stability wrote its CSV and then failed on the map,
+    // leaving the CSV of a command that failed. The output folder is a 64 KiB tmpfs in a
+    // mount namespace of the run's own (`unshare`).
+    let namespaces = Command::new("unshare").args(["-rm", "true"]).status();
+    if !namespaces.is_ok_and(|status| status.success()) {
+        eprintln!("skipped: no mount namespace here (unshare -rm)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("map");
+    std::fs::create_dir(&folder).unwrap();
+    let script = "mount -t tmpfs -o size=64k none \"$1\" && \"$2\" stability --output-dir \"$1\" \
+                  --ppms 100 --dt-factors 1 --adaptive '' --duration 0.002; status=$?; \
+                  ls -a \"$1\"; exit $status";
+    let output = Command::new("unshare")
+        .args(["-rm", "sh", "-c", script, "sh"])
+        .arg(&folder)
+        .arg(env!("CARGO_BIN_EXE_fluid-lab"))
+        .output()
+        .unwrap();
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("fluid-lab: error: "),
+        "{}",
+        stderr(&output)
+    );
+    // Nothing but the folder's own entries: no CSV, no temporary file.
+    assert!(stdout(&output).ends_with(".\n..\n"), "{}", stdout(&output));
+}

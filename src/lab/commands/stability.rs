@@ -181,12 +181,8 @@ impl StabilityArgs {
         self.output_dir.join("stability.csv")
     }
 
-    /// Draws the map of `outcomes` into the output folder.
-    pub fn draw(
-        &self,
-        outcomes: &[Outcome],
-        stdout: &mut impl Write,
-    ) -> Result<(), Box<dyn Error>> {
+    /// The map of `outcomes`, drawn and not yet written into the output folder.
+    fn drawn(&self, outcomes: &[Outcome]) -> Result<chart::DrawnChart, Box<dyn Error>> {
         let machine = Machine::this();
         let footer = format!(
             "{} seed {}, {} s each; fails on: non-finite values, particles more than h outside the \
@@ -197,7 +193,17 @@ impl StabilityArgs {
             machine.commit
         );
         let map = stability::StabilityMap { outcomes, footer };
-        for path in chart::render(&map, &self.output_dir, map.size())? {
+        let files = chart::ChartFiles::open(&self.output_dir, chart::Drawing::name(&map))?;
+        files.draw(&map, map.size())
+    }
+
+    /// Draws the map of `outcomes` into the output folder.
+    pub fn draw(
+        &self,
+        outcomes: &[Outcome],
+        stdout: &mut impl Write,
+    ) -> Result<(), Box<dyn Error>> {
+        for path in self.drawn(outcomes)?.commit()? {
             writeln!(stdout, "wrote {}", path.display())?;
         }
         Ok(())
@@ -225,7 +231,12 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
         rows.push('\n');
         outcomes.push(outcome);
     }
+    // The map drawn before the CSV is written: a disk too full for it leaves neither.
+    let map = args.drawn(&outcomes)?;
     csv_file.commit(rows.as_bytes())?;
     writeln!(stdout, "wrote {}", csv_path.display())?;
-    args.draw(&outcomes, stdout)
+    for path in map.commit()? {
+        writeln!(stdout, "wrote {}", path.display())?;
+    }
+    Ok(())
 }
