@@ -2070,3 +2070,34 @@ fn a_disk_too_full_for_the_stability_map_leaves_no_csv() {
     // Nothing but the folder's own entries: no CSV, no temporary file.
     assert!(stdout(&output).ends_with(".\n..\n"), "{}", stdout(&output));
 }
+
+#[test]
+fn quiet_silences_a_sweep_s_lines() {
+    // Issue 47, third hostile pass: `--quiet` left a sweep's line per record on stderr.
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("s.csv");
+    let small = input("small");
+    let sweep = |quiet: bool| {
+        let mut args: Vec<&OsStr> = Vec::new();
+        if quiet {
+            args.push("--quiet".as_ref());
+        }
+        args.extend::<[&OsStr; 10]>([
+            "sweep".as_ref(),
+            small.as_os_str(),
+            "--output".as_ref(),
+            csv.as_os_str(),
+            "--iterations".as_ref(),
+            "1".as_ref(),
+            "--repeats".as_ref(),
+            "1".as_ref(),
+            "--idle-seconds".as_ref(),
+            "0".as_ref(),
+        ]);
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+        stderr(&output)
+    };
+    assert!(sweep(false).contains("repeat 1: "));
+    assert_eq!(sweep(true), "");
+}

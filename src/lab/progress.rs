@@ -36,6 +36,15 @@ pub fn configure(settings: Settings) {
     let _ = SETTINGS.set(settings);
 }
 
+/// Where a command's lines of progress go (a sweep's line per record): stderr, or
+/// nowhere with `--quiet`.
+pub fn lines() -> Box<dyn std::io::Write> {
+    match settings().quiet {
+        true => Box::new(std::io::sink()),
+        false => Box::new(std::io::stderr()),
+    }
+}
+
 fn settings() -> Settings {
     SETTINGS.get().copied().unwrap_or_default()
 }

@@ -161,7 +161,7 @@ impl SweepArgs {
         }
         let mut records = Vec::new();
         sweep.measure(
-            &mut std::io::stderr().lock(),
+            &mut crate::lab::progress::lines(),
             &HashSet::new(),
             &mut records,
             &mut |_| Ok(()),
@@ -209,7 +209,7 @@ pub fn exec(args: SweepArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
     };
     let mut records = Vec::new();
     let measured = sweep.measure(
-        &mut std::io::stderr().lock(),
+        &mut crate::lab::progress::lines(),
         &done,
         &mut records,
         &mut |records| write(records),
