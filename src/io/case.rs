@@ -411,12 +411,21 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
             message,
         },
     };
-    if let Some((span, message)) = misshapen(text) {
-        return Err(error_at(Some(span), message));
-    }
-    let zs = planar_zs(text).map_err(|(span, message)| error_at(Some(span), message))?;
-    let read = match toml::de::DeTable::parse(text) {
-        Ok(mut document) if !zs.is_empty() => {
+    // The document is parsed once; text that is not TOML is left to the reader, whose
+    // message says why.
+    let document = toml::de::DeTable::parse(text).ok();
+    let zs = match &document {
+        Some(document) => {
+            if let Some((span, message)) = misshapen(document) {
+                return Err(error_at(Some(span), message));
+            }
+            planar_zs(document).map_err(|(span, message)| error_at(Some(span), message))?
+        }
+        None => Vec::new(),
+    };
+    let read = match document {
+        Some(document) if !zs.is_empty() => {
+            let mut document = document;
             in_the_plane(&mut document, &zs)
                 .map_err(|(span, message)| error_at(Some(span), message))?;
             Case::deserialize(toml::de::Deserializer::from(document))
@@ -452,16 +461,13 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
     Ok(case)
 }
 
-/// The z values a 2-D case's points are completed with, as TOML numbers: none for a
-/// case that is not 2-D (`[domain] dimensions = 2`; a number other than 2 or 3 is
+/// The z values the points of a 2-D case's `document` are completed with, as TOML
+/// numbers: none for a case that is not 2-D (`[domain] dimensions = 2`; a number other than 2 or 3 is
 /// refused), else the plane, z = 0, and the two
 /// faces of the slab one lattice spacing deep around it (a spacing of 1 m where the
 /// particles per metre are not a number > 0, which the checks then refuse).
-fn planar_zs(text: &str) -> Result<Vec<String>, Fault> {
-    use toml::de::{DeTable, DeValue};
-    let Ok(document) = DeTable::parse(text) else {
-        return Ok(Vec::new());
-    };
+fn planar_zs(document: &toml::Spanned<toml::de::DeTable>) -> Result<Vec<String>, Fault> {
+    use toml::de::DeValue;
     // Any other number of dimensions is refused before the points are read.
     let given = document.get_ref().get("domain").and_then(|domain| {
         let value = domain.get_ref().as_table()?.get("dimensions")?;
@@ -470,23 +476,26 @@ fn planar_zs(text: &str) -> Result<Vec<String>, Fault> {
             value.get_ref().as_integer()?.as_str().parse::<u64>(),
         ))
     });
-    if let Some((span, dimensions)) = given {
-        if !matches!(dimensions, Ok(2 | 3)) {
+    match given {
+        Some((_, Ok(2))) => {}
+        Some((span, dimensions)) if !matches!(dimensions, Ok(3)) => {
             return Err((span, "dimensions must be 2 or 3".into()));
         }
+        _ => return Ok(Vec::new()),
     }
-    let number = |table: &str, key: &str| {
-        let table = document.get_ref().get(table)?.get_ref().as_table()?;
-        match table.get(key)?.get_ref() {
-            DeValue::Integer(value) => value.as_str().parse::<f64>().ok(),
-            DeValue::Float(value) => value.as_str().parse::<f64>().ok(),
-            _ => None,
-        }
+    let fluid = document
+        .get_ref()
+        .get("fluid")
+        .and_then(|f| f.get_ref().as_table());
+    let ppm = match fluid
+        .and_then(|fluid| fluid.get("particles_per_m"))
+        .map(|v| v.get_ref())
+    {
+        Some(DeValue::Integer(value)) => value.as_str().parse::<f64>().ok(),
+        Some(DeValue::Float(value)) => value.as_str().parse::<f64>().ok(),
+        _ => None,
     };
-    if number("domain", "dimensions") != Some(2.0) {
-        return Ok(Vec::new());
-    }
-    let ppm = number("fluid", "particles_per_m").filter(|ppm| ppm.is_finite() && *ppm > 0.0);
+    let ppm = ppm.filter(|ppm| ppm.is_finite() && *ppm > 0.0);
     let half = 0.5 * (1.0 / ppm.unwrap_or(1.0));
     Ok([0.0, -half, half].map(|z| format!("{z:?}")).to_vec())
 }
@@ -584,13 +593,11 @@ const LISTS_OF_TABLES: [(&str, [&str; 2]); 2] = [
     ("gauges", ["point", "height"]),
 ];
 
-/// The first value of `text` of a kind no case takes where it stands: a date (no key
+/// The first value of `document` of a kind no case takes where it stands: a date (no key
 /// takes one; the TOML reader calls it a table), or a list where a case takes a table (or
-/// a list of tables, a table in it). Its span and what was expected; text that is not
-/// TOML is left to the reader.
-fn misshapen(text: &str) -> Option<(Range<usize>, String)> {
-    use toml::de::{DeTable, DeValue};
-    let document = DeTable::parse(text).ok()?;
+/// a list of tables, a table in it). Its span and what was expected.
+fn misshapen(document: &toml::Spanned<toml::de::DeTable>) -> Option<(Range<usize>, String)> {
+    use toml::de::DeValue;
     // Depth first, in the file's order.
     fn first_date(value: &toml::Spanned<DeValue>) -> Option<Range<usize>> {
         match value.get_ref() {
@@ -796,11 +803,7 @@ impl Case {
 
     /// The checks beyond types: sizes, ranges, fills inside the box, names.
     fn check(&self) -> Result<(), Fault> {
-        if let Some(dimensions) = &self.domain.dimensions {
-            if ![2, 3].contains(dimensions.get_ref()) {
-                return Err((dimensions.span(), "dimensions must be 2 or 3".into()));
-            }
-        }
+        // `dimensions` other than 2 or 3 are refused before the case is read (`planar_zs`).
         if let Some(periodic) = &self.domain.periodic {
             let names = periodic.get_ref();
             let known = names

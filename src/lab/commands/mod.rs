@@ -85,6 +85,12 @@ impl Drop for MadeFolder {
     }
 }
 
+/// Whether some item of `items` is there twice (for a flag's list that names each item
+/// once).
+pub fn repeats<T: PartialEq>(items: &[T]) -> bool {
+    (1..items.len()).any(|k| items[k..].contains(&items[k - 1]))
+}
+
 /// Whether `a` and `b` name the same file: the same file on disk if both exist, else the
 /// same path once their folders are resolved.
 pub fn same_file(a: &Path, b: &Path) -> bool {

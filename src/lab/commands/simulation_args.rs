@@ -96,27 +96,25 @@ impl SimulationArgs {
     /// if given, refused (a usage error) for a model other than the water model, or along
     /// z in 2-D.
     fn with_periodic(&self, mut domain: params::Domain) -> Result<params::Domain, UsageError> {
-        self.check_faces(&domain)?;
-        let Some(axes) = &self.periodic else {
-            return Ok(domain);
-        };
-        if (1..axes.len()).any(|k| axes[k..].contains(&axes[k - 1])) {
-            return Err(UsageError("--periodic names each axis once".into()));
+        if let Some(axes) = &self.periodic {
+            if super::repeats(axes) {
+                return Err(UsageError("--periodic names each axis once".into()));
+            }
+            if self.model() != Model::Wcsph {
+                return Err(UsageError(format!(
+                    "--periodic is the water model's (wcsph), not {}'s",
+                    self.model().name()
+                )));
+            }
+            if domain.planar && axes.contains(&PeriodicAxis::Z) {
+                return Err(UsageError("--periodic z: a 2-D case has no z faces".into()));
+            }
+            domain.periodic = [
+                axes.contains(&PeriodicAxis::X),
+                false,
+                axes.contains(&PeriodicAxis::Z),
+            ];
         }
-        if self.model() != Model::Wcsph {
-            return Err(UsageError(format!(
-                "--periodic is the water model's (wcsph), not {}'s",
-                self.model().name()
-            )));
-        }
-        if domain.planar && axes.contains(&PeriodicAxis::Z) {
-            return Err(UsageError("--periodic z: a 2-D case has no z faces".into()));
-        }
-        domain.periodic = [
-            axes.contains(&PeriodicAxis::X),
-            false,
-            axes.contains(&PeriodicAxis::Z),
-        ];
         self.check_faces(&domain)?;
         Ok(domain)
     }
@@ -125,7 +123,8 @@ impl SimulationArgs {
     /// along a periodic axis, or along z in 2-D; and --face naming a face twice.
     fn check_faces(&self, domain: &params::Domain) -> Result<(), UsageError> {
         let flags = &self.water.faces;
-        if (1..flags.len()).any(|k| flags[k..].iter().any(|f| f.0 == flags[k - 1].0)) {
+        let named: Vec<usize> = flags.iter().map(|&(face, _)| face).collect();
+        if super::repeats(&named) {
             return Err(UsageError("--face names each face once".into()));
         }
         let faces = self.water.case_faces.iter().chain(flags);
@@ -216,9 +215,7 @@ impl WaterArgs {
             density_diffusion: self.density_diffusion.unwrap_or(default.density_diffusion),
             faces: std::array::from_fn(|face| {
                 // A flag's over the case's.
-                let given = self.case_faces.iter().chain(&self.faces).rev();
-                given
-                    .clone()
+                (self.case_faces.iter().chain(&self.faces).rev())
                     .find_map(|&(f, kind)| (f == face).then_some(kind))
             }),
         };

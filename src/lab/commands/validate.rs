@@ -311,7 +311,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         .into());
     }
     let dimensions = args.dimensions();
-    if (1..dimensions.len()).any(|k| dimensions[k..].contains(&dimensions[k - 1])) {
+    if super::repeats(&dimensions) {
         return Err(UsageError("--dimensions names each number once".into()).into());
     }
     let only_planar = dimensions == [2];
@@ -855,11 +855,13 @@ fn poiseuille(
         let ppm = count as f64 / channel.width;
         args.read = Some(case.at_particles_per_m(ppm));
         // A resolution the case's box cannot take is the flag's fault.
+        // (A case's fault is said without its place: the case's own particles_per_m is not
+        // the one that failed.)
         let Loaded { mut simulation, .. } = load(&args).map_err(|error| {
-            let error = error.to_string();
-            let why = error
-                .rsplit_once(": ")
-                .map_or(error.as_str(), |(_, why)| why);
+            let why = match error.downcast_ref::<CaseError>() {
+                Some(fault) => fault.message.clone(),
+                None => error.to_string(),
+            };
             UsageError(format!("--across {count} ({ppm} per metre): {why}"))
         })?;
         let started = Instant::now();
