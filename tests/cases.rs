@@ -2292,3 +2292,64 @@ fn a_final_state_through_a_folder_not_made_is_the_path_it_names() {
     assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
     assert_eq!(entries(dir.path()), ["c.toml"]);
 }
+
+#[test]
+fn accuracy_takes_a_case_in_its_own_domain_and_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = case("dam-break-2d");
+    let out = dir.path().join("acc");
+    let accuracy = |extra: &[&str]| {
+        let mut args: Vec<&OsStr> = vec!["accuracy".as_ref(), "--case".as_ref(), path.as_os_str()];
+        args.extend(["--output-dir".as_ref(), out.as_os_str()]);
+        args.extend(extra.iter().map(OsStr::new));
+        run_lab(&args)
+    };
+    let sweep = [
+        "--times",
+        "0.004,0.008",
+        "--kernels",
+        "simd8",
+        "--adaptive",
+        "",
+        "--integrators",
+        "verlet",
+    ];
+    let output = accuracy(&sweep);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // The case's model (wcsph, no --model) on its 2-D column: 128 particles in the plane.
+    let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
+    let mut reader = csv::Reader::from_reader(csv.as_bytes());
+    let header = reader.headers().unwrap().clone();
+    let column = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
+    assert!(rows.len() > 10, "{csv}");
+    for row in &rows {
+        assert_eq!(&row[column("scene")], "dam-break-2d.toml");
+        assert_eq!(&row[column("particles")], "128");
+        assert_eq!(&row[column("model")], "wcsph");
+    }
+    // The Verlet's errors against the reference fall as its steps shrink: second order.
+    let order = stdout(&output)
+        .lines()
+        .find_map(|line| line.strip_prefix("order simd8 verlet: ")?.split(' ').next())
+        .map(|order| order.parse::<f64>().unwrap())
+        .unwrap();
+    assert!((1.7..2.3).contains(&order), "{}", stdout(&output));
+    // What the case cannot run is refused at its key; an input beside it is refused.
+    let output = accuracy(&["--model", "fluidanimate"]);
+    assert_refused(
+        &output,
+        2,
+        &format!(
+            "fluid-lab: error: {}:8:14: a 2-D case runs the water model (wcsph), not fluidanimate",
+            path.display()
+        ),
+    );
+    let output = accuracy(&["input.fld"]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("cannot be used with"),
+        "{}",
+        stderr(&output)
+    );
+}

@@ -2,7 +2,7 @@
 //! trajectory at equal physical times; a CSV, the accuracy-speed chart with its Pareto
 //! fronts, the error-time chart, and the fastest method within each error budget.
 
-use super::simulation_args::{parse_courants, Courants, MOST_STEPS_TO_GO};
+use super::simulation_args::{self, parse_courants, Courants, SimulationArgs, MOST_STEPS_TO_GO};
 use crate::io::fld;
 use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
@@ -25,14 +25,23 @@ use std::path::{Path, PathBuf};
 /// The arguments of `fluid-lab accuracy`.
 #[derive(Debug, Args)]
 pub struct AccuracyArgs {
-    /// Input .fld file.
-    input: PathBuf,
-    /// Folder for accuracy.csv, accuracy-speed.{png,svg} and error-time.{png,svg}.
+    /// Input .fld file (none with --case).
+    #[arg(required_unless_present = "case")]
+    input: Option<PathBuf>,
+    /// A case file (TOML, docs/case-files.md) as the start instead of an input: its
+    /// scene in its domain (2-D, periodic faces), its model and the model's settings;
+    /// its time step, integrator and run length are the sweep's own.
+    #[arg(long, value_name = "FILE", conflicts_with = "input")]
+    case: Option<PathBuf>,
+    /// The case read from --case, its model settled ([`AccuracyArgs::read_case`]).
+    #[arg(skip)]
+    read: Option<Box<SimulationArgs>>,
+    /// Output folder for accuracy.csv, accuracy-speed.{png,svg} and error-time.{png,svg}.
     #[arg(long)]
     output_dir: PathBuf,
-    /// Physical model of the scene.
-    #[arg(long, value_enum, default_value_t = Model::Fluidanimate)]
-    model: Model,
+    /// Physical model of the scene [default: the case's, else fluidanimate]
+    #[arg(long, value_enum)]
+    model: Option<Model>,
     /// Kernels to compare (each with every time-step rule).
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = [Kernel::NATIVE, Kernel::Mixed])]
     kernels: Vec<Kernel>,
@@ -76,9 +85,32 @@ pub struct AccuracyArgs {
 }
 
 impl AccuracyArgs {
+    /// Reads --case, if given, and settles the model: --model, else the case's, else
+    /// fluidanimate. Every use of the arguments comes after it.
+    ///
+    /// # Errors
+    /// A case that cannot be read or is refused, at its key.
+    pub fn read_case(&mut self) -> Result<(), Box<dyn Error>> {
+        if let Some(path) = &self.case {
+            let mut args = SimulationArgs::of_case(path);
+            args.model = self.model;
+            args.read_case(&mut None)?;
+            self.model = Some(args.model.unwrap_or(Model::Fluidanimate));
+            args.model = self.model;
+            self.read = Some(Box::new(args));
+        }
+        self.model = Some(self.model());
+        Ok(())
+    }
+
+    /// The model the scene runs (settled by [`Self::read_case`]).
+    fn model(&self) -> Model {
+        self.model.unwrap_or(Model::Fluidanimate)
+    }
+
     /// The comparison times, checked.
     fn times(&self) -> Result<Vec<f64>, String> {
-        let times = self.times.clone().unwrap_or_else(|| match self.model {
+        let times = self.times.clone().unwrap_or_else(|| match self.model() {
             Model::Course => vec![1e-3, 2e-3, 3e-3],
             Model::Fluidanimate | Model::Wcsph => (1..=12).map(|k| k as f64 * 4e-3).collect(),
         });
@@ -91,13 +123,16 @@ impl AccuracyArgs {
 
     /// The methods to compare, checked.
     fn candidates(&self) -> Result<Vec<Candidate>, String> {
-        let factors = self.dt_factors.clone().unwrap_or_else(|| match self.model {
-            Model::Course => vec![0.125, 0.25, 0.5, 1.0],
-            Model::Fluidanimate => vec![0.25, 0.5, 1.0, 2.0, 4.0],
-            // The stiff model's CFL step is near 0.1 ms at 300 per metre; 0.3 ms is
-            // beyond the leapfrog's stability on its dam break at 150, not the Verlet's.
-            Model::Wcsph => vec![0.025, 0.05, 0.1, 0.2, 0.3],
-        });
+        let factors = self
+            .dt_factors
+            .clone()
+            .unwrap_or_else(|| match self.model() {
+                Model::Course => vec![0.125, 0.25, 0.5, 1.0],
+                Model::Fluidanimate => vec![0.25, 0.5, 1.0, 2.0, 4.0],
+                // The stiff model's CFL step is near 0.1 ms at 300 per metre; 0.3 ms is
+                // beyond the leapfrog's stability on its dam break at 150, not the Verlet's.
+                Model::Wcsph => vec![0.025, 0.05, 0.1, 0.2, 0.3],
+            });
         let fixed: Vec<f64> = factors.iter().map(|f| f * TIME_STEP).collect();
         if !fixed.iter().all(|&dt| dt.is_finite() && dt > 0.0) {
             return Err("--dt-factors need positive, finite factors".into());
@@ -110,7 +145,7 @@ impl AccuracyArgs {
             return Err("--skins needs widths in (0, 1] smoothing lengths".into());
         }
         Ok(Candidate::product(
-            self.model,
+            self.model(),
             &self.kernels,
             &fixed,
             &Courants::all(&self.adaptive),
@@ -165,16 +200,28 @@ impl AccuracyArgs {
         Ok((times, candidates))
     }
 
-    /// Reads the input as the model's start.
+    /// The input (or the case's scene) as the model's start.
     fn start(&self) -> Result<Start, Box<dyn Error>> {
-        let scene = fld::read(&self.input)?;
-        let particles = scene.particles.len();
-        let method = Method {
-            model: self.model,
-            kernel: Kernel::NATIVE,
+        let (simulation, source) = match &self.read {
+            Some(case) => (simulation_args::load(case)?.simulation, case.source()),
+            None => {
+                let input = self
+                    .input
+                    .as_deref()
+                    .expect("an input or a case (clap requires one)");
+                let method = Method {
+                    model: self.model(),
+                    kernel: Kernel::NATIVE,
+                };
+                let scene = fld::read(input)?;
+                (
+                    scene.into_simulation(method, &input.display().to_string())?,
+                    input,
+                )
+            }
         };
-        let simulation = scene.into_simulation(method, &self.input.display().to_string())?;
-        let file_name = self.input.file_name().unwrap_or_default();
+        let particles = simulation.particles().len();
+        let file_name = source.file_name().unwrap_or_default();
         Ok(Start {
             simulation,
             file_name: file_name.to_string_lossy().into_owned(),
@@ -195,8 +242,11 @@ impl AccuracyArgs {
     /// The points a Slurm array runs, one a task: each method, then the reference, which
     /// needs every method's sample times and so runs after them.
     pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
-        // The input read as its tasks will read it, before anything is submitted.
-        fld::header(&fld::map_input(&self.input)?, &self.input)?;
+        // The input read as its tasks will read it, before anything is submitted (a
+        // case was read by `read_case`).
+        if let (None, Some(input)) = (&self.read, &self.input) {
+            fld::header(&fld::map_input(input)?, input)?;
+        }
         let (_, candidates) = self.plan()?;
         let mut points: Vec<String> = candidates.iter().map(Candidate::label).collect();
         points.push("the reference (compensated kernel, fixed step), after every method".into());
@@ -212,10 +262,13 @@ impl AccuracyArgs {
             .ok_or_else(|| format!("the sweep has no method {index}"))?;
         let start = self.start()?;
         let mut saved = States::in_folder(states)?;
-        let run =
-            accuracy::run_method(&start.simulation, self.model, candidate, &times, |fresh| {
-                saved.save(fresh)
-            })?;
+        let run = accuracy::run_method(
+            &start.simulation,
+            self.model(),
+            candidate,
+            &times,
+            |fresh| saved.save(fresh),
+        )?;
         saved.finish()?;
         Ok(self.rows(&run, &start).into_bytes())
     }
@@ -236,7 +289,7 @@ impl AccuracyArgs {
         let sampled = accuracy::sampled_times(&runs);
         let mut saved = States::in_folder(states)?;
         let reference =
-            accuracy::run_reference(&start.simulation, self.model, step, &sampled, |fresh| {
+            accuracy::run_reference(&start.simulation, self.model(), step, &sampled, |fresh| {
                 saved.save(fresh)
             })?;
         saved.finish()?;
@@ -246,7 +299,7 @@ impl AccuracyArgs {
     /// `run`'s rows under the CSV's header.
     fn rows(&self, run: &Run, start: &Start) -> String {
         let machine = Machine::this();
-        let rows = run.csv(&start.file_name, start.particles, self.model, &machine);
+        let rows = run.csv(&start.file_name, start.particles, self.model(), &machine);
         format!("{}\n{rows}", accuracy::CSV_HEADER)
     }
 
@@ -341,7 +394,14 @@ impl AccuracyArgs {
         let (times, _) = self.plan()?;
         let metric = self.metric;
         let scene = &start.file_name;
-        let footer = footer(sweep, scene, start.particles, self.model, cpu_model, commit);
+        let footer = footer(
+            sweep,
+            scene,
+            start.particles,
+            self.model(),
+            cpu_model,
+            commit,
+        );
         let convergence = sweep.convergence(metric);
         let charts = [
             Some(speed_chart(sweep, &times, metric, scene, &footer)),
@@ -390,17 +450,19 @@ impl AccuracyArgs {
         Ok(())
     }
 
-    /// Draws the charts of the accuracy CSV at `csv` (a merged array's) and reports its
-    /// failures and choices, as the sweep itself does.
     /// Checks CSV text as [`Self::chart`] reads it.
     pub fn check_csv(&self, text: &str) -> Result<(), Box<dyn Error>> {
-        Sweep::read(text, self.model).map(drop).map_err(Into::into)
+        Sweep::read(text, self.model())
+            .map(drop)
+            .map_err(Into::into)
     }
 
+    /// Draws the charts of the accuracy CSV at `csv` (a merged array's) and reports its
+    /// failures and choices, as the sweep itself does.
     pub fn chart(&self, csv: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
         let text = crate::io::input::read_regular_text(csv)
             .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;
-        let sweep = Sweep::read(&text, self.model)
+        let sweep = Sweep::read(&text, self.model())
             .map_err(|error| format!("{}: {error}", csv.display()))?;
         let mut reader = csv::Reader::from_reader(text.as_bytes());
         let headers = reader.headers()?.clone();
@@ -464,7 +526,8 @@ impl States {
 
 /// Runs every method against the reference and writes the CSV, the charts and the
 /// choices within the budgets (or, with `--from-csv`, only the charts and choices).
-pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+pub fn exec(mut args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    args.read_case()?;
     let (times, candidates) = args.plan()?;
     let _folder = super::create_output_dir(&args.output_dir)?;
     if let Some(csv) = &args.from_csv {
@@ -476,7 +539,7 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     let start = args.start()?;
     let sweep = accuracy::sweep(
         &start.simulation,
-        args.model,
+        args.model(),
         &candidates,
         &times,
         args.reference_dt,
@@ -498,7 +561,7 @@ pub fn exec(args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn E
     let rows = format!(
         "{}\n{}",
         accuracy::CSV_HEADER,
-        sweep.csv(&start.file_name, start.particles, args.model, &machine)
+        sweep.csv(&start.file_name, start.particles, args.model(), &machine)
     );
     csv_file.commit(rows.as_bytes())?;
     writeln!(stdout, "wrote {}", csv_path.display())?;

@@ -146,9 +146,9 @@ enum Tool {
 }
 
 impl Tool {
-    /// The subcommand of `command` (its name first); a command line it cannot run is a
-    /// usage error, in one line.
-    fn parse(command: &[OsString]) -> Result<Tool, UsageError> {
+    /// The subcommand of `command` (its name first), an accuracy sweep's case read; a
+    /// command line it cannot run is a usage error, in one line.
+    fn parse(command: &[OsString]) -> Result<Tool, Box<dyn Error>> {
         let words = std::iter::once(OsString::from("fluid-lab")).chain(command.iter().cloned());
         let lab = Lab::try_parse_from(words).map_err(|error| {
             // clap's message without its usage lines and its own "error: ".
@@ -162,11 +162,15 @@ impl Tool {
         match lab.command {
             LabCommand::Sweep(args) => Ok(Tool::Sweep(args)),
             LabCommand::Stability(args) => Ok(Tool::Stability(args)),
-            LabCommand::Accuracy(args) => Ok(Tool::Accuracy(args)),
+            LabCommand::Accuracy(mut args) => {
+                args.read_case()?;
+                Ok(Tool::Accuracy(args))
+            }
             _ => Err(UsageError(format!(
                 "fluid-lab slurm runs sweep, stability and accuracy, not {}",
                 command[0].to_string_lossy()
-            ))),
+            ))
+            .into()),
         }
     }
 
