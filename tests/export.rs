@@ -616,3 +616,55 @@ fn a_png_series_in_physical_time_has_a_frame_per_interval() {
         stdout(&output)
     );
 }
+
+/// The pixels of the PNG at `path` as RGB rows, and its width.
+fn png_pixels(path: &Path) -> (Vec<u8>, usize) {
+    let decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut pixels).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    (pixels, info.width as usize)
+}
+
+#[test]
+fn a_planar_render_fits_its_frame_to_its_one_view() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/dam-break-2d.toml");
+    let png = dir.path().join("dam.png");
+    let gif = dir.path().join("dam.gif");
+    for picture in [&png, &gif] {
+        let output = run_lab(&[
+            "render".as_ref(),
+            "--case".as_ref(),
+            case.as_os_str(),
+            picture.as_os_str(),
+            "--steps".as_ref(),
+            "2".as_ref(),
+        ]);
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    }
+    let (width, height) = png_size(&png);
+    assert!(
+        (560..1280).contains(&width) && height == 560,
+        "{width}x{height}"
+    );
+    let gif_size = gif::DecodeOptions::new()
+        .read_info(std::fs::File::open(&gif).unwrap())
+        .map(|decoder| (decoder.width() as u32, decoder.height() as u32))
+        .unwrap();
+    assert_eq!(gif_size, (width, height));
+    // Every quarter of the frame's width draws something (the view, then the colour
+    // bar and its labels): no blank half.
+    let (pixels, width) = png_pixels(&png);
+    for quarter in 0..4 {
+        let columns = quarter * width / 4..(quarter + 1) * width / 4;
+        let drawn = pixels
+            .chunks(3)
+            .enumerate()
+            .filter(|(k, _)| columns.contains(&(k % width)))
+            .filter(|(_, rgb)| rgb.iter().any(|&c| c < 200))
+            .count();
+        assert!(drawn > 100, "quarter {quarter}: {drawn} pixels drawn");
+    }
+}

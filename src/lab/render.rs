@@ -122,7 +122,19 @@ pub struct Layout {
     /// How many of [`VIEWS`] are drawn: all three, or the front alone for a planar
     /// domain (whose side and top views would be slivers one spacing deep).
     pub views: usize,
+    /// The left edge of the colour bar, right of the last view.
+    pub bar_x: i32,
+    /// The frame's pixel size: [`SIZE`], or narrower where the views and the colour bar
+    /// leave the rest of it empty (a planar domain's one view), down to [`MIN_WIDTH`].
+    pub size: (u32, u32),
 }
+
+/// The narrowest frame: room for the title and the subtitle.
+pub const MIN_WIDTH: u32 = 560;
+
+/// Pixels from the colour bar's left edge to the frame's right edge: the bar, its labels
+/// and a margin.
+const BAR_AND_LABELS: i32 = 150;
 
 impl Layout {
     /// The views of `domain`'s box, as large as the frame's height and width allow.
@@ -152,6 +164,10 @@ impl Layout {
             *origin = (x.round() as i32, y.round() as i32);
             left += panel(view.right) + gap;
         }
+        let last = views - 1;
+        let last_width = (extent[VIEWS[last].right] + margin) * scale;
+        let bar_x = origins[last].0 + last_width as i32 + 40;
+        let width = (bar_x + BAR_AND_LABELS).clamp(MIN_WIDTH as i32, SIZE.0 as i32);
         Layout {
             scale,
             origins,
@@ -159,6 +175,8 @@ impl Layout {
             high: domain.max,
             margin,
             views,
+            bar_x,
+            size: (width as u32, SIZE.1),
         }
     }
 
@@ -201,7 +219,8 @@ pub struct Style {
 /// Writes `snapshot` as a PNG at `path`.
 pub fn render_png(snapshot: &Snapshot, style: &Style, path: &Path) -> Result<(), Box<dyn Error>> {
     register_font()?;
-    let root = BitMapBackend::new(path, SIZE).into_drawing_area();
+    let size = Layout::of(&snapshot.domain).size;
+    let root = BitMapBackend::new(path, size).into_drawing_area();
     draw(&root, snapshot, style)?;
     root.present()?;
     Ok(())
@@ -213,10 +232,12 @@ pub struct Animation<'a> {
 }
 
 impl Animation<'_> {
-    /// Starts a GIF at `path` showing each frame for `delay_ms` milliseconds.
-    pub fn create(path: &Path, delay_ms: u32) -> Result<Self, Box<dyn Error>> {
+    /// Starts a GIF at `path` of frames of `domain`, showing each for `delay_ms`
+    /// milliseconds.
+    pub fn create(path: &Path, domain: &Domain, delay_ms: u32) -> Result<Self, Box<dyn Error>> {
         register_font()?;
-        let root = BitMapBackend::gif(path, SIZE, delay_ms)?.into_drawing_area();
+        let size = Layout::of(domain).size;
+        let root = BitMapBackend::gif(path, size, delay_ms)?.into_drawing_area();
         Ok(Animation { root })
     }
 
@@ -312,7 +333,7 @@ where
     DB::ErrorType: 'static,
 {
     let extent = layout.high - layout.low;
-    let x = layout.origins[2].0 + ((extent.x + layout.margin) * layout.scale) as i32 + 40;
+    let x = layout.bar_x;
     // As tall as the front view, and at least 200 pixels (for a flat box's thin views),
     // below the title.
     let height = ((extent.y * layout.scale) as i32).max(200);
@@ -366,6 +387,17 @@ mod tests {
         );
         let (x, y) = planar.pixel(0, DVec3::new(1.0, 0.5, 0.0));
         assert!((0..SIZE.0 as i32).contains(&x) && (0..SIZE.1 as i32).contains(&y));
+        // Its colour bar beside its one view, not where a solid box's top view ends.
+        assert!(planar.bar_x > x && planar.bar_x + 120 < planar.size.0 as i32);
+        assert!(planar.bar_x < solid.bar_x, "{planar:?} {solid:?}");
+        // A tall section leaves no empty half: its frame narrows to its view and bar.
+        let column = Domain {
+            max: DVec3::new(0.1, 0.5, 0.3),
+            ..long_tank
+        };
+        let narrow = Layout::of(&column.section(100.0));
+        assert_eq!(narrow.size, (MIN_WIDTH, SIZE.1), "{narrow:?}");
+        assert_eq!(Layout::of(&Domain::COURSE).size, SIZE);
     }
 
     #[test]
@@ -400,9 +432,11 @@ mod tests {
                 "{spans:?}"
             );
             // The colour bar stays in the frame, right of the views.
-            let bar =
-                layout.origins[2].0 + ((high.x - low.x + layout.margin) * layout.scale) as i32;
-            assert!(bar + 40 + 120 < SIZE.0 as i32, "{domain:?}: {bar}");
+            assert!(layout.bar_x > spans[2].1, "{domain:?}: {}", layout.bar_x);
+            assert!(
+                layout.bar_x + 120 < layout.size.0 as i32,
+                "{domain:?}: {layout:?}"
+            );
             // Up is up in the front view and down in the top view.
             assert!(layout.pixel(0, high).1 < layout.pixel(0, low).1);
             assert!(layout.pixel(2, high).1 > layout.pixel(2, low).1);
@@ -483,7 +517,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("corner.gif");
         {
-            let mut animation = Animation::create(&path, 50).unwrap();
+            let mut animation = Animation::create(&path, &snapshot.domain, 50).unwrap();
             let style = Style {
                 title: "corner".into(),
                 ppm: 200.0,

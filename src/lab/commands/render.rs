@@ -120,7 +120,8 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
                 (frames, _) => frames,
             };
             let staged = first.take().expect("the GIF's output").staged()?;
-            let mut animation = Animation::create(staged.path(), args.delay_ms)?;
+            let mut animation =
+                Animation::create(staged.path(), &simulation.params().domain, args.delay_ms)?;
             let mut frames_drawn = 0;
             run_visiting(&mut simulation, extent, frames, |simulation, step| {
                 animation.push(&Snapshot::of(simulation, step), &style)?;
