@@ -970,13 +970,49 @@ fn poiseuille_flow_reaches_the_parabola_and_a_coarse_kernel_fails_the_check() {
         "a row per lattice row"
     );
     assert!(folder.join("poiseuille.png").is_file());
+    // The start-up against the series, every tenth of the time constant W^2 / (pi^2 nu)
+    // (0.101 s) to three of them, at each resolution.
+    let startup = std::fs::read_to_string(folder.join("poiseuille-startup.csv")).unwrap();
+    let samples: Vec<[f64; 5]> = startup
+        .lines()
+        .skip(1)
+        .map(|line| {
+            let cells: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+            cells.try_into().unwrap()
+        })
+        .collect();
+    assert_eq!(samples.len(), 2 * 30, "{startup}");
+    let (tau, peak) = (
+        0.01f64.powi(2) / (std::f64::consts::PI.powi(2) * 1e-4),
+        0.01,
+    );
+    for (k, sample) in samples[30..].iter().enumerate() {
+        let [across, t, error, centre, series] = *sample;
+        assert_eq!(across, 40.0);
+        // Sampled at the end of the first step past each time (the viscous limit,
+        // 0.125 h^2 / nu, is 0.18 ms at 40 across).
+        let due = (k + 1) as f64 * 0.1 * tau;
+        assert!(t >= due && t < due + 1.8e-4, "{t} {due}");
+        assert!(error < 0.02, "{startup}");
+        assert!((centre - series).abs() < 0.02 * peak, "{startup}");
+    }
+    // One time constant on, mid-channel is 1 - 32 / (pi^3 e) = 62% of the peak.
+    let [_, _, _, centre, series] = samples[30 + 9];
+    assert!((series / peak - 0.62).abs() < 0.01, "{series}");
+    assert!((centre / peak - 0.62).abs() < 0.02, "{centre}");
+    assert!(folder.join("poiseuille-startup.png").is_file());
     // h = 1.3 spacings: the plane's lattice sums the viscous term 2.6% short, and the
     // flow runs 4% fast; the check fails, exit 1, its outputs written.
     let folder = dir.path().join("coarse");
     let output = validate(&["--across", "40", "--smoothing", "1.3"], &folder);
     assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
     assert!(
-        stderr(&output).contains("1 of 1 checks failed: the error at 40 across, 0.03"),
+        stderr(&output).contains("2 of 2 checks failed: the error at 40 across, 0.03"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(
+        stderr(&output).contains("the start-up's error at 40 across, 0.02"),
         "{}",
         stderr(&output)
     );

@@ -3,10 +3,14 @@
 //! flow (x), driven by a body force F along x (the case's gravity), reaches the parabola
 //! u(y) = F / (2 nu) y (W - y), y from the low plate, W the gap, peak F W^2 / (8 nu).
 //! The profile's error is the root mean square of each particle's u_x less the parabola
-//! at its y, over the peak.
+//! at its y, over the peak. From rest, the flow starts up as the series of Morris, Fox and
+//! Zhu (1997), "Modeling low Reynolds number incompressible flows using SPH", J. Comput.
+//! Phys. 136, 214-226, eq. (21): the parabola less its odd sine modes, each decaying as
+//! exp(-n^2 pi^2 nu t / W^2).
 
 use crate::io::case::Case;
 use crate::sim::particles::Particles;
+use std::f64::consts::PI;
 use std::ops::Range;
 
 /// A channel of a case: its gap, its low plate, the force and the viscosity.
@@ -82,6 +86,73 @@ impl Channel {
     /// The steady profile's peak, mid-channel (m/s).
     pub fn peak(&self) -> f64 {
         self.force * self.width * self.width / (8.0 * self.viscosity)
+    }
+
+    /// The slowest mode's time constant W^2 / (pi^2 nu) (s): the start-up's time scale.
+    pub fn time_constant(&self) -> f64 {
+        self.width * self.width / (PI * PI * self.viscosity)
+    }
+
+    /// The velocity along x at height `y` a time `t` (s) after the flow started from rest
+    /// (m/s): the parabola less its odd sine modes 4 F W^2 / (nu pi^3 n^3), each decaying
+    /// as exp(-n^2 t / time_constant), summed while they matter (to 1e-12 of the peak).
+    pub fn velocity_at(&self, y: f64, t: f64) -> f64 {
+        let phase = PI * (y - self.low) / self.width;
+        let amplitude = 4.0 * self.force * self.width * self.width / (self.viscosity * PI.powi(3));
+        let decay = t / self.time_constant();
+        let mut u = self.velocity(y);
+        for n in (1..MOST_MODES).step_by(2) {
+            let n = n as f64;
+            let term = amplitude / n.powi(3) * (-n * n * decay).exp();
+            if term < 1e-12 * self.peak() {
+                break;
+            }
+            u -= term * (n * phase).sin();
+        }
+        u
+    }
+}
+
+/// The most sine modes [`Channel::velocity_at`] sums (at t = 0, where they decay least,
+/// the last leaves an error near 1e-7 of the peak).
+const MOST_MODES: usize = 4001;
+
+/// The start-up at one time: the error of every particle's u_x against the series, and
+/// the flow at mid-channel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StartUp {
+    /// The time since the flow started (s).
+    pub time: f64,
+    /// The root mean square of u_x less the series at each particle's y, over the peak.
+    pub error: f64,
+    /// The mean u_x of the particles within a lattice spacing of mid-channel (m/s).
+    pub centre: f64,
+    /// The series' mean at the same particles (m/s).
+    pub centre_series: f64,
+}
+
+impl StartUp {
+    /// The start-up of `particles` in `channel` at `time`, `spacing` apart.
+    pub fn of(channel: &Channel, particles: &Particles, time: f64, spacing: f64) -> StartUp {
+        let middle = channel.low + 0.5 * channel.width;
+        let (mut squares, mut centre, mut centre_series, mut near) = (0.0, 0.0, 0.0, 0);
+        for slot in 0..particles.len() {
+            let (y, u) = (particles.p[1][slot], particles.v[0][slot]);
+            let series = channel.velocity_at(y, time);
+            squares += (u - series).powi(2);
+            if (y - middle).abs() < spacing {
+                centre += u;
+                centre_series += series;
+                near += 1;
+            }
+        }
+        let near = near.max(1) as f64;
+        StartUp {
+            time,
+            error: (squares / particles.len().max(1) as f64).sqrt() / channel.peak(),
+            centre: centre / near,
+            centre_series: centre_series / near,
+        }
     }
 }
 
@@ -170,5 +241,57 @@ mod tests {
         let fast = Profile::of(&c, &particles, 2);
         assert!((fast.error - 0.01).abs() < 1e-12, "{}", fast.error);
         assert!((order((0.04, 20), (0.01, 40)) - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_series_starts_at_rest_and_tends_to_the_parabola() {
+        let c = channel();
+        for k in 0..=10 {
+            let y = c.low + k as f64 / 10.0 * c.width;
+            // At rest at the start, to the series' truncation.
+            assert!(c.velocity_at(y, 0.0).abs() < 1e-6 * c.peak(), "{y}");
+            // The parabola after many time constants.
+            let late = c.velocity_at(y, 40.0 * c.time_constant());
+            assert!((late - c.velocity(y)).abs() < 1e-15, "{y}");
+        }
+        // Mid-channel, one time constant on: the first modes' sum, computed apart.
+        let t = c.time_constant();
+        let modes: f64 = [1.0f64, 3.0, 5.0, 7.0, 9.0]
+            .iter()
+            .map(|&n| {
+                let sign = if (n as i32 / 2) % 2 == 0 { 1.0 } else { -1.0 };
+                sign * 32.0 / (PI.powi(3) * n.powi(3)) * (-n * n).exp()
+            })
+            .sum();
+        let expected = c.peak() * (1.0 - modes);
+        assert!((c.velocity_at(0.0, t) - expected).abs() < 1e-12 * c.peak());
+        // About 63% of the way there, as the first mode alone says.
+        let fraction = c.velocity_at(0.0, t) / c.peak();
+        assert!((fraction - (1.0 - 32.0 / PI.powi(3) / std::f64::consts::E)).abs() < 1e-4);
+    }
+
+    #[test]
+    fn a_start_up_measures_against_the_series_at_its_time() {
+        let c = channel();
+        let t = 0.5 * c.time_constant();
+        let mut particles = Particles::zeroed(3);
+        for (slot, y) in [-0.004, 0.0, 0.0001].into_iter().enumerate() {
+            particles.p[1][slot] = y;
+            particles.v[0][slot] = c.velocity_at(y, t);
+        }
+        let exact = StartUp::of(&c, &particles, t, 0.00025);
+        assert_eq!(exact.error, 0.0);
+        assert_eq!(exact.centre, exact.centre_series);
+        // Only the two particles within a spacing of the middle are the centre's.
+        let centre = (c.velocity_at(0.0, t) + c.velocity_at(0.0001, t)) / 2.0;
+        assert!((exact.centre - centre).abs() < 1e-18);
+        particles.v[0][0] += 0.03 * c.peak();
+        let off = StartUp::of(&c, &particles, t, 0.00025);
+        assert!(
+            (off.error - 0.03 / 3f64.sqrt()).abs() < 1e-12,
+            "{}",
+            off.error
+        );
+        assert_eq!(off.centre, exact.centre);
     }
 }

@@ -43,7 +43,8 @@ pub enum Experiment {
     StillWater,
     /// Water between two plates, periodic along the flow, driven by a body force (--case,
     /// e.g. cases/poiseuille.toml): the steady velocity profile against the parabola at
-    /// each --across resolution, and the order of convergence.
+    /// each --across resolution, the order of convergence, and the start-up from rest
+    /// against the series solution.
     Poiseuille,
 }
 
@@ -834,7 +835,7 @@ fn poiseuille(
     across: &[usize],
     stdout: &mut impl Write,
 ) -> Result<(), Box<dyn Error>> {
-    use crate::lab::poiseuille::{order, Channel, Profile};
+    use crate::lab::poiseuille::{order, Channel, Profile, StartUp};
     let mut args = SimulationArgs::of_case(path);
     args.water = water.clone();
     args.read_case(&mut None)?;
@@ -867,6 +868,9 @@ fn poiseuille(
         let started = Instant::now();
         let mut progress = Progress::towards(Goal::Until(end)).labelled(format!("{count} across"));
         let mut step = 0;
+        // The start-up, sampled at the end of the first step at or past each time.
+        let mut samples = startup_times(&channel, end).peekable();
+        let mut startup = Vec::new();
         while !simulation.has_reached(end) {
             simulation.step_towards(end);
             step += 1;
@@ -875,27 +879,49 @@ fn poiseuille(
                 progress.finish();
                 return Err(format!("--across {count}: {failure}").into());
             }
+            if samples.next_if(|&t| simulation.has_reached(t)).is_some() {
+                let (particles, t) = (simulation.particles(), simulation.time());
+                startup.push(StartUp::of(&channel, particles, t, 1.0 / ppm));
+            }
         }
         progress.finish();
         let seconds = started.elapsed().as_secs_f64();
         let profile = Profile::of(&channel, simulation.particles(), count);
-        runs.push((count, simulation.particles().len(), seconds, profile));
+        runs.push(ChannelRun {
+            across: count,
+            particles: simulation.particles().len(),
+            seconds,
+            profile,
+            startup,
+        });
     }
     let _folder = create_output_dir(folder)?;
     let profiles_path = folder.join("poiseuille.csv");
     let errors_path = folder.join("poiseuille-errors.csv");
-    let (profiles_file, errors_file) = (
+    let startup_path = folder.join("poiseuille-startup.csv");
+    let (profiles_file, errors_file, startup_file) = (
         OutputFile::create(&profiles_path)?,
         OutputFile::create(&errors_path)?,
+        OutputFile::create(&startup_path)?,
     );
     let mut profiles = "across,y_m,u_m_s,u_analytic_m_s\n".to_string();
     let mut errors = "across,particles,l2_error,order,cpu_s\n".to_string();
-    for (index, (count, particles, seconds, profile)) in runs.iter().enumerate() {
+    let mut startups = "across,t_s,l2_error,centre_u_m_s,centre_u_series_m_s\n".to_string();
+    for (index, run) in runs.iter().enumerate() {
+        let ChannelRun {
+            across: count,
+            particles,
+            seconds,
+            profile,
+            startup,
+        } = run;
         for &(y, u) in &profile.rows {
             let numbers = [y, u, channel.velocity(y)].map(format_shortest);
             profiles += &format!("{count},{}\n", numbers.join(","));
         }
-        let previous = index.checked_sub(1).map(|k| (runs[k].3.error, runs[k].0));
+        let previous = index
+            .checked_sub(1)
+            .map(|k| (runs[k].profile.error, runs[k].across));
         let order = previous.map(|coarse| order(coarse, (profile.error, *count)));
         let shown = order.map_or(String::new(), format_shortest);
         errors += &format!(
@@ -909,9 +935,24 @@ fn poiseuille(
             profile.error,
             order.map_or("none".to_string(), |order| format!("{order:.2}")),
         )?;
+        for sample in startup {
+            let numbers = [
+                sample.time,
+                sample.error,
+                sample.centre,
+                sample.centre_series,
+            ];
+            let numbers = numbers.map(format_shortest).join(",");
+            startups += &format!("{count},{numbers}\n");
+        }
+        if let Some(worst) = worst_startup(startup) {
+            writeln!(
+                stdout,
+                "startup across={count} worst_l2_error={:.4} at_t={:.3}",
+                worst.error, worst.time
+            )?;
+        }
     }
-    profiles_file.commit(profiles.as_bytes())?;
-    errors_file.commit(errors.as_bytes())?;
     let machine = Machine::this();
     let footer = format!(
         "{}: W = {} m, F = {} m/s^2, nu = {} m^2/s, peak {:.4} m/s, to {end} s; {}, commit {}",
@@ -933,7 +974,11 @@ fn poiseuille(
         })
         .collect();
     let series = std::iter::once(("parabola".to_string(), parabola)).chain(runs.iter().map(
-        |(count, _, _, profile)| {
+        |ChannelRun {
+             across: count,
+             profile,
+             ..
+         }| {
             let points = profile
                 .rows
                 .iter()
@@ -956,9 +1001,16 @@ fn poiseuille(
         legend: SeriesLabelPosition::LowerRight,
         footer,
     };
-    for written in chart::render(&chart, folder, chart::SIZE)?
+    let startup_chart = startup_chart(&channel, &runs, &chart.footer);
+    // The charts first: a full disk leaves no CSV.
+    let mut written = chart::render(&chart, folder, chart::SIZE)?.to_vec();
+    written.extend(chart::render(&startup_chart, folder, chart::SIZE)?);
+    profiles_file.commit(profiles.as_bytes())?;
+    errors_file.commit(errors.as_bytes())?;
+    startup_file.commit(startups.as_bytes())?;
+    for written in written
         .iter()
-        .chain([&profiles_path, &errors_path])
+        .chain([&profiles_path, &errors_path, &startup_path])
     {
         writeln!(stdout, "wrote {}", written.display())?;
     }
@@ -966,7 +1018,13 @@ fn poiseuille(
     // the finest resolution than at the coarsest.
     let mut failed = Vec::new();
     let mut checks = 0;
-    for (count, _, _, profile) in &runs {
+    for ChannelRun {
+        across: count,
+        profile,
+        startup,
+        ..
+    } in &runs
+    {
         checks += 1;
         // A NaN error fails.
         let within = profile.error <= POISEUILLE_TOLERANCE;
@@ -976,21 +1034,107 @@ fn poiseuille(
                 profile.error
             ));
         }
+        // The start-up as close to the series at every sampled time (a run too short
+        // to sample has none to check).
+        if let Some(worst) = worst_startup(startup) {
+            checks += 1;
+            let within = worst.error <= POISEUILLE_TOLERANCE;
+            if !within {
+                failed.push(format!(
+                    "the start-up's error at {count} across, {:.4} at {:.3} s, is past \
+                     {POISEUILLE_TOLERANCE}",
+                    worst.error, worst.time
+                ));
+            }
+        }
     }
     if let (Some(coarsest), Some(finest)) = (runs.first(), runs.last()) {
         if runs.len() > 1 {
             checks += 1;
-            let converging = finest.3.error <= coarsest.3.error;
+            let converging = finest.profile.error <= coarsest.profile.error;
             if !converging {
                 failed.push(format!(
                     "the error grows with resolution ({:.4} at {} across, {:.4} at {})",
-                    coarsest.3.error, coarsest.0, finest.3.error, finest.0
+                    coarsest.profile.error, coarsest.across, finest.profile.error, finest.across
                 ));
             }
         }
     }
     let subject = format!("{}: ", path.display());
     verdict(subject, failed, checks, "checks", ", ")
+}
+
+/// One resolution of the Poiseuille validation: its particles across, its particle count,
+/// its CPU seconds, its steady profile and its start-up.
+struct ChannelRun {
+    across: usize,
+    particles: usize,
+    seconds: f64,
+    profile: crate::lab::poiseuille::Profile,
+    startup: Vec<crate::lab::poiseuille::StartUp>,
+}
+
+/// The times the Poiseuille start-up is sampled at: every tenth of the channel's time
+/// constant, to three of them (where the flow is within 5% of steady), up to `end`.
+fn startup_times(channel: &crate::lab::poiseuille::Channel, end: f64) -> impl Iterator<Item = f64> {
+    let tau = channel.time_constant();
+    (1..=30)
+        .map(move |k| k as f64 * 0.1 * tau)
+        .filter(move |&t| t <= end)
+}
+
+/// The sample of `startup` furthest from the series (a NaN error the furthest).
+fn worst_startup(
+    startup: &[crate::lab::poiseuille::StartUp],
+) -> Option<crate::lab::poiseuille::StartUp> {
+    startup
+        .iter()
+        .copied()
+        .max_by(|a, b| match (a.error.is_nan(), b.error.is_nan()) {
+            (false, false) => a.error.total_cmp(&b.error),
+            (nan_a, nan_b) => nan_a.cmp(&nan_b),
+        })
+}
+
+/// The chart of the start-up: mid-channel velocity over the peak against time over the
+/// time constant, the series and each resolution's samples.
+fn startup_chart(
+    channel: &crate::lab::poiseuille::Channel,
+    runs: &[ChannelRun],
+    footer: &str,
+) -> PointChart {
+    let (tau, peak) = (channel.time_constant(), channel.peak());
+    let middle = channel.low + 0.5 * channel.width;
+    let series_line: Vec<(f64, f64)> = (0..=60)
+        .map(|k| {
+            let t = k as f64 * 0.05 * tau;
+            (t / tau, channel.velocity_at(middle, t) / peak)
+        })
+        .collect();
+    let samples = runs.iter().map(|run| {
+        let points = run
+            .startup
+            .iter()
+            .map(|sample| (sample.time / tau, sample.centre / peak));
+        (format!("{} across", run.across), points.collect())
+    });
+    PointChart {
+        name: "poiseuille-startup",
+        title: "Poiseuille flow: the start-up at mid-channel against the series".into(),
+        x_label: "t nu pi^2 / W^2".into(),
+        x_log: false,
+        y_label: "u(W/2) / u_peak".into(),
+        y_log: false,
+        series: std::iter::once(("series (Morris et al. 1997)".to_string(), series_line))
+            .chain(samples)
+            .collect(),
+        measured: 1,
+        lines: false,
+        fronts: Vec::new(),
+        notes: Vec::new(),
+        legend: SeriesLabelPosition::LowerRight,
+        footer: footer.to_string(),
+    }
 }
 
 /// Runs the still-water case at `path` to its end (the weakly compressible model's
