@@ -6,7 +6,8 @@
 # (docs/accuracy/*/, scripts/accuracy-sweeps.sh) and the stability map of every model,
 # precision and time-step rule (docs/stability/), and every model against the dam-break
 # experiments of Martin and Moyce and of Koshizuka and Oka (docs/validation/; the
-# settings table docs/validation/settings.md is scripts/water-settings.sh's).
+# settings table docs/validation/settings.md is scripts/water-settings.sh's), and the
+# 2-D validations (docs/validation/{2d,still-water-2d,poiseuille}/).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -25,3 +26,12 @@ scripts/accuracy-sweeps.sh docs/accuracy
 { "$lab" validate dam-break --models course,fluidanimate,wcsph --ppms 200,300,400,600 --width 0.026 \
     --until-t 3.65 --output-dir docs/validation || [ $? -eq 1 ]; } | tee docs/validation/summary.txt
 scripts/water-settings.sh target/water-settings >docs/validation/settings.md
+# In two dimensions: the dam break beside 3-D, still water, and Poiseuille flow (its
+# steady profile and start-up). A validation whose check fails exits 1 after its outputs.
+mkdir -p docs/validation/2d docs/validation/still-water-2d docs/validation/poiseuille
+{ "$lab" validate dam-break --dimensions 2,3 --models wcsph --ppms 200,300,400,600 --width 0.026 \
+    --until-t 3.65 --output-dir docs/validation/2d || [ $? -eq 1 ]; } | tee docs/validation/2d/summary.txt
+"$lab" validate still-water --case cases/still-water-2d.toml --output-dir docs/validation/still-water-2d \
+    | tee docs/validation/still-water-2d/summary.txt
+"$lab" --quiet validate poiseuille --case cases/poiseuille.toml --output-dir docs/validation/poiseuille \
+    | tee docs/validation/poiseuille/summary.txt
