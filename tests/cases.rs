@@ -1377,6 +1377,24 @@ fn faces_periodic_axes_and_resolutions_that_cannot_be_are_usage_errors() {
     .unwrap();
     let (poiseuille, dam_2d) = (case("poiseuille"), case("dam-break-2d"));
     let (poiseuille, dam_2d) = (poiseuille.to_str().unwrap(), dam_2d.to_str().unwrap());
+    // A 3-D channel driven along x, periodic along x: --periodic z replaces its axes and
+    // leaves the force along a wall (the fourth hostile pass ran it, exit 0).
+    let channel = at("channel.toml");
+    std::fs::write(
+        &channel,
+        "[domain]\nperiodic = [\"x\"]\nbox_min_m = [0.0, 0.0, 0.0]\n\
+         box_max_m = [0.1, 0.1, 0.1]\ngravity_m_s2 = [0.5, 0.0, 0.0]\n[fluid]\n\
+         particles_per_m = 100.0\n[[fluid.box]]\nmin_m = [0.0, 0.0, 0.0]\n\
+         max_m = [0.05, 0.05, 0.1]\n[model]\nname = \"wcsph\"\n[run]\nsteps = 5\n",
+    )
+    .unwrap();
+    // A case's face on its periodic axis: at its key, as any case fault.
+    let faces = at("faces.toml");
+    let on_periodic = std::fs::read_to_string(poiseuille).unwrap().replace(
+        "name = \"wcsph\"",
+        "name = \"wcsph\"\nfaces = { x_low = \"free-slip\" }",
+    );
+    std::fs::write(&faces, on_periodic).unwrap();
     let out = at("o");
     let tries: Vec<(Vec<&str>, String)> = vec![
         (
@@ -1469,14 +1487,32 @@ fn faces_periodic_axes_and_resolutions_that_cannot_be_are_usage_errors() {
             vec!["run", "--resume", &out, &out, "--periodic", "x"],
             "--periodic: a resumed run keeps its checkpoint's periodic axes".into(),
         ),
+        (
+            vec!["run", "--case", &channel, &out, "--periodic", "z"],
+            "with --periodic: the water model's floor is the box's low y wall, and its sound \
+             speed follows g: its gravity_m_s2 is [0, -g, 0] with g >= 0.01 m/s^2 (or a body \
+             force along periodic axes, at least as strong)"
+                .into(),
+        ),
+        (
+            vec!["run", "--case", &faces, &out],
+            format!("{faces}:26:19: the face x_low is periodic: it has no wall to choose"),
+        ),
     ];
     for (args, message) in tries {
         let output = run_lab(&args);
         assert_refused(&output, 2, &format!("fluid-lab: error: {message}"));
         assert!(
-            entries(dir.path()) == ["periodic.toml"],
+            entries(dir.path()) == ["channel.toml", "faces.toml", "periodic.toml"],
             "{args:?} left files"
         );
+    }
+    // The channel runs with its own axes, and with the flag adding z to them.
+    for extra in [&[][..], &["--periodic", "x,z"]] {
+        let mut args = vec!["run", "--case", &channel, &out];
+        args.extend(extra);
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 0, "{extra:?}: {}", stderr(&output));
     }
 }
 

@@ -469,16 +469,15 @@ pub fn parse(text: &str, file: &str) -> Result<Case, CaseError> {
 fn planar_zs(document: &toml::Spanned<toml::de::DeTable>) -> Result<Vec<String>, Fault> {
     use toml::de::DeValue;
     // Any other number of dimensions is refused before the points are read.
+    // (A value that is no whole number, 2.0 or "2", is refused here too, at its key.)
     let given = document.get_ref().get("domain").and_then(|domain| {
         let value = domain.get_ref().as_table()?.get("dimensions")?;
-        Some((
-            value.span(),
-            value.get_ref().as_integer()?.as_str().parse::<u64>(),
-        ))
+        let whole = value.get_ref().as_integer();
+        Some((value.span(), whole.map(|n| n.as_str().parse::<u64>())))
     });
     match given {
-        Some((_, Ok(2))) => {}
-        Some((span, dimensions)) if !matches!(dimensions, Ok(3)) => {
+        Some((_, Some(Ok(2)))) => {}
+        Some((span, dimensions)) if !matches!(dimensions, Some(Ok(3))) => {
             return Err((span, "dimensions must be 2 or 3".into()));
         }
         _ => return Ok(Vec::new()),
@@ -700,7 +699,7 @@ fn in_case_words(message: &str) -> String {
             .to_string();
     }
     words = words.replace("unknown field `", "unknown key `");
-    const WORDS: [(&str, &str); 16] = [
+    const WORDS: [(&str, &str); 17] = [
         ("expected f64", "expected a number"),
         ("expected f32", "expected a number"),
         ("expected u64", "expected a whole number, 0 or more"),
@@ -710,6 +709,7 @@ fn in_case_words(message: &str) -> String {
         ("expected a string", "expected text in quotes"),
         ("expected a boolean", "expected true or false"),
         ("expected a sequence", "expected a list"),
+        ("expected a map", "expected a table"),
         ("invalid type: map", "invalid type: a table"),
         ("invalid type: sequence", "invalid type: a list"),
         ("invalid type: string", "invalid type: text"),
@@ -1240,6 +1240,10 @@ mod tests {
                 "invalid type: the whole number `3`, expected text in quotes",
             ),
             (
+                "invalid type: string \"free-slip\", expected a map",
+                "invalid type: text \"free-slip\", expected a table",
+            ),
+            (
                 "invalid type: string \"x\", expected struct PointGauge",
                 "invalid type: text \"x\", expected a table",
             ),
@@ -1428,9 +1432,12 @@ folder = "out"
         let (at, message) = fault("box_max_m = [0.065, 0.1]\n", "");
         assert_eq!(at, (3, 14));
         assert_eq!(message, "a 2-D case gives its box: box_max_m = [x, y]");
-        let (at, message) = fault("dimensions = 2", "dimensions = 4");
-        assert_eq!(at, (3, 14));
-        assert_eq!(message, "dimensions must be 2 or 3");
+        // Any other value, a whole number or not, at its key (not at the 2-number box).
+        for other in ["4", "2.0", "\"2\"", "[2]"] {
+            let (at, message) = fault("dimensions = 2", &format!("dimensions = {other}"));
+            assert_eq!(at, (3, 14), "{other}");
+            assert_eq!(message, "dimensions must be 2 or 3", "{other}");
+        }
         // A sphere is a disc: its radius reaches along x and y only.
         let wide = fault("radius_m = 0.01", "radius_m = 0.07").1;
         assert_eq!(wide, "a sphere of fluid reaches outside the domain");

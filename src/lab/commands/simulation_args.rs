@@ -95,19 +95,20 @@ impl SimulationArgs {
     /// The domain a run takes: `domain` (a case's, or SPEC.md's) with `--periodic`'s axes
     /// if given, refused (a usage error) for a model other than the water model, or along
     /// z in 2-D.
-    fn with_periodic(&self, mut domain: params::Domain) -> Result<params::Domain, UsageError> {
+    fn with_periodic(&self, mut domain: params::Domain) -> Result<params::Domain, Box<dyn Error>> {
         if let Some(axes) = &self.periodic {
             if super::repeats(axes) {
-                return Err(UsageError("--periodic names each axis once".into()));
+                return Err(UsageError("--periodic names each axis once".into()).into());
             }
             if self.model() != Model::Wcsph {
                 return Err(UsageError(format!(
                     "--periodic is the water model's (wcsph), not {}'s",
                     self.model().name()
-                )));
+                ))
+                .into());
             }
             if domain.planar && axes.contains(&PeriodicAxis::Z) {
-                return Err(UsageError("--periodic z: a 2-D case has no z faces".into()));
+                return Err(UsageError("--periodic z: a 2-D case has no z faces".into()).into());
             }
             domain.periodic = [
                 axes.contains(&PeriodicAxis::X),
@@ -119,30 +120,41 @@ impl SimulationArgs {
         Ok(domain)
     }
 
-    /// Refuses a face's friction (from the case or --face) where `domain` has no wall:
-    /// along a periodic axis, or along z in 2-D; and --face naming a face twice.
-    fn check_faces(&self, domain: &params::Domain) -> Result<(), UsageError> {
+    /// Refuses a face's friction (from the case, at its key, or --face) where `domain`
+    /// has no wall: along a periodic axis, or along z in 2-D; and --face naming a face
+    /// twice.
+    fn check_faces(&self, domain: &params::Domain) -> Result<(), Box<dyn Error>> {
         let flags = &self.water.faces;
         let named: Vec<usize> = flags.iter().map(|&(face, _)| face).collect();
         if super::repeats(&named) {
-            return Err(UsageError("--face names each face once".into()));
+            return Err(UsageError("--face names each face once".into()).into());
         }
-        let faces = self.water.case_faces.iter().chain(flags);
-        for &(face, _) in faces {
+        let why_not = |face: usize| {
             let axis = face / 2;
-            if domain.periodic[axis] || (domain.planar && axis == 2) {
-                let why = if domain.periodic[axis] {
-                    "is periodic"
-                } else {
-                    "is not in a 2-D scene"
-                };
-                return Err(UsageError(format!(
-                    "the face {} {why}: it has no wall to choose",
-                    FACES[face]
-                )));
+            let why = match (domain.periodic[axis], domain.planar && axis == 2) {
+                (true, _) => "is periodic",
+                (false, true) => "is not in a 2-D scene",
+                (false, false) => return None,
+            };
+            Some(format!(
+                "the face {} {why}: it has no wall to choose",
+                FACES[face]
+            ))
+        };
+        let case_faces = self
+            .read
+            .iter()
+            .filter_map(|case| case.model.faces.as_ref());
+        for (name, kind) in case_faces.flat_map(|faces| faces.get_ref()) {
+            let face = FACES.iter().position(|known| known == name);
+            if let Some(why) = face.and_then(why_not) {
+                return Err(self.at_key(kind.span(), why));
             }
         }
-        Ok(())
+        match flags.iter().find_map(|&(face, _)| why_not(face)) {
+            Some(why) => Err(UsageError(why).into()),
+            None => Ok(()),
+        }
     }
 }
 
@@ -491,8 +503,11 @@ fn driven_channel(domain: &params::Domain) -> bool {
 /// What a model asks of a case's domain, or the key that breaks it and why: the course
 /// model keeps SPEC.md's box and gravity; the water model's floor is the box's low y
 /// wall, so its gravity points down y; only the water model runs in 2-D.
-fn check_domain(domain: &case::Domain, model: Model) -> Result<(), (Range<usize>, String)> {
-    let simulated = domain.simulated();
+fn check_domain(
+    domain: &case::Domain,
+    simulated: &params::Domain,
+    model: Model,
+) -> Result<(), (Range<usize>, String)> {
     let course = params::Domain::COURSE;
     let keys = [
         (&domain.box_min_m, course.min),
@@ -544,7 +559,7 @@ fn check_domain(domain: &case::Domain, model: Model) -> Result<(), (Range<usize>
                 course.gravity.to_array()
             ),
         )),
-        (Model::Wcsph, _) if driven_channel(&simulated) => Ok(()),
+        (Model::Wcsph, _) if driven_channel(simulated) => Ok(()),
         (Model::Wcsph, _) if !pull.is_some_and(|g| g >= MIN_WATER_GRAVITY) => Err((
             domain.gravity_m_s2.span(),
             format!(
@@ -620,9 +635,13 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             let spacing = &case.fluid.particles_per_m;
             let ppm = *spacing.get_ref();
             let regions = Region::of_case(&case.fluid);
-            let domain = args.with_periodic(case.domain.simulated())?;
-            check_domain(&case.domain, method.model)
+            let own = case.domain.simulated();
+            check_domain(&case.domain, &own, method.model)
                 .map_err(|(span, why)| args.at_key(span, why))?;
+            // --periodic's axes replace the case's: the domain they make checked too.
+            let domain = args.with_periodic(own)?;
+            check_domain(&case.domain, &domain, method.model)
+                .map_err(|(_, why)| UsageError(format!("with --periodic: {why}")))?;
             check_memory(case).map_err(|why| args.at_key(spacing.span(), why))?;
             let particles = scene::filled(ppm, case.fluid.seed, &regions, &domain)
                 .map_err(|error| args.at_key(spacing.span(), error))?;
