@@ -423,6 +423,8 @@ fn an_accuracy_array_runs_its_reference_after_the_methods_and_merges_as_the_swee
         let output = task(index);
         assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     }
+    // The merge makes the subcommand's folder where it is gone, as the subcommand would.
+    std::fs::remove_dir(&out).unwrap();
     let merged = slurm.merge(&job_dir, &[]);
     assert_eq!(exit_code(&merged), 0, "{}", stderr(&merged));
     let report = stdout(&merged);
@@ -886,4 +888,87 @@ fn submit_stability(slurm: &FakeSlurm, job_dir: &Path, out: &Path) -> std::proce
     submit.push("--output-dir".into());
     submit.push(out.into());
     run_lab(&submit)
+}
+
+#[test]
+fn an_accuracy_array_of_a_case_merges_and_refuses_shards_of_two_scenes() {
+    let temp = tempfile::tempdir().unwrap();
+    let slurm = FakeSlurm::in_folder(temp.path(), "exit 1");
+    let case = temp.path().join("dam.toml");
+    let original = read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/dam-break-2d.toml"));
+    std::fs::write(&case, &original).unwrap();
+    let submit_to = |job_dir: &Path, out: &Path| {
+        let mut args: Vec<std::ffi::OsString> = vec![
+            "slurm".into(),
+            "submit".into(),
+            "--job-dir".into(),
+            job_dir.into(),
+        ];
+        args.extend(slurm.options(&["sbatch", "squeue"]));
+        args.push("--".into());
+        for arg in ["accuracy", "--case"] {
+            args.push(arg.into());
+        }
+        args.push(case.clone().into());
+        for arg in [
+            "--kernels",
+            "simd",
+            "--integrators",
+            "verlet",
+            "--adaptive",
+            "",
+            "--dt-factors",
+            "0.1",
+            "--times",
+            "0.001",
+            "--output-dir",
+        ] {
+            args.push(arg.into());
+        }
+        args.push(out.into());
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+        let points = read(&job_dir.join("points.txt")).lines().count();
+        (0..points).map(|k| k.to_string()).collect::<Vec<_>>()
+    };
+    // The case's 2-D column, 128 particles, in every shard: the merge measures them.
+    let (job, out) = (temp.path().join("job"), temp.path().join("acc"));
+    let points = submit_to(&job, &out);
+    for index in &points {
+        let output = task_of_job_77(&job, index, "node-a");
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    }
+    let merged = slurm.merge(&job, &[]);
+    assert_eq!(exit_code(&merged), 0, "{}", stderr(&merged));
+    let rows = read(&out.join("accuracy.csv"));
+    assert!(
+        column(&rows, "particles").iter().all(|n| n == "128"),
+        "{rows}"
+    );
+    let errors = column(&rows, "median_error_m");
+    assert!(errors
+        .iter()
+        .any(|e| e.parse::<f64>().is_ok_and(|e| e > 0.0)));
+    // The case edited between the tasks: the merge names the two scenes, writes nothing.
+    let (job, out) = (temp.path().join("job2"), temp.path().join("acc2"));
+    let points = submit_to(&job, &out);
+    for (k, index) in points.iter().enumerate() {
+        if k == 1 {
+            let coarser = original.replace("particles_per_m = 300.0", "particles_per_m = 200.0");
+            std::fs::write(&case, coarser).unwrap();
+        }
+        let output = task_of_job_77(&job, index, "node-a");
+        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    }
+    let merged = slurm.merge(&job, &[]);
+    assert_eq!(exit_code(&merged), 1, "{}", stderr(&merged));
+    assert!(
+        stderr(&merged).contains(
+            "the shards ran scenes of 128 and 55 particles: the input changed while the job \
+             ran; submit it again"
+        ),
+        "{}",
+        stderr(&merged)
+    );
+    assert!(!out.join("accuracy.csv").exists());
 }

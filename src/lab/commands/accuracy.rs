@@ -323,6 +323,20 @@ impl AccuracyArgs {
         let (index_column, requested) = (column("slurm_array_index")?, column("requested_time_s")?);
         let first_error = column("median_error_m")?;
         let records: Vec<csv::StringRecord> = reader.records().collect::<Result<_, _>>()?;
+        // Every shard ran the one scene: an input edited while the job ran would measure
+        // methods against another scene's reference.
+        let particles = column("particles")?;
+        let mut counts: Vec<&str> = records.iter().map(|record| &record[particles]).collect();
+        counts.sort_unstable();
+        counts.dedup();
+        if counts.len() > 1 {
+            return Err(format!(
+                "the shards ran scenes of {} particles: the input changed while the job ran; \
+                 submit it again",
+                counts.join(" and ")
+            )
+            .into());
+        }
         // Each point's rows are contiguous (a shard each), in the order of its run.
         let mut order: Vec<usize> = Vec::new();
         for record in &records {

@@ -600,10 +600,12 @@ fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
         )?;
     }
     let csv_path = tool.csv_path();
-    tool.create_folder()?;
+    // The subcommand's folder, made if it is not there (removed again if the merge fails).
+    let folder = tool.create_folder()?;
     let rows = tool.complete(merged.csv, &dir, job.points.len())?;
     tool.check(&rows, &csv_path)?;
     OutputFile::create(&csv_path)?.commit(&rows)?;
+    folder.into_iter().for_each(MadeFolder::keep);
     writeln!(
         stdout,
         "wrote {} ({} rows of {} points)",
