@@ -677,6 +677,26 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         );
         assert!(!folder.exists(), "{name} {value}");
     }
+    // Its charts drawn for another input are refused: the rows are of small.fld.
+    let large = common::input("large");
+    let folder = dir.path().join("other");
+    let other = run_lab(&[
+        "accuracy".as_ref(),
+        large.as_os_str(),
+        "--from-csv".as_ref(),
+        dir.path().join("accuracy.csv").as_os_str(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&other), 1, "{}", stderr(&other));
+    assert!(
+        stderr(&other).contains(
+            "its rows are of small.fld (4800 particles), not of large.fld (15138 particles)"
+        ),
+        "{}",
+        stderr(&other)
+    );
+    assert!(!folder.exists());
 
     let bad = run_lab(&[
         "accuracy".as_ref(),

@@ -42,7 +42,9 @@ pub struct AccuracyArgs {
     /// Physical model of the scene [default: the case's, else fluidanimate]
     #[arg(long, value_enum)]
     model: Option<Model>,
-    /// Kernels to compare (each with every time-step rule).
+    /// Kernels to compare (each with every time-step rule). The model's default method
+    /// (the native kernel, its default step, the leapfrog) always runs too, first: the
+    /// baseline the others are measured against.
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = [Kernel::NATIVE, Kernel::Mixed])]
     kernels: Vec<Kernel>,
     /// Fixed time steps, as multiples of the course's 1 ms (default: 0.25, 0.5, 1, 2
@@ -489,9 +491,22 @@ impl AccuracyArgs {
                 .unwrap_or("unknown")
                 .to_string()
         };
+        // The rows are of this scene: its file name and its particle count.
+        let start = self.start()?;
+        let (scene, particles) = (cell("scene"), cell("particles"));
+        if scene != start.file_name || particles != start.particles.to_string() {
+            return Err(format!(
+                "{}: its rows are of {scene} ({particles} particles), not of {} ({} \
+                 particles): give the input or case its sweep ran",
+                csv.display(),
+                start.file_name,
+                start.particles
+            )
+            .into());
+        }
         self.report(
             &sweep,
-            &self.start()?,
+            &start,
             &cell("cpu_model"),
             &cell("commit"),
             stdout,
