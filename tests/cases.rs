@@ -365,7 +365,14 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
         (
             "max_m = [-0.012999999999999998, 0.046, 0.065]",
             "max_m = [-0.0649, -0.0799, -0.0649]",
-            "hold no lattice point",
+            "this fill holds no lattice point at 400 particles per metre",
+        ),
+        // An empty fill beside one that holds points (the fifth hostile pass ran it).
+        (
+            "max_m = [-0.012999999999999998, 0.046, 0.065]",
+            "max_m = [-0.012999999999999998, 0.046, 0.065]\n\n[[fluid.sphere]]\n\
+             centre_m = [0.0, 0.0, 0.0]\nradius_m = 0.0001",
+            "this fill holds no lattice point at 400 particles per metre",
         ),
         (
             "name = \"wcsph\"",

@@ -200,19 +200,46 @@ impl SceneKind {
 /// Most lattice points the fills' bounding box may span (each is visited).
 const MAX_VISITED: f64 = 1e9;
 
+/// Why fills make no scene.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FillError {
+    /// Region `region` (its index among the fills) holds no lattice point at `ppm`.
+    Empty {
+        /// The index of the empty region.
+        region: usize,
+        /// The lattice's particles per metre.
+        ppm: f64,
+    },
+    /// Anything else, said.
+    Other(String),
+}
+
+impl std::fmt::Display for FillError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FillError::Empty { ppm, .. } => write!(
+                f,
+                "this fill holds no lattice point at {ppm} particles per metre"
+            ),
+            FillError::Other(why) => f.write_str(why),
+        }
+    }
+}
+
 /// The lattice points of `domain`'s box at `ppm` particles per metre in any of
 /// `regions`, jittered from `seed` (the model's grid is checked where the simulation is
-/// made, on its own cut-off).
+/// made, on its own cut-off). Each region holds at least one point, or the first that
+/// holds none is the error.
 pub fn filled(
     ppm: f64,
     seed: u64,
     regions: &[Region],
     domain: &Domain,
-) -> Result<Particles, String> {
+) -> Result<Particles, FillError> {
     if !(ppm.is_finite() && ppm > 0.0) {
-        return Err(format!(
+        return Err(FillError::Other(format!(
             "particles per metre {ppm} is not a finite number > 0"
-        ));
+        )));
     }
     // Only the lattice points of the regions' bounding box are visited (in the same
     // order as the whole box's, so the jitter is the same), at most MAX_VISITED.
@@ -232,20 +259,26 @@ pub fn filled(
     });
     let visited: f64 = ranges.iter().map(|range| range.len() as f64).product();
     if visited > MAX_VISITED {
-        return Err(format!(
+        return Err(FillError::Other(format!(
             "the fills' bounding box spans {visited:.3e} lattice points at {ppm} particles \
              per metre; the limit is {MAX_VISITED:.0e}"
-        ));
+        )));
     }
+    let held: Vec<std::cell::Cell<bool>> = regions.iter().map(|_| Default::default()).collect();
     let scene = lattice_within(ppm, seed, domain, ranges, |point| {
-        regions.iter().any(|region| region.holds(point))
+        let mut inside = false;
+        for (region, held) in regions.iter().zip(&held) {
+            if region.holds(point) {
+                held.set(true);
+                inside = true;
+            }
+        }
+        inside
     });
-    if scene.is_empty() {
-        return Err(format!(
-            "the fills hold no lattice point at {ppm} particles per metre"
-        ));
+    match held.iter().position(|held| !held.get()) {
+        Some(region) => Err(FillError::Empty { region, ppm }),
+        None => Ok(scene),
     }
-    Ok(scene)
 }
 
 /// Generates `kind` at `ppm` particles per metre; `seed` drives the jitter and the random
@@ -514,9 +547,16 @@ mod tests {
         };
         let error = filled(100.0, 0, &[speck], &Domain::COURSE).unwrap_err();
         assert_eq!(
-            error,
-            "the fills hold no lattice point at 100 particles per metre"
+            error.to_string(),
+            "this fill holds no lattice point at 100 particles per metre"
         );
+        // Beside a fill that holds points, the empty one is named by its index.
+        let cube = Region::Box {
+            low: DVec3::ZERO,
+            high: DVec3::splat(0.05),
+        };
+        let error = filled(100.0, 0, &[cube, speck], &Domain::COURSE).unwrap_err();
+        assert_eq!(error, FillError::Empty { region: 1, ppm: 100.0 });
         // A small fill at a fine lattice: only its own points are visited.
         let cube = Region::Box {
             low: DVec3::ZERO,
@@ -536,7 +576,7 @@ mod tests {
             centre,
             radius: 0.005,
         });
-        let error = filled(100.0, 0, &specks, &far).unwrap_err();
+        let error = filled(100.0, 0, &specks, &far).unwrap_err().to_string();
         assert!(error.contains("spans 8.000e9 lattice points"), "{error}");
     }
 

@@ -643,8 +643,18 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             check_domain(&case.domain, &domain, method.model)
                 .map_err(|(_, why)| UsageError(format!("with --periodic: {why}")))?;
             check_memory(case).map_err(|why| args.at_key(spacing.span(), why))?;
-            let particles = scene::filled(ppm, case.fluid.seed, &regions, &domain)
-                .map_err(|error| args.at_key(spacing.span(), error))?;
+            // An empty fill at its own key (the boxes, then the spheres, as `regions`).
+            let fills = case.fluid.boxes.iter().map(|fill| fill.span());
+            let fills: Vec<Range<usize>> =
+                fills.chain(case.fluid.spheres.iter().map(|fill| fill.span())).collect();
+            let particles = scene::filled(ppm, case.fluid.seed, &regions, &domain).map_err(
+                |error| match error {
+                    scene::FillError::Empty { region, .. } => {
+                        args.at_key(fills[region].clone(), error.to_string())
+                    }
+                    scene::FillError::Other(_) => args.at_key(spacing.span(), error.to_string()),
+                },
+            )?;
             let simulation = Simulation::with_dynamics(ppm, domain, particles, method, dynamics)
                 .map_err(|error| {
                     args.at_key(
