@@ -2432,3 +2432,33 @@ fn accuracy_takes_a_case_in_its_own_domain_and_model() {
         stderr(&output)
     );
 }
+
+#[test]
+fn whole_number_flags_say_their_range_in_words() {
+    // The fifth hostile pass: --across -5 was taken for a flag, 1e3 said "invalid digit
+    // found in string", and ranges showed in Rust's syntax (0 is not in 1..9223372036854775807).
+    let poiseuille = case("poiseuille");
+    for (flag, value, range) in [
+        ("--across", "-5", "from 4 to 400"),
+        ("--across", "1e3", "from 4 to 400"),
+        ("--across", "", "from 4 to 400"),
+        ("--across", "99999999999999999999", "from 4 to 400"),
+        ("--dimensions", "2.0", "from 2 to 3"),
+        ("--every", "0", "1 or more"),
+    ] {
+        let output = run_lab(&[
+            "validate".as_ref(),
+            "poiseuille".as_ref(),
+            "--case".as_ref(),
+            poiseuille.as_os_str(),
+            "--output-dir".as_ref(),
+            "never".as_ref(),
+            flag.as_ref(),
+            value.as_ref(),
+        ]);
+        assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+        let said = format!("{value} is not a whole number {range}");
+        assert!(stderr(&output).contains(&said), "{}", stderr(&output));
+        assert_eq!(stderr(&output).lines().count(), 1, "{}", stderr(&output));
+    }
+}

@@ -471,7 +471,11 @@ fn item_12_options_take_the_forms_their_help_shows() {
     };
     for (option, value, said) in [
         ("--steps", "-1", whole("-1")),
-        ("--every", "-1", "-1 is not in 1..".to_string()),
+        (
+            "--every",
+            "-1",
+            "-1 is not a whole number 1 or more".to_string(),
+        ),
         // Nor a number in another form, or past the largest.
         ("--steps", "1e3", whole("1e3")),
         (
@@ -1176,7 +1180,7 @@ fn limits_that_would_run_for_ever_or_overflow_are_refused_in_one_line() {
     let refused: [(Vec<&str>, &str); 7] = [
         (
             vec!["render", small, &gif, "--steps", "1", "--delay-ms", "4294967295"],
-            "fluid-lab: error: invalid value '4294967295' for '--delay-ms <DELAY_MS>': 4294967295 is not in 0..=655350",
+            "fluid-lab: error: invalid value '4294967295' for '--delay-ms <DELAY_MS>': 4294967295 is not a whole number from 0 to 655350",
         ),
         (
             vec!["export", small, &ex, "--until", "0.002", "--frame-every", "1e-12"],

@@ -556,7 +556,13 @@ mod tests {
             high: DVec3::splat(0.05),
         };
         let error = filled(100.0, 0, &[cube, speck], &Domain::COURSE).unwrap_err();
-        assert_eq!(error, FillError::Empty { region: 1, ppm: 100.0 });
+        assert_eq!(
+            error,
+            FillError::Empty {
+                region: 1,
+                ppm: 100.0
+            }
+        );
         // A small fill at a fine lattice: only its own points are visited.
         let cube = Region::Box {
             low: DVec3::ZERO,

@@ -504,13 +504,7 @@ impl AccuracyArgs {
             )
             .into());
         }
-        self.report(
-            &sweep,
-            &start,
-            &cell("cpu_model"),
-            &cell("commit"),
-            stdout,
-        )
+        self.report(&sweep, &start, &cell("cpu_model"), &cell("commit"), stdout)
     }
 }
 

@@ -8,7 +8,6 @@ use crate::io::export::{frames_index, pvd_collection, Snapshot};
 use crate::io::fld;
 use crate::io::output::OutputFile;
 use crate::lab::UsageError;
-use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
@@ -23,7 +22,7 @@ pub struct ExportArgs {
     #[arg(required_unless_present = "case")]
     output_dir: Option<PathBuf>,
     /// Also export every this many steps (and step 0) [default: the final state only].
-    #[arg(long, allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::whole::<u64>(1, i64::MAX as u64))]
     every: Option<u64>,
     #[command(flatten)]
     span: Span,

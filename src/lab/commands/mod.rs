@@ -91,6 +91,26 @@ pub fn repeats<T: PartialEq>(items: &[T]) -> bool {
     (1..items.len()).any(|k| items[k..].contains(&items[k - 1]))
 }
 
+/// A flag's parser of whole numbers from `low` to `high` (`high` at least 2^63-1 reads as
+/// no bound), in digits, saying so in one line otherwise (clap's own says "invalid digit
+/// found in string" or shows a Rust range).
+pub fn whole<T: TryFrom<u64>>(
+    low: u64,
+    high: u64,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static {
+    move |text| {
+        let range = match high >= i64::MAX as u64 {
+            true => format!("{low} or more"),
+            false => format!("from {low} to {high}"),
+        };
+        text.parse::<u64>()
+            .ok()
+            .filter(|number| (low..=high).contains(number))
+            .and_then(|number| T::try_from(number).ok())
+            .ok_or_else(|| format!("{text} is not a whole number {range}"))
+    }
+}
+
 /// Whether `a` and `b` name the same file: the same file on disk if both exist, else the
 /// same path once their folders are resolved.
 pub fn same_file(a: &Path, b: &Path) -> bool {
@@ -129,4 +149,30 @@ fn resolved(path: &Path) -> Option<std::path::PathBuf> {
         _ => Path::new("."),
     };
     Some(std::fs::canonicalize(folder).ok()?.join(path.file_name()?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn whole_numbers_are_read_in_digits_within_their_range_and_said_otherwise() {
+        let across = whole::<usize>(4, 400);
+        assert_eq!(across("40"), Ok(40));
+        for text in ["3", "401", "-5", "1e3", "abc", "", "99999999999999999999"] {
+            assert_eq!(
+                across(text),
+                Err(format!("{text} is not a whole number from 4 to 400")),
+            );
+        }
+        let every = whole::<u64>(1, i64::MAX as u64);
+        assert_eq!(every("9223372036854775807"), Ok(i64::MAX as u64));
+        assert_eq!(
+            every("0"),
+            Err("0 is not a whole number 1 or more".to_string())
+        );
+        assert!(every("9223372036854775808").is_err());
+        // A number the type cannot hold is refused, whatever the range says.
+        assert!(whole::<u8>(0, 1000)("300").is_err());
+    }
 }

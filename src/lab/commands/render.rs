@@ -7,7 +7,6 @@ use crate::io::export::Snapshot;
 use crate::io::output::OutputFile;
 use crate::lab::render::{self, Animation, Colouring};
 use crate::lab::UsageError;
-use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
@@ -24,7 +23,7 @@ pub struct RenderArgs {
     output: Option<PathBuf>,
     /// Draw every this many steps (and step 0) [default for .gif: 50 frames, by steps or,
     /// with --until, by simulated time].
-    #[arg(long, allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::whole::<u64>(1, i64::MAX as u64))]
     every: Option<u64>,
     #[command(flatten)]
     span: Span,
@@ -37,7 +36,7 @@ pub struct RenderArgs {
     /// Milliseconds per GIF frame (the format counts hundredths of a second: at most
     /// 655350).
     #[arg(long, allow_negative_numbers = true, default_value_t = 80,
-          value_parser = RangedI64ValueParser::<u32>::new().range(0..=655_350))]
+          value_parser = super::whole::<u32>(0, 655_350))]
     delay_ms: u32,
 }
 

@@ -16,7 +16,6 @@ use crate::lab::progress::{Goal, Progress};
 use crate::lab::UsageError;
 use crate::sim::simulation::Simulation;
 use crate::sim::skin::Skin;
-use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
@@ -35,11 +34,11 @@ pub struct RunArgs {
     #[arg(long)]
     diagnostics: Option<PathBuf>,
     /// Diagnose every this many steps (and step 0 and the last).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = super::whole::<u64>(1, i64::MAX as u64))]
     every: u64,
     /// Write the full f64 state to --checkpoint every this many steps (atomically), so a
     /// killed run loses at most this many steps.
-    #[arg(long, requires = "checkpoint", allow_negative_numbers = true, value_parser = RangedI64ValueParser::<u64>::new().range(1..))]
+    #[arg(long, requires = "checkpoint", allow_negative_numbers = true, value_parser = super::whole::<u64>(1, i64::MAX as u64))]
     checkpoint_every: Option<u64>,
     /// The checkpoint file that --checkpoint-every writes.
     #[arg(long, requires = "checkpoint_every")]

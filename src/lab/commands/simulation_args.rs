@@ -645,8 +645,9 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             check_memory(case).map_err(|why| args.at_key(spacing.span(), why))?;
             // An empty fill at its own key (the boxes, then the spheres, as `regions`).
             let fills = case.fluid.boxes.iter().map(|fill| fill.span());
-            let fills: Vec<Range<usize>> =
-                fills.chain(case.fluid.spheres.iter().map(|fill| fill.span())).collect();
+            let fills: Vec<Range<usize>> = fills
+                .chain(case.fluid.spheres.iter().map(|fill| fill.span()))
+                .collect();
             let particles = scene::filled(ppm, case.fluid.seed, &regions, &domain).map_err(
                 |error| match error {
                     scene::FillError::Empty { region, .. } => {

@@ -8,7 +8,6 @@ use crate::lab::energy::{EnergyMethod, Sources};
 use crate::lab::machine::Machine;
 use crate::lab::sweep::{self, Plan, Sweep};
 use crate::lab::UsageError;
-use clap::builder::RangedI64ValueParser;
 use clap::Args;
 use std::collections::HashSet;
 use std::error::Error;
@@ -28,10 +27,10 @@ pub struct SweepArgs {
     /// Iteration counts (at most 2^63-1, as `fluid` takes), comma- or space-separated.
     #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..,
           default_values_t = sweep::DEFAULT_ITERATIONS,
-          value_parser = RangedI64ValueParser::<u64>::new().range(0..))]
+          value_parser = super::whole::<u64>(0, i64::MAX as u64))]
     iterations: Vec<u64>,
     /// Runs per point, and idle-baseline windows.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = RangedI64ValueParser::<usize>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = super::whole::<usize>(1, i64::MAX as u64))]
     repeats: usize,
     /// Seconds of each idle-baseline window.
     #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = parse_idle_seconds)]

@@ -85,7 +85,7 @@ pub struct ValidateArgs {
     #[arg(long, value_name = "SECONDS", conflicts_with = "until_t", allow_negative_numbers = true, value_parser = parse_seconds)]
     until: Option<f64>,
     /// Sample the front every this many steps [default: 5]
-    #[arg(long, value_parser = clap::builder::RangedI64ValueParser::<u64>::new().range(1..))]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::whole::<u64>(1, i64::MAX as u64))]
     every: Option<u64>,
     /// Pair-loop implementation [default: the widest f64 lanes the build's CPU has]
     #[arg(long, value_enum)]
@@ -102,13 +102,13 @@ pub struct ValidateArgs {
     seed: Option<u64>,
     /// 2 for the dam break in the plane of the box's x-y section (the water model only),
     /// 3, or 2,3 for both side by side [default: 3]
-    #[arg(long, value_delimiter = ',', num_args = 1..,
-          value_parser = clap::builder::RangedI64ValueParser::<u8>::new().range(2..=3))]
+    #[arg(long, value_delimiter = ',', num_args = 1.., allow_negative_numbers = true,
+          value_parser = super::whole::<u8>(2, 3))]
     dimensions: Option<Vec<u8>>,
     /// Poiseuille: particles across the channel, each a run of the case [default:
     /// 20,40,80]
-    #[arg(long, value_delimiter = ',', num_args = 1..,
-          value_parser = clap::builder::RangedI64ValueParser::<usize>::new().range(4..=400))]
+    #[arg(long, value_delimiter = ',', num_args = 1.., allow_negative_numbers = true,
+          value_parser = super::whole::<usize>(4, 400))]
     across: Option<Vec<usize>>,
     /// The weakly compressible model's choices (its runs only).
     #[command(flatten)]
