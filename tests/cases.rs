@@ -1214,6 +1214,26 @@ fn a_planar_case_runs_in_the_plane_z_0() {
     // The surge has left the column (a = 26.7 mm from the wall at x = -0.065).
     let reach = at.iter().map(|p| p[0]).fold(f32::MIN, f32::max);
     assert!(reach > -0.065 + 0.0267 * 1.5, "{reach}");
+    // Its gravity is said in the plane's two numbers.
+    let weightless = dir.path().join("weightless.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let text = text.replace(
+        "box_max_m = [0.065, 0.1]",
+        "box_max_m = [0.065, 0.1]\ngravity_m_s2 = [0.0, 0.0]",
+    );
+    std::fs::write(&weightless, text).unwrap();
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        weightless.as_os_str(),
+        out.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("its gravity_m_s2 is [0, -g] with g >= 0.01 m/s^2"),
+        "{}",
+        stderr(&output)
+    );
     // Only the water model runs in 2-D.
     let output = run(&["--model", "fluidanimate"]);
     assert_refused(
@@ -1285,7 +1305,7 @@ fn a_periodic_case_keeps_its_particles_and_refuses_what_it_cannot_run() {
             "periodic = [\"x\"]",
             "periodic = [\"x\", \"x\"]",
             12,
-            "periodic lists axes, each once: \"x\", \"y\" or \"z\"",
+            "periodic lists axes, each once: \"x\" or \"z\" (\"y\" holds the floor)",
         ),
         (
             "periodic = [\"x\"]",

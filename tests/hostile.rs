@@ -923,21 +923,27 @@ fn side_files_must_be_files_of_their_own_and_special_files_are_not_resumed() {
     std::fs::copy(input("small"), &own).unwrap();
     let before = std::fs::read(&own).unwrap();
     let out = dir.path().join("out.fld");
-    for args in [
-        vec!["--diagnostics".as_ref(), own.as_os_str()],
-        vec![
-            "--checkpoint-every".as_ref(),
-            "1".as_ref(),
-            "--checkpoint".as_ref(),
-            out.as_os_str(),
-        ],
+    for (args, clash) in [
+        (
+            vec!["--diagnostics".as_ref(), own.as_os_str()],
+            format!("--diagnostics {0} is also the input {0}", own.display()),
+        ),
+        (
+            vec![
+                "--checkpoint-every".as_ref(),
+                "1".as_ref(),
+                "--checkpoint".as_ref(),
+                out.as_os_str(),
+            ],
+            format!("--checkpoint {0} is also the output {0}", out.display()),
+        ),
     ] {
         let mut all: Vec<&OsStr> = vec!["run".as_ref(), own.as_os_str(), out.as_os_str()];
         all.extend(args);
         let output = run_lab(&all);
         assert_eq!(exit_code(&output), 2, "a usage error");
         assert!(
-            stderr(&output).contains("give it a file of its own"),
+            stderr(&output).contains(&format!("{clash}: give it a file of its own")),
             "{}",
             stderr(&output)
         );
@@ -1084,7 +1090,10 @@ fn a_checkpoint_of_another_input_with_the_same_size_is_refused() {
     ]);
     assert_eq!(exit_code(&output), 1);
     assert!(
-        stderr(&output).contains("a checkpoint of a run with another input"),
+        stderr(&output).contains(
+            "a checkpoint of a run from another input: give the input the run started from, \
+             then the output"
+        ),
         "{}",
         stderr(&output)
     );

@@ -813,7 +813,7 @@ impl Case {
             if !(known && once) {
                 return Err((
                     periodic.span(),
-                    "periodic lists axes, each once: \"x\", \"y\" or \"z\"".into(),
+                    "periodic lists axes, each once: \"x\" or \"z\" (\"y\" holds the floor)".into(),
                 ));
             }
             if self.domain.is_planar() && names.iter().any(|name| name == "z") {

@@ -96,6 +96,11 @@ fn resume(
         None
     };
     match differs {
+        // (The one file given may be meant as the output: say what goes where.)
+        Some("input") => Err(format!(
+            "{shown} is a checkpoint of a run from another input: give the input the run \
+             started from, then the output"
+        )),
         Some(what) => Err(format!(
             "{shown} is a checkpoint of a run with another {what}"
         )),
@@ -183,11 +188,20 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     ];
     for (index, (option, side)) in sides.iter().enumerate() {
         let Some(side) = side else { continue };
-        let others = [Some(input), args.output.as_ref()]
+        let output = match from_case {
+            true => "the case's final_state",
+            false => "the output",
+        };
+        let others = [("the input", Some(input)), (output, args.output.as_ref())]
             .into_iter()
-            .chain(sides[index + 1..].iter().map(|(_, other)| other.as_ref()));
-        let other = match others.flatten().find(|other| same_file(side, other)) {
-            Some(other) => Some(other.display().to_string()),
+            .chain(
+                sides[index + 1..]
+                    .iter()
+                    .map(|(name, other)| (*name, other.as_ref())),
+            );
+        let mut others = others.filter_map(|(name, other)| Some((name, other?)));
+        let other = match others.find(|(_, other)| same_file(side, other)) {
+            Some((name, other)) => Some(format!("{name} {}", other.display())),
             None => gauge_file_at(&args.simulation, side).map(|name| format!("the gauges' {name}")),
         };
         if let Some(other) = other {

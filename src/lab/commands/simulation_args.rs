@@ -201,7 +201,7 @@ fn parse_face(text: &str) -> Result<(usize, WallFriction), String> {
     let face = FACES
         .iter()
         .position(|&name| name == face)
-        .ok_or_else(|| format!("{face} is not a face: {}", FACES.join(", ")))?;
+        .ok_or_else(|| format!("{face:?} is not a face: {}", FACES.join(", ")))?;
     let kind = WallFriction::from_str(kind, false)
         .map_err(|_| format!("{kind} is not a wall: free-slip or no-slip"))?;
     Ok((face, kind))
@@ -564,8 +564,12 @@ fn check_domain(
             domain.gravity_m_s2.span(),
             format!(
                 "the water model's floor is the box's low y wall, and its sound speed \
-                     follows g: its gravity_m_s2 is [0, -g, 0] with g >= {MIN_WATER_GRAVITY} \
-                     m/s^2 (or a body force along periodic axes, at least as strong)"
+                     follows g: its gravity_m_s2 is {} with g >= {MIN_WATER_GRAVITY} \
+                     m/s^2 (or a body force along periodic axes, at least as strong)",
+                match simulated.planar {
+                    true => "[0, -g]",
+                    false => "[0, -g, 0]",
+                }
             ),
         )),
         _ => Ok(()),
