@@ -2114,3 +2114,23 @@ fn quiet_silences_a_sweep_s_lines() {
     assert!(sweep(false).contains("repeat 1: "));
     assert_eq!(sweep(true), "");
 }
+
+#[test]
+fn an_os_error_is_said_in_the_system_s_words_without_its_code() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.bin");
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--resume".as_ref(),
+        missing.as_os_str(),
+        dir.path().join("out.fld").as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: cannot read {}: No such file or directory\n",
+            missing.display()
+        )
+    );
+}

@@ -44,6 +44,7 @@ fn main() -> ExitCode {
                 Some(file_error) => file_error.message(),
                 None => error.to_string().into_bytes(),
             };
+            let message = without_os_codes(&message);
             let line = [&b"fluid-lab: error: "[..], &one_line(&message), b"\n"].concat();
             let _ = std::io::stderr().write_all(&line);
             // A case file refused is a usage error, as clap's are.
@@ -69,4 +70,56 @@ fn one_line(message: &[u8]) -> Vec<u8> {
         }
     }
     line
+}
+
+/// `message` without the codes Rust's I/O errors end with (" (os error 2)"): the system's
+/// own words say it.
+fn without_os_codes(message: &[u8]) -> Vec<u8> {
+    const CODE: &[u8] = b" (os error ";
+    let mut kept = Vec::with_capacity(message.len());
+    let mut rest = message;
+    while let Some(at) = rest.windows(CODE.len()).position(|window| window == CODE) {
+        let after = &rest[at + CODE.len()..];
+        let digits = after
+            .iter()
+            .take_while(|byte| byte.is_ascii_digit())
+            .count();
+        if digits > 0 && after.get(digits) == Some(&b')') {
+            kept.extend_from_slice(&rest[..at]);
+            rest = &after[digits + 1..];
+        } else {
+            // Not a code: kept as it is.
+            kept.extend_from_slice(&rest[..at + CODE.len()]);
+            rest = after;
+        }
+    }
+    kept.extend_from_slice(rest);
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn os_codes_are_left_out_and_other_text_kept() {
+        let cases: [(&[u8], &[u8]); 4] = [
+            (
+                b"cannot read a.bin: No such file or directory (os error 2)",
+                b"cannot read a.bin: No such file or directory",
+            ),
+            (
+                b"x: Permission denied (os error 13); y: Is a directory (os error 21)",
+                b"x: Permission denied; y: Is a directory",
+            ),
+            (
+                b"a file named (os error x).fld",
+                b"a file named (os error x).fld",
+            ),
+            (b"no code here", b"no code here"),
+        ];
+        for (message, expected) in cases {
+            assert_eq!(without_os_codes(message), expected);
+        }
+    }
 }
