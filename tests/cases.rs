@@ -338,7 +338,12 @@ fn a_bad_case_file_gets_its_line_and_column_and_exit_2() {
         (
             "name = \"wcsph\"",
             "name = \"wcsph\"\nsmoothing_spacings = nan",
-            "smoothing_spacings must be",
+            "smoothing_spacings must be between 0.5 and 26",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = \"wcsph\"\nsound_speed_factor = nan",
+            "sound_speed_factor must be between 1 and 1000",
         ),
         // Past the range a run can go (the pressure's stiffness overflows at step 1).
         (

@@ -1197,7 +1197,7 @@ fn limits_that_would_run_for_ever_or_overflow_are_refused_in_one_line() {
         ),
         (
             vec!["validate", "dam-break", "--until-t", "1e300", "--output-dir", &vd],
-            "fluid-lab: error: --until-t 1e+300 is not a T from 0 to 1000",
+            "fluid-lab: error: --until-t 1e+300 is not a T above 0, at most 1000",
         ),
         (
             vec!["validate", "dam-break", "--until", "100", "--output-dir", &vd],

@@ -1097,30 +1097,22 @@ impl ModelSettings {
     fn check_water(&self) -> Result<(), Fault> {
         use crate::sim::model::wcsph::{SMOOTHINGS, SOUND_SPEED_FACTORS};
         use crate::sim::model::Model;
+        // (The smoothing and the sound speed have ranges of their own, below: a NaN is
+        // out of them.)
         let numbers = [
-            ("artificial_viscosity", &self.artificial_viscosity, false),
-            (
-                "laminar_viscosity_m2_s",
-                &self.laminar_viscosity_m2_s,
-                false,
-            ),
-            ("smoothing_spacings", &self.smoothing_spacings, true),
-            ("sound_speed_factor", &self.sound_speed_factor, true),
-            ("density_diffusion", &self.density_diffusion, false),
+            ("artificial_viscosity", &self.artificial_viscosity),
+            ("laminar_viscosity_m2_s", &self.laminar_viscosity_m2_s),
+            ("density_diffusion", &self.density_diffusion),
         ];
         if let Some(name) = &self.name {
             choice::<Model>(name, "name")?;
         }
-        for (key, value, positive) in numbers {
+        for (key, value) in numbers {
             let Some(value) = value else { continue };
             let x = *value.get_ref();
-            if !x.is_finite() || x < 0.0 || (positive && x == 0.0) {
-                let want = if positive {
-                    "a finite number > 0"
-                } else {
-                    "a finite number, 0 or more"
-                };
-                return Err((value.span(), format!("{key} must be {want}")));
+            if !x.is_finite() || x < 0.0 {
+                let message = format!("{key} must be a finite number, 0 or more");
+                return Err((value.span(), message));
             }
         }
         let ranges = [

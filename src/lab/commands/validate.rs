@@ -288,7 +288,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     let until_t = args.until_t();
     if !(until_t > 0.0 && until_t <= MOST_T) {
         let t = format_g(until_t);
-        let message = format!("--until-t {t} is not a T from 0 to {MOST_T}");
+        let message = format!("--until-t {t} is not a T above 0, at most {MOST_T}");
         return Err(UsageError(message).into());
     }
     if let Some(end) = args.until.filter(|&end| end > MOST_SECONDS) {
