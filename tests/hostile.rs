@@ -2075,13 +2075,38 @@ fn a_disk_too_full_for_the_stability_map_leaves_no_csv() {
         .output()
         .unwrap();
     assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
-    assert!(
-        stderr(&output).contains("fluid-lab: error: "),
-        "{}",
-        stderr(&output)
+    // The system's words, not plotters' debug text of the error inside its wrappers.
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: {}: No space left on device\n",
+            folder.join("stability-map.png").display()
+        )
     );
     // Nothing but the folder's own entries: no CSV, no temporary file.
     assert!(stdout(&output).ends_with(".\n..\n"), "{}", stdout(&output));
+    // A picture too large for the disk says so, naming it, and leaves nothing.
+    for picture in ["x.png", "x.gif"] {
+        let script = "mount -t tmpfs -o size=64k none \"$1\" && \"$2\" render \"$3\" \"$1/$4\" \
+                      --steps 2; status=$?; ls -a \"$1\"; exit $status";
+        let output = Command::new("unshare")
+            .args(["-rm", "sh", "-c", script, "sh"])
+            .arg(&folder)
+            .arg(env!("CARGO_BIN_EXE_fluid-lab"))
+            .arg(input("small"))
+            .arg(picture)
+            .output()
+            .unwrap();
+        assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+        assert_eq!(
+            stderr(&output),
+            format!(
+                "fluid-lab: error: {}: No space left on device\n",
+                folder.join(picture).display()
+            )
+        );
+        assert!(stdout(&output).ends_with(".\n..\n"), "{}", stdout(&output));
+    }
 }
 
 #[test]

@@ -396,6 +396,20 @@ pub fn render<D: Drawing>(
     ChartFiles::open(folder, drawing.name())?.render(drawing, size)
 }
 
+/// A bitmap's error in the system's words: plotters shows the I/O or encoding error
+/// inside its wrappers in Rust's debug form (`backend error: Drawing backend error:
+/// ImageError(IoError(Custom { kind: Other, error: "No space left on device" }))`); the
+/// message quoted inside is what the system said.
+pub fn in_plain_words(error: impl std::fmt::Display) -> Box<dyn Error> {
+    let text = error.to_string();
+    let quoted = ["message: \"", "error: \""].iter().find_map(|opening| {
+        let start = text.find(opening)? + opening.len();
+        let end = text[start..].find('"')?;
+        Some(text[start..start + end].to_string())
+    });
+    quoted.unwrap_or(text).into()
+}
+
 /// A chart's two files, opened (their room made) before it is drawn: a command that
 /// writes other files beside its charts opens every one first, so that none is replaced
 /// when another cannot be written.
@@ -436,7 +450,9 @@ impl ChartFiles {
         register_font()?;
         let ChartFiles { png, svg, paths } = self;
         let png = png.staged()?;
-        drawing.draw_on(BitMapBackend::new(png.path(), size).into_drawing_area())?;
+        drawing
+            .draw_on(BitMapBackend::new(png.path(), size).into_drawing_area())
+            .map_err(|error| format!("{}: {}", paths[0].display(), in_plain_words(error)))?;
         let mut text = String::new();
         drawing.draw_on(SVGBackend::with_string(&mut text, size).into_drawing_area())?;
         Ok(DrawnChart {

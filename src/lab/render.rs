@@ -4,7 +4,7 @@
 //! the frames of a run as an animated GIF. Drawn with plotters and the embedded DejaVu Sans.
 
 use crate::io::export::Snapshot;
-use crate::lab::chart::register_font;
+use crate::lab::chart::{in_plain_words, register_font};
 use crate::sim::params::Domain;
 use glam::DVec3;
 use plotters::coord::Shift;
@@ -216,14 +216,13 @@ pub struct Style {
     pub range: Option<(f64, f64)>,
 }
 
-/// Writes `snapshot` as a PNG at `path`.
+/// Writes `snapshot` as a PNG at `path` (an error in the system's words, naming no file).
 pub fn render_png(snapshot: &Snapshot, style: &Style, path: &Path) -> Result<(), Box<dyn Error>> {
     register_font()?;
     let size = Layout::of(&snapshot.domain).size;
     let root = BitMapBackend::new(path, size).into_drawing_area();
-    draw(&root, snapshot, style)?;
-    root.present()?;
-    Ok(())
+    let drawn = draw(&root, snapshot, style).and_then(|()| Ok(root.present()?));
+    drawn.map_err(in_plain_words)
 }
 
 /// An animated GIF being written, one frame at a time.
@@ -231,21 +230,23 @@ pub struct Animation<'a> {
     root: DrawingArea<BitMapBackend<'a>, Shift>,
 }
 
-impl Animation<'_> {
+impl<'a> Animation<'a> {
     /// Starts a GIF at `path` of frames of `domain`, showing each for `delay_ms`
     /// milliseconds.
-    pub fn create(path: &Path, domain: &Domain, delay_ms: u32) -> Result<Self, Box<dyn Error>> {
+    pub fn create(path: &'a Path, domain: &Domain, delay_ms: u32) -> Result<Self, Box<dyn Error>> {
         register_font()?;
         let size = Layout::of(domain).size;
-        let root = BitMapBackend::gif(path, size, delay_ms)?.into_drawing_area();
-        Ok(Animation { root })
+        let backend = BitMapBackend::gif(path, size, delay_ms);
+        let root = backend.map_err(in_plain_words)?;
+        Ok(Animation {
+            root: root.into_drawing_area(),
+        })
     }
 
     /// Appends a frame of `snapshot`.
     pub fn push(&mut self, snapshot: &Snapshot, style: &Style) -> Result<(), Box<dyn Error>> {
-        draw(&self.root, snapshot, style)?;
-        self.root.present()?;
-        Ok(())
+        let drawn = draw(&self.root, snapshot, style).and_then(|()| Ok(self.root.present()?));
+        drawn.map_err(in_plain_words)
     }
 }
 

@@ -120,10 +120,13 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
             };
             let staged = first.take().expect("the GIF's output").staged()?;
             let mut animation =
-                Animation::create(staged.path(), &simulation.params().domain, args.delay_ms)?;
+                Animation::create(staged.path(), &simulation.params().domain, args.delay_ms)
+                    .map_err(|error| format!("{}: {error}", output.display()))?;
             let mut frames_drawn = 0;
             run_visiting(&mut simulation, extent, frames, |simulation, step| {
-                animation.push(&Snapshot::of(simulation, step), &style)?;
+                animation
+                    .push(&Snapshot::of(simulation, step), &style)
+                    .map_err(|error| format!("{}: {error}", output.display()))?;
                 frames_drawn += 1;
                 Ok(())
             })?;
@@ -141,7 +144,8 @@ pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
                     None => OutputFile::create(&path)?,
                 };
                 let staged = file.staged()?;
-                render::render_png(&Snapshot::of(simulation, step), &style, staged.path())?;
+                render::render_png(&Snapshot::of(simulation, step), &style, staged.path())
+                    .map_err(|error| format!("{}: {error}", path.display()))?;
                 staged.commit()?;
                 written += 1;
                 writeln!(stdout, "wrote {}", path.display())?;
