@@ -2487,3 +2487,77 @@ fn whole_number_flags_say_their_range_in_words() {
         assert_eq!(stderr(&output).lines().count(), 1, "{}", stderr(&output));
     }
 }
+
+#[test]
+fn stability_runs_a_lattice_scene_in_the_plane() {
+    let dir = tempfile::tempdir().unwrap();
+    let stability = |folder: &str, extra: &[&str]| {
+        let out = dir.path().join(folder);
+        let mut args: Vec<&OsStr> = vec!["stability".as_ref(), "--output-dir".as_ref()];
+        args.push(out.as_os_str());
+        args.extend(["--ppms", "200", "--adaptive", "", "--duration", "0.02"].map(OsStr::new));
+        args.extend(extra.iter().map(OsStr::new));
+        let output = run_lab(&args);
+        let csv = std::fs::read_to_string(out.join("stability.csv")).unwrap_or_default();
+        (output, csv)
+    };
+    let (output, plane) = stability("plane", &["--dimensions", "2", "--dt-factors", "0.05,1"]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let (output, solid) = stability("solid", &["--models", "wcsph", "--dt-factors", "1"]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let rows = |csv: &str| -> Vec<Vec<String>> {
+        let mut reader = csv::Reader::from_reader(csv.as_bytes());
+        let header = reader.headers().unwrap().clone();
+        let records: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
+        records
+            .iter()
+            .map(|r| {
+                ["model", "dt_s", "particles", "reason", "dimensions"]
+                    .map(|name| r[header.iter().position(|h| h == name).unwrap()].to_string())
+                    .to_vec()
+            })
+            .collect()
+    };
+    let (plane, solid) = (rows(&plane), rows(&solid));
+    // The water model alone by default in 2-D, on the column's section: the 3-D
+    // column's particles are its 26 layers along z at 200 per metre (0.13 m deep).
+    assert_eq!(plane.len(), 2, "{plane:?}");
+    assert!(
+        plane.iter().all(|r| r[0] == "wcsph" && r[4] == "2"),
+        "{plane:?}"
+    );
+    let particles = |row: &[String]| row[2].parse::<usize>().unwrap();
+    assert_eq!(
+        particles(&solid[0]),
+        26 * particles(&plane[0]),
+        "{solid:?} {plane:?}"
+    );
+    assert_eq!(solid[0][4], "3");
+    // Within the sound's step it holds; at the course's 1 ms it blows up.
+    assert_eq!(
+        (plane[0][1].as_str(), plane[0][3].as_str()),
+        ("0.00005", "stable")
+    );
+    assert_eq!(plane[1][3], "energy-grew", "{plane:?}");
+    // What it cannot run in 2-D is refused, exit 2, nothing made.
+    for (extra, message) in [
+        (
+            &["--dimensions", "2", "--models", "course"][..],
+            "--dimensions 2 runs the water model (wcsph), not course",
+        ),
+        (
+            &["--dimensions", "2", "--scene", "corner-block"][..],
+            "--dimensions 2 runs a lattice scene (dam-break, drop or filled-box), not the \
+             corner-block",
+        ),
+        (
+            &["--dimensions", "4"][..],
+            "invalid value '4' for '--dimensions <DIMENSIONS>': 4 is not a whole number from \
+             2 to 3",
+        ),
+    ] {
+        let (output, _) = stability("refused", extra);
+        assert_refused(&output, 2, &format!("fluid-lab: error: {message}"));
+        assert!(!dir.path().join("refused").exists());
+    }
+}

@@ -768,7 +768,7 @@ fn stability_reports_each_run_and_maps_them() {
     assert_eq!(text.lines().next(), Some(fluid::lab::stability::CSV_HEADER));
     assert_eq!(text.lines().count(), 7);
     assert!(
-        text.contains(",fluidanimate,simd,100,fixed,0.001,,845,0.03,30,,,stable,,leapfrog\n"),
+        text.contains(",fluidanimate,simd,100,fixed,0.001,,845,0.03,30,,,stable,,leapfrog,3\n"),
         "{text}"
     );
     for name in ["stability-map.png", "stability-map.svg"] {

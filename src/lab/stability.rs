@@ -7,6 +7,7 @@ use crate::lab::chart::Drawing;
 use crate::lab::diagnostics::{self, Checks, Failure, Vitals};
 use crate::lab::scene::{self, SceneKind};
 use crate::sim::method::Method;
+use crate::sim::params::Domain;
 use crate::sim::simulation::Simulation;
 use crate::sim::timestep::{Integrator, TimeStep};
 use plotters::coord::Shift;
@@ -14,10 +15,11 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::error::Error;
 
-/// The CSV header of [`Outcome::csv_row`].
+/// The CSV header of [`Outcome::csv_row`] (a CSV without its last column, `dimensions`,
+/// was written before 2-D runs and reads as 3-D).
 pub const CSV_HEADER: &str = "scene,model,kernel,ppm,time_step,dt_s,courant,particles,\
                               duration_s,steps,failed_step,failed_time_s,reason,detail,\
-                              integrator";
+                              integrator,dimensions";
 
 /// How one run ended.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,6 +42,8 @@ pub struct Outcome {
     pub steps: u64,
     /// The step after which the run failed, its time, and why; `None` if it ran to the end.
     pub failure: Option<(u64, f64, Failure)>,
+    /// 2 for the scene's section in the plane (the water model's), or 3.
+    pub dimensions: usize,
 }
 
 /// A time-step rule's short name: `0.001` (seconds) or `C 0.3`.
@@ -67,7 +71,7 @@ impl Outcome {
             TimeStep::Adaptive { courant } => format!("adaptive,,{courant}"),
         };
         format!(
-            "{},{},{},{},{rule},{},{},{},{step},{time},{reason},{detail},{}",
+            "{},{},{},{},{rule},{},{},{},{step},{time},{reason},{detail},{},{}",
             self.scene.name(),
             self.method.model.name(),
             self.method.kernel.name(),
@@ -75,15 +79,17 @@ impl Outcome {
             self.particles,
             self.duration,
             self.steps,
-            self.integrator.name()
+            self.integrator.name(),
+            self.dimensions
         )
     }
 
     /// One line for people: `course simd leapfrog, ppm 150, dt 0.001: failed at step 3
-    /// (0.003 s): ...`.
+    /// (0.003 s): ...` (`wcsph simd8 leapfrog 2-D, ...` in the plane).
     pub fn summary(&self) -> String {
+        let plane = if self.dimensions == 2 { " 2-D" } else { "" };
         let run = format!(
-            "{} {} {}, ppm {}, {}",
+            "{} {} {}{plane}, ppm {}, {}",
             self.method.model.name(),
             self.method.kernel.name(),
             self.integrator.name(),
@@ -111,8 +117,11 @@ pub fn read_csv(text: &str) -> Result<Vec<Outcome>, String> {
     use clap::ValueEnum;
     let mut reader = csv::Reader::from_reader(text.as_bytes());
     let headers = reader.headers().map_err(|error| error.to_string())?.clone();
+    // Every column but the last, `dimensions`, which older CSVs lack.
+    let dimensions = headers.iter().position(|header| header == "dimensions");
     let columns: Vec<usize> = CSV_HEADER
         .split(',')
+        .filter(|&name| name != "dimensions")
         .map(|name| {
             headers
                 .iter()
@@ -162,6 +171,11 @@ pub fn read_csv(text: &str) -> Result<Vec<Outcome>, String> {
             )),
         };
         let integrator = Integrator::from_str(cell(14), false).map_err(|_| named(14))?;
+        let dimensions = match dimensions.map(|k| &record[k]) {
+            None | Some("3") => 3,
+            Some("2") => 2,
+            Some(other) => return Err(bad(&format!("dimensions is {other:?}, not 2 or 3"))),
+        };
         outcomes.push(Outcome {
             scene,
             method: Method { model, kernel },
@@ -172,17 +186,19 @@ pub fn read_csv(text: &str) -> Result<Vec<Outcome>, String> {
             duration: number(8)?,
             steps: count(9)?,
             failure,
+            dimensions,
         });
     }
     Ok(outcomes)
 }
 
-/// Runs `scene` (seed `seed`) at `ppm` with `method`, `integrator` and `time_step` until
-/// it has simulated `duration` seconds (finite and positive), checking every step; an
-/// adaptive step below `shortest_step` seconds fails it (step-collapsed).
+/// Runs `scene` (seed `seed`, in `dimensions`: 2 for the section of the course's box in
+/// the plane, a lattice scene on the water model) at `ppm` with `method`, `integrator`
+/// and `time_step` until it has simulated `duration` seconds (finite and positive),
+/// checking every step; an adaptive step below `shortest_step` seconds fails it
+/// (step-collapsed).
 pub fn watch(
-    scene: SceneKind,
-    seed: u64,
+    (scene, seed, dimensions): (SceneKind, u64, usize),
     (method, integrator): (Method, Integrator),
     ppm: f64,
     time_step: TimeStep,
@@ -192,10 +208,23 @@ pub fn watch(
     if !(duration.is_finite() && duration > 0.0) {
         return Err(format!("a duration of {duration} s is not a run"));
     }
-    let particles = scene::generate(scene, ppm, seed, None)?;
+    let domain = match dimensions {
+        2 => Domain::COURSE.section(ppm),
+        _ => Domain::COURSE,
+    };
+    let particles = match (dimensions, scene.regions()) {
+        (2, Some(regions)) => {
+            scene::filled(ppm, seed, &regions, &domain).map_err(|error| error.to_string())?
+        }
+        (2, None) => return Err(format!("the {} is no lattice scene for 2-D", scene.name())),
+        _ => scene::generate(scene, ppm, seed, None)?,
+    };
     let count = particles.len();
-    let mut simulation =
-        Simulation::with_method(ppm, particles, method).map_err(|error| error.to_string())?;
+    let simulation = match domain.planar {
+        true => Simulation::with_dynamics(ppm, domain, particles, method, method.model.dynamics()),
+        false => Simulation::with_method(ppm, particles, method),
+    };
+    let mut simulation = simulation.map_err(|error| error.to_string())?;
     simulation.set_time_step(time_step);
     simulation.set_integrator(integrator);
     let checks = Checks::from(&Vitals::of(&simulation));
@@ -222,6 +251,7 @@ pub fn watch(
         duration,
         steps,
         failure,
+        dimensions: domain.dimensions(),
     })
 }
 
@@ -422,8 +452,7 @@ mod tests {
     fn the_course_model_fails_where_the_stable_one_does_not() {
         let fixed = TimeStep::Fixed(1e-3);
         let course = watch(
-            SceneKind::DamBreak,
-            1,
+            (SceneKind::DamBreak, 1, 3),
             (SIMD, LEAPFROG),
             100.0,
             fixed,
@@ -441,8 +470,7 @@ mod tests {
             ..SIMD
         };
         let stable = watch(
-            SceneKind::DamBreak,
-            1,
+            (SceneKind::DamBreak, 1, 3),
             (stable_method, LEAPFROG),
             100.0,
             fixed,
@@ -453,7 +481,7 @@ mod tests {
         assert_eq!(stable.failure, None, "{}", stable.summary());
         assert_eq!(stable.steps, 50);
         assert!(
-            stable.csv_row().ends_with(",0.05,50,,,stable,,leapfrog"),
+            stable.csv_row().ends_with(",0.05,50,,,stable,,leapfrog,3"),
             "{}",
             stable.csv_row()
         );
@@ -471,8 +499,7 @@ mod tests {
             ..SIMD
         };
         let outcome = watch(
-            SceneKind::DamBreak,
-            1,
+            (SceneKind::DamBreak, 1, 3),
             (method, LEAPFROG),
             100.0,
             adaptive,
@@ -486,8 +513,7 @@ mod tests {
         assert!(outcome.csv_row().contains(",adaptive,,0.3,"));
         for duration in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             assert!(watch(
-                SceneKind::DamBreak,
-                1,
+                (SceneKind::DamBreak, 1, 3),
                 (method, LEAPFROG),
                 100.0,
                 adaptive,
@@ -498,8 +524,7 @@ mod tests {
         }
         // A step longer than the duration is still one step, judged as any other.
         let once = watch(
-            SceneKind::DamBreak,
-            1,
+            (SceneKind::DamBreak, 1, 3),
             (method, LEAPFROG),
             100.0,
             TimeStep::Fixed(1e3),
@@ -510,8 +535,7 @@ mod tests {
         // An adaptive step below the limit: the course model's viscosity at 100 particles
         // per metre allows 0.12 ms at C 0.3, so a limit of 1 ms fails it at once.
         let short = watch(
-            SceneKind::DamBreak,
-            1,
+            (SceneKind::DamBreak, 1, 3),
             (SIMD, LEAPFROG),
             100.0,
             adaptive,
@@ -534,8 +558,7 @@ mod tests {
             .iter()
             .map(|&rule| {
                 watch(
-                    SceneKind::DamBreak,
-                    1,
+                    (SceneKind::DamBreak, 1, 3),
                     (SIMD, LEAPFROG),
                     100.0,
                     rule,
@@ -582,6 +605,7 @@ mod tests {
             duration: 0.5,
             steps: 77,
             failure,
+            dimensions: if model == Model::Wcsph { 2 } else { 3 },
         };
         let outcomes = [
             outcome(Model::Course, 150.0, TimeStep::Fixed(2.5e-4), None),
@@ -603,6 +627,23 @@ mod tests {
             text.push_str(&format!("{},node-7\n", outcome.csv_row()));
         }
         assert_eq!(read_csv(&text).unwrap(), outcomes);
+        // A CSV from before 2-D runs, without the dimensions column, reads as 3-D.
+        let older: String = text
+            .lines()
+            .map(|line| {
+                let (kept, _) = line.rsplit_once(',').unwrap();
+                let (kept, _) = kept.rsplit_once(',').unwrap();
+                format!("{kept}\n")
+            })
+            .collect();
+        let read = read_csv(&older).unwrap();
+        assert!(read.iter().all(|outcome| outcome.dimensions == 3));
+        assert_eq!(read[0], outcomes[0]);
+        let odd = text.replacen(",2,node-7", ",4,node-7", 1);
+        assert_eq!(
+            read_csv(&odd).unwrap_err(),
+            "row 3: dimensions is \"4\", not 2 or 3"
+        );
         let renamed = text.replacen("reason", "why", 1);
         assert_eq!(
             read_csv(&renamed).unwrap_err(),

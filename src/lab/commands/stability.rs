@@ -33,9 +33,14 @@ pub struct StabilityArgs {
     /// Seed of the scene.
     #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
     seed: u64,
-    /// Models to run.
-    #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = Model::ALL)]
-    models: Vec<Model>,
+    /// Models to run [default: every model; in 2-D the water model, wcsph]
+    #[arg(long, value_enum, value_delimiter = ',', num_args = 1..)]
+    models: Option<Vec<Model>>,
+    /// 2 to run the scene's section in the plane of the course box's x-y section (the
+    /// water model, a lattice scene: dam-break, drop or filled-box), or 3.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3,
+          value_parser = super::whole::<usize>(2, 3))]
+    dimensions: usize,
     /// Kernels to run each model with (their precision is part of the method).
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1.., default_values_t = [Kernel::NATIVE])]
     kernels: Vec<Kernel>,
@@ -66,11 +71,35 @@ pub struct StabilityArgs {
 type Cell = (Method, Integrator, f64, TimeStep);
 
 impl StabilityArgs {
+    /// The models asked for, or the default of the dimensions.
+    fn models(&self) -> Vec<Model> {
+        match (&self.models, self.dimensions) {
+            (Some(models), _) => models.clone(),
+            (None, 2) => vec![Model::Wcsph],
+            (None, _) => Model::ALL.to_vec(),
+        }
+    }
+
     /// The runs asked for, checked: every cell, in the map's order.
     fn cells(&self) -> Result<Vec<Cell>, Box<dyn Error>> {
         let refuse = |message: String| -> Result<Vec<Cell>, Box<dyn Error>> {
             Err(UsageError(message).into())
         };
+        if self.dimensions == 2 {
+            if let Some(model) = self.models().into_iter().find(|&m| m != Model::Wcsph) {
+                return refuse(format!(
+                    "--dimensions 2 runs the water model (wcsph), not {}",
+                    model.name()
+                ));
+            }
+            if self.scene.regions().is_none() {
+                return refuse(format!(
+                    "--dimensions 2 runs a lattice scene (dam-break, drop or filled-box), not \
+                     the {}",
+                    self.scene.name()
+                ));
+            }
+        }
         for &factor in &self.dt_factors {
             if !is_time(factor * TIME_STEP) {
                 return refuse(format!(
@@ -116,7 +145,7 @@ impl StabilityArgs {
             )
             .collect();
         let mut cells = Vec::new();
-        for &model in &self.models {
+        for model in self.models() {
             for &kernel in &self.kernels {
                 for &integrator in &self.integrators {
                     for &ppm in &self.ppms {
@@ -133,8 +162,7 @@ impl StabilityArgs {
     /// Watches one run.
     fn watch(&self, (method, integrator, ppm, rule): Cell) -> Result<Outcome, String> {
         stability::watch(
-            self.scene,
-            self.seed,
+            (self.scene, self.seed, self.dimensions),
             (method, integrator),
             ppm,
             rule,
@@ -150,10 +178,11 @@ impl StabilityArgs {
             .into_iter()
             .map(|(method, integrator, ppm, rule)| {
                 format!(
-                    "{} {} {}, ppm {ppm}, {}",
+                    "{} {} {}{}, ppm {ppm}, {}",
                     method.model.name(),
                     method.kernel.name(),
                     integrator.name(),
+                    if self.dimensions == 2 { " 2-D" } else { "" },
                     rule_name(rule)
                 )
             })
@@ -185,9 +214,10 @@ impl StabilityArgs {
     fn drawn(&self, outcomes: &[Outcome]) -> Result<chart::DrawnChart, Box<dyn Error>> {
         let machine = Machine::this();
         let footer = format!(
-            "{} seed {}, {} s each; fails on: non-finite values, particles more than h outside the \
+            "{}{} seed {}, {} s each; fails on: non-finite values, particles more than h outside the \
              box, energy above 1.5 x the first; commit {}",
             self.scene.name(),
+            if self.dimensions == 2 { " (2-D)" } else { "" },
             self.seed,
             self.duration,
             machine.commit
@@ -216,7 +246,11 @@ pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn 
     // Each resolution admits a grid: a usage error before anything is made.
     for &ppm in &args.ppms {
         let why = |error| UsageError(format!("--ppms {}: {error}", format_g(ppm)));
-        check_ppm(ppm, &Domain::COURSE).map_err(why)?;
+        let domain = match args.dimensions {
+            2 => Domain::COURSE.section(ppm),
+            _ => Domain::COURSE,
+        };
+        check_ppm(ppm, &domain).map_err(why)?;
     }
     let _folder = super::create_output_dir(&args.output_dir)?;
     // The CSV is opened before the runs, so an unwritable folder fails first.
