@@ -2555,6 +2555,17 @@ fn stability_runs_a_lattice_scene_in_the_plane() {
             "invalid value '4' for '--dimensions <DIMENSIONS>': 4 is not a whole number from \
              2 to 3",
         ),
+        // The water model's own grid in the plane (its cut-off, 2.6 spacings), not the
+        // course's, judges a resolution (the sixth hostile pass: 6000 was refused).
+        (
+            &["--dimensions", "2", "--ppms", "30000"][..],
+            "--ppms 30000: particles per metre 30000 gives a grid of 1500 x 2076 x 1 blocks, \
+             but a grid has at most 511 blocks along an axis",
+        ),
+        (
+            &["--dimensions", "2", "--dt-factors", "1,1"][..],
+            "--dt-factors names each value once",
+        ),
     ] {
         let (output, _) = stability("refused", extra);
         assert_refused(&output, 2, &format!("fluid-lab: error: {message}"));

@@ -331,7 +331,13 @@ pub fn check_ppm(ppm: f64, domain: &Domain) -> Result<(), String> {
             "particles per metre {ppm} is not a finite number > 0"
         ));
     }
-    match Grid::new(Params::new(ppm).h, domain) {
+    check_grid(ppm, Params::new(ppm).h, domain)
+}
+
+/// Whether `domain` takes the grid of blocks `cutoff` wide (a model's cut-off at `ppm`
+/// particles per metre), said as [`check_ppm`] says it.
+pub fn check_grid(ppm: f64, cutoff: f64, domain: &Domain) -> Result<(), String> {
+    match Grid::new(cutoff, domain) {
         Ok(_) => Ok(()),
         Err(error) => Err(format!("particles per metre {ppm} gives {error}")),
     }

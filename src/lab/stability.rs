@@ -213,9 +213,8 @@ pub fn watch(
         _ => Domain::COURSE,
     };
     let particles = match (dimensions, scene.regions()) {
-        (2, Some(regions)) => {
-            scene::filled(ppm, seed, &regions, &domain).map_err(|error| error.to_string())?
-        }
+        (2, Some(regions)) => scene::filled(ppm, seed, &regions, &domain)
+            .map_err(|error| format!("the {} in 2-D at {ppm} per metre: {error}", scene.name()))?,
         (2, None) => return Err(format!("the {} is no lattice scene for 2-D", scene.name())),
         _ => scene::generate(scene, ppm, seed, None)?,
     };

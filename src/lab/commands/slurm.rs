@@ -665,6 +665,10 @@ fn write_tasks(
 fn resubmit(args: ResubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let dir = JobDir::at(&args.job_dir)?;
     let job = dir.job()?;
+    // The subcommand's paths are the submitter's (an accuracy sweep's case is read, as
+    // its resubmitted tasks will read it).
+    std::env::set_current_dir(&job.cwd)
+        .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
     let tool = Tool::parse(&job.command)?;
     let job_ids: Vec<String> = dir.submissions()?.into_iter().map(|s| s.job_id).collect();
     let queued = slurm::queued(&args.programs.squeue, &job_ids)?;

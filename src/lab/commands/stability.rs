@@ -8,7 +8,7 @@ use crate::io::gformat::format_g;
 use crate::io::output::OutputFile;
 use crate::lab::chart;
 use crate::lab::machine::Machine;
-use crate::lab::scene::{check_ppm, SceneKind};
+use crate::lab::scene::{check_grid, SceneKind};
 use crate::lab::stability::{self, rule_name, Outcome};
 use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
@@ -144,6 +144,30 @@ impl StabilityArgs {
                     .map(|courant| TimeStep::Adaptive { courant }),
             )
             .collect();
+        let repeated = [
+            ("--ppms", super::repeats(&self.ppms)),
+            ("--dt-factors", super::repeats(&self.dt_factors)),
+            ("--adaptive", super::repeats(&Courants::all(&self.adaptive))),
+            ("--kernels", super::repeats(&self.kernels)),
+            ("--integrators", super::repeats(&self.integrators)),
+            ("--models", super::repeats(&self.models())),
+        ];
+        if let Some((flag, _)) = repeated.iter().find(|(_, repeats)| *repeats) {
+            return refuse(format!("{flag} names each value once"));
+        }
+        // Each resolution admits each model's grid (its own cut-off, in the domain run):
+        // a usage error before anything is made or submitted.
+        for &ppm in &self.ppms {
+            let why = |error| UsageError(format!("--ppms {}: {error}", format_g(ppm)));
+            let domain = match self.dimensions {
+                2 => Domain::COURSE.section(ppm),
+                _ => Domain::COURSE,
+            };
+            for model in self.models() {
+                let cutoff = model.dynamics().cutoff(ppm);
+                check_grid(ppm, cutoff, &domain).map_err(why)?;
+            }
+        }
         let mut cells = Vec::new();
         for model in self.models() {
             for &kernel in &self.kernels {
@@ -243,15 +267,6 @@ impl StabilityArgs {
 /// Watches every (model, ppm, time step) run and writes the CSV and the map.
 pub fn exec(args: StabilityArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let cells = args.cells()?;
-    // Each resolution admits a grid: a usage error before anything is made.
-    for &ppm in &args.ppms {
-        let why = |error| UsageError(format!("--ppms {}: {error}", format_g(ppm)));
-        let domain = match args.dimensions {
-            2 => Domain::COURSE.section(ppm),
-            _ => Domain::COURSE,
-        };
-        check_ppm(ppm, &domain).map_err(why)?;
-    }
     let _folder = super::create_output_dir(&args.output_dir)?;
     // The CSV is opened before the runs, so an unwritable folder fails first.
     let csv_path = args.csv_path();
