@@ -1475,6 +1475,19 @@ fn faces_periodic_axes_and_resolutions_that_cannot_be_are_usage_errors() {
                 "poiseuille",
                 "--case",
                 poiseuille,
+                "--laminar-viscosity",
+                "0",
+                "--output-dir",
+                &out,
+            ],
+            "--laminar-viscosity 0: a Poiseuille flow needs a viscosity above 0".into(),
+        ),
+        (
+            vec![
+                "validate",
+                "poiseuille",
+                "--case",
+                poiseuille,
                 "--across",
                 "10",
                 "--output-dir",
@@ -1546,6 +1559,19 @@ fn faces_periodic_axes_and_resolutions_that_cannot_be_are_usage_errors() {
         let output = run_lab(&args);
         assert_eq!(exit_code(&output), 0, "{extra:?}: {}", stderr(&output));
     }
+    // Without its periodic key the channel is refused at its gravity, and runs with the
+    // flag that makes x periodic (the sixth hostile pass: the case's own check refused it).
+    let text = std::fs::read_to_string(&channel).unwrap();
+    std::fs::write(&channel, text.replace("periodic = [\"x\"]\n", "")).unwrap();
+    let output = run_lab(&["run", "--case", &channel, &out]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains(&format!("{channel}:4:16: the water model's floor")),
+        "{}",
+        stderr(&output)
+    );
+    let output = run_lab(&["run", "--case", &channel, &out, "--periodic", "x"]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
 }
 
 /// A case of `model` in a box 2 m high whose floor is 1 m below the course's, a ball of
@@ -2469,7 +2495,8 @@ fn whole_number_flags_say_their_range_in_words() {
         ("--across", "", "from 4 to 400"),
         ("--across", "99999999999999999999", "from 4 to 400"),
         ("--dimensions", "2.0", "from 2 to 3"),
-        ("--every", "0", "1 or more"),
+        ("--every", "0", "from 1 to 9223372036854775807"),
+        ("--seed", "-1", "from 0 to 18446744073709551615"),
     ] {
         let output = run_lab(&[
             "validate".as_ref(),

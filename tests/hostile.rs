@@ -474,7 +474,7 @@ fn item_12_options_take_the_forms_their_help_shows() {
         (
             "--every",
             "-1",
-            "-1 is not a whole number 1 or more".to_string(),
+            "-1 is not a whole number from 1 to 9223372036854775807".to_string(),
         ),
         // Nor a number in another form, or past the largest.
         ("--steps", "1e3", whole("1e3")),

@@ -891,7 +891,7 @@ fn submit_stability(slurm: &FakeSlurm, job_dir: &Path, out: &Path) -> std::proce
 }
 
 #[test]
-fn an_accuracy_array_of_a_case_merges_and_refuses_shards_of_two_scenes() {
+fn an_accuracy_array_of_a_case_merges_and_refuses_a_case_edited_while_it_runs() {
     let temp = tempfile::tempdir().unwrap();
     let slurm = FakeSlurm::in_folder(temp.path(), "exit 1");
     let case = temp.path().join("dam.toml");
@@ -949,26 +949,52 @@ fn an_accuracy_array_of_a_case_merges_and_refuses_shards_of_two_scenes() {
     assert!(errors
         .iter()
         .any(|e| e.parse::<f64>().is_ok_and(|e| e > 0.0)));
-    // The case edited between the tasks: the merge names the two scenes, writes nothing.
+    // What a local run refuses is not submitted: the 2-D case on another model.
+    let mut refused: Vec<std::ffi::OsString> = vec![
+        "slurm".into(),
+        "submit".into(),
+        "--job-dir".into(),
+        temp.path().join("job3").into(),
+    ];
+    refused.extend(slurm.options(&["sbatch", "squeue"]));
+    for arg in [
+        "--",
+        "accuracy",
+        "--model",
+        "fluidanimate",
+        "--output-dir",
+        "acc3",
+        "--case",
+    ] {
+        refused.push(arg.into());
+    }
+    refused.push(case.clone().into());
+    let output = run_lab(&refused);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("a 2-D case runs the water model (wcsph), not fluidanimate"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!temp.path().join("job3").exists());
+    // The case edited between the tasks, its particles the same (the sixth hostile pass
+    // merged such a job, exit 0): the later tasks and the merge refuse, nothing written.
     let (job, out) = (temp.path().join("job2"), temp.path().join("acc2"));
     let points = submit_to(&job, &out);
-    for (k, index) in points.iter().enumerate() {
-        if k == 1 {
-            let coarser = original.replace("particles_per_m = 300.0", "particles_per_m = 200.0");
-            std::fs::write(&case, coarser).unwrap();
-        }
-        let output = task_of_job_77(&job, index, "node-a");
-        assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
-    }
+    let first = task_of_job_77(&job, &points[0], "node-a");
+    assert_eq!(exit_code(&first), 0, "{}", stderr(&first));
+    let stiffer = original.replace(
+        "name = \"wcsph\"",
+        "name = \"wcsph\"\nsound_speed_factor = 3.0",
+    );
+    std::fs::write(&case, stiffer).unwrap();
+    let changed = "the scene changed since the job was submitted";
+    let later = task_of_job_77(&job, &points[1], "node-a");
+    assert_eq!(exit_code(&later), 1, "{}", stderr(&later));
+    assert!(stderr(&later).contains(changed), "{}", stderr(&later));
+    assert!(!job.join("shards").join("1.csv").exists());
     let merged = slurm.merge(&job, &[]);
     assert_eq!(exit_code(&merged), 1, "{}", stderr(&merged));
-    assert!(
-        stderr(&merged).contains(
-            "the shards ran scenes of 128 and 55 particles: the input changed while the job \
-             ran; submit it again"
-        ),
-        "{}",
-        stderr(&merged)
-    );
+    assert!(stderr(&merged).contains(changed), "{}", stderr(&merged));
     assert!(!out.join("accuracy.csv").exists());
 }

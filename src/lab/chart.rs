@@ -902,6 +902,26 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_bitmap_s_error_is_the_system_s_message_inside_plotters_wrappers() {
+        let cases = [
+            (
+                "backend error: Drawing backend error: ImageError(IoError(Custom { kind: \
+                 Other, error: \"No space left on device\" }))",
+                "No space left on device",
+            ),
+            (
+                "backend error: Drawing backend error: GifEncodingError(Io(Os { code: 28, \
+                 kind: StorageFull, message: \"No space left on device\" }))",
+                "No space left on device",
+            ),
+            ("Bad layout", "Bad layout"),
+        ];
+        for (text, said) in cases {
+            assert_eq!(in_plain_words(text).to_string(), said);
+        }
+    }
     use crate::lab::energy::{Energy, EnergyMethod};
     use crate::lab::machine::Machine;
     use crate::lab::sweep::{Plan, Record, Sweep, Usage};

@@ -97,8 +97,8 @@ enum Command {
     Chart(commands::chart::ChartArgs),
     /// Validate the models against what water does: the dam break of Martin and Moyce
     /// (1952) and Koshizuka and Oka (1996) (fronts, errors, charts), still water against
-    /// hydrostatics (checks, a chart) or Poiseuille flow against its parabola (profiles,
-    /// errors, orders); exits 1 if a run or check fails.
+    /// hydrostatics (checks, a chart) or Poiseuille flow against its parabola and its
+    /// start-up series (profiles, errors, orders); exits 1 if a run or check fails.
     Validate(commands::validate::ValidateArgs),
     /// Run a sweep, a stability map or an accuracy sweep as a Slurm job array, one point
     /// per task; merge its shards into the usual CSV and charts; resubmit the points that

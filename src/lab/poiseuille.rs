@@ -125,7 +125,8 @@ pub struct StartUp {
     pub time: f64,
     /// The root mean square of u_x less the series at each particle's y, over the peak.
     pub error: f64,
-    /// The mean u_x of the particles within a lattice spacing of mid-channel (m/s).
+    /// The mean u_x of the particles within a lattice spacing of mid-channel (m/s; NaN
+    /// where none is).
     pub centre: f64,
     /// The series' mean at the same particles (m/s).
     pub centre_series: f64,
@@ -146,7 +147,8 @@ impl StartUp {
                 near += 1;
             }
         }
-        let near = near.max(1) as f64;
+        // No particle near the middle gives NaN, not a centre at rest.
+        let near = near as f64;
         StartUp {
             time,
             error: (squares / particles.len().max(1) as f64).sqrt() / channel.peak(),
@@ -293,5 +295,8 @@ mod tests {
             off.error
         );
         assert_eq!(off.centre, exact.centre);
+        // With none within a spacing of the middle, the centre is unknown, not at rest.
+        let far = StartUp::of(&c, &particles, t, 0.0);
+        assert!(far.centre.is_nan() && far.centre_series.is_nan());
     }
 }

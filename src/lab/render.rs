@@ -56,11 +56,15 @@ impl Colouring {
             (lo.min(v), hi.max(v))
         });
         let low = if self == Colouring::Speed { 0.0 } else { low };
-        if low >= high {
-            let centre = if low.is_finite() { low } else { 0.0 };
-            return (centre - 0.5, centre + 0.5);
+        match (low >= high, self) {
+            // Nothing moves: speeds from 0, as the bar says.
+            (true, Colouring::Speed) => (0.0, 1.0),
+            (true, _) => {
+                let centre = if low.is_finite() { low } else { 0.0 };
+                (centre - 0.5, centre + 0.5)
+            }
+            (false, _) => (low, high),
         }
-        (low, high)
     }
 }
 
@@ -459,7 +463,9 @@ mod tests {
             (900.0, 1100.0)
         );
         assert_eq!(Colouring::Density.auto_range(&[1000.0; 3]), (999.5, 1000.5));
-        assert_eq!(Colouring::Speed.auto_range(&[f64::NAN, 0.0]), (-0.5, 0.5));
+        // At rest, speeds still start at 0 (the sixth hostile pass: -0.5 to 0.5 m/s).
+        assert_eq!(Colouring::Speed.auto_range(&[f64::NAN, 0.0]), (0.0, 1.0));
+        assert_eq!(Colouring::Speed.auto_range(&[0.0; 3]), (0.0, 1.0));
     }
 
     /// A 10 x 10 x 10 block at rest in the low corner, at 200 particles per metre.

@@ -39,7 +39,8 @@ pub struct AccuracyArgs {
     /// Output folder for accuracy.csv, accuracy-speed.{png,svg} and error-time.{png,svg}.
     #[arg(long)]
     output_dir: PathBuf,
-    /// Physical model of the scene [default: the case's, else fluidanimate]
+    /// Physical model of the scene [default: the case's (course where it names none, as
+    /// `run --case` takes it), else fluidanimate]
     #[arg(long, value_enum)]
     model: Option<Model>,
     /// Kernels to compare (each with every time-step rule). The model's default method
@@ -87,8 +88,9 @@ pub struct AccuracyArgs {
 }
 
 impl AccuracyArgs {
-    /// Reads --case, if given, and settles the model: --model, else the case's, else
-    /// fluidanimate. Every use of the arguments comes after it.
+    /// Reads --case, if given, and settles the model: --model, else the case's (the course
+    /// model where it names none, as `run --case`), else fluidanimate. Every use of the
+    /// arguments comes after it.
     ///
     /// # Errors
     /// A case that cannot be read or is refused, at its key.
@@ -97,7 +99,7 @@ impl AccuracyArgs {
             let mut args = SimulationArgs::of_case(path);
             args.model = self.model;
             args.read_case(&mut None)?;
-            self.model = Some(args.model.unwrap_or(Model::Fluidanimate));
+            self.model = Some(args.model());
             args.model = self.model;
             self.read = Some(Box::new(args));
         }
@@ -161,7 +163,7 @@ impl AccuracyArgs {
 struct Start {
     /// The start state, on the model asked for.
     simulation: Simulation,
-    /// The input's file name, as rows and charts name the scene.
+    /// The input's (or the case's) file name, as rows and charts name the scene.
     file_name: String,
     /// Its particle count.
     particles: usize,
@@ -231,6 +233,27 @@ impl AccuracyArgs {
         })
     }
 
+    /// The scene's fingerprint: its file (the case, or the input) and the CRC-32 of its
+    /// bytes, which a Slurm array records at submit and checks at each task and merge.
+    pub fn scene_fingerprint(&self) -> Result<String, Box<dyn Error>> {
+        let (path, crc) = match &self.read {
+            Some(case) => (
+                case.source(),
+                crc32fast::hash(case.case_text.as_deref().unwrap_or_default().as_bytes()),
+            ),
+            None => {
+                let input = self
+                    .input
+                    .as_deref()
+                    .expect("an input or a case (clap requires one)");
+                let bytes = crate::io::input::read_regular(input)
+                    .map_err(|error| format!("cannot read {}: {error}", input.display()))?;
+                (input, crc32fast::hash(&bytes))
+            }
+        };
+        Ok(format!("{} {crc:08x}", path.display()))
+    }
+
     /// The accuracy.csv these arguments write.
     pub fn csv_path(&self) -> PathBuf {
         self.output_dir.join("accuracy.csv")
@@ -244,10 +267,12 @@ impl AccuracyArgs {
     /// The points a Slurm array runs, one a task: each method, then the reference, which
     /// needs every method's sample times and so runs after them.
     pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
-        // The input read as its tasks will read it, before anything is submitted (a
-        // case was read by `read_case`).
-        if let (None, Some(input)) = (&self.read, &self.input) {
-            fld::header(&fld::map_input(input)?, input)?;
+        // The input read as its tasks will read it, before anything is submitted; a
+        // case's scene made, as a run of the sweep makes it, so that what a local run
+        // refuses is not submitted.
+        match (&self.read, &self.input) {
+            (None, Some(input)) => drop(fld::header(&fld::map_input(input)?, input)?),
+            _ => drop(self.start()?),
         }
         let (_, candidates) = self.plan()?;
         let mut points: Vec<String> = candidates.iter().map(Candidate::label).collect();
@@ -325,20 +350,6 @@ impl AccuracyArgs {
         let (index_column, requested) = (column("slurm_array_index")?, column("requested_time_s")?);
         let first_error = column("median_error_m")?;
         let records: Vec<csv::StringRecord> = reader.records().collect::<Result<_, _>>()?;
-        // Every shard ran the one scene: an input edited while the job ran would measure
-        // methods against another scene's reference.
-        let particles = column("particles")?;
-        let mut counts: Vec<&str> = records.iter().map(|record| &record[particles]).collect();
-        counts.sort_unstable();
-        counts.dedup();
-        if counts.len() > 1 {
-            return Err(format!(
-                "the shards ran scenes of {} particles: the input changed while the job ran; \
-                 submit it again",
-                counts.join(" and ")
-            )
-            .into());
-        }
         // Each point's rows are contiguous (a shard each), in the order of its run.
         let mut order: Vec<usize> = Vec::new();
         for record in &records {

@@ -39,7 +39,7 @@ struct PerturbArgs {
     /// The folder the copies go to (created if missing).
     folder: PathBuf,
     /// How many copies (at most 3 per particle: each moves another coordinate).
-    #[arg(long, default_value_t = 8, value_parser = super::whole::<u32>(1, 1000))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 8, value_parser = super::whole::<u32>(1, 1000))]
     copies: u32,
 }
 

@@ -91,23 +91,20 @@ pub fn repeats<T: PartialEq>(items: &[T]) -> bool {
     (1..items.len()).any(|k| items[k..].contains(&items[k - 1]))
 }
 
-/// A flag's parser of whole numbers from `low` to `high` (`high` at least 2^63-1 reads as
-/// no bound), in digits, saying so in one line otherwise (clap's own says "invalid digit
-/// found in string" or shows a Rust range).
+/// A flag's parser of whole numbers from `low` to `high` (and no more than `T` holds),
+/// in digits (spaces around them let be), saying so in one line otherwise (clap's own
+/// says "invalid digit found in string" or shows a Rust range).
 pub fn whole<T: TryFrom<u64>>(
     low: u64,
     high: u64,
 ) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static {
     move |text| {
-        let range = match high >= i64::MAX as u64 {
-            true => format!("{low} or more"),
-            false => format!("from {low} to {high}"),
-        };
-        text.parse::<u64>()
+        text.trim()
+            .parse::<u64>()
             .ok()
             .filter(|number| (low..=high).contains(number))
             .and_then(|number| T::try_from(number).ok())
-            .ok_or_else(|| format!("{text} is not a whole number {range}"))
+            .ok_or_else(|| format!("{text} is not a whole number from {low} to {high}"))
     }
 }
 
@@ -165,13 +162,18 @@ mod tests {
                 Err(format!("{text} is not a whole number from 4 to 400")),
             );
         }
+        // Spaces around the digits (a list written "20, 40") are let be.
+        assert_eq!(across(" 40"), Ok(40));
         let every = whole::<u64>(1, i64::MAX as u64);
         assert_eq!(every("9223372036854775807"), Ok(i64::MAX as u64));
-        assert_eq!(
-            every("0"),
-            Err("0 is not a whole number 1 or more".to_string())
-        );
-        assert!(every("9223372036854775808").is_err());
+        for text in ["0", "9223372036854775808"] {
+            assert_eq!(
+                every(text),
+                Err(format!(
+                    "{text} is not a whole number from 1 to 9223372036854775807"
+                ))
+            );
+        }
         // A number the type cannot hold is refused, whatever the range says.
         assert!(whole::<u8>(0, 1000)("300").is_err());
     }

@@ -192,7 +192,11 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
             true => "the case's final_state",
             false => "the output",
         };
-        let others = [("the input", Some(input)), (output, args.output.as_ref())]
+        let source = match args.simulation.case {
+            Some(_) => "the case",
+            None => "the input",
+        };
+        let others = [(source, Some(input)), (output, args.output.as_ref())]
             .into_iter()
             .chain(
                 sides[index + 1..]

@@ -22,7 +22,7 @@ pub struct SceneArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 400.0, value_parser = parse_ppm)]
     ppm: f32,
     /// Seed of the lattice jitter and of the random cloud.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0, value_parser = super::whole::<u64>(0, u64::MAX))]
     seed: u64,
     /// Number of particles (random-cloud and corner-block only).
     #[arg(long, allow_negative_numbers = true)]

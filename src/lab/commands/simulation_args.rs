@@ -639,13 +639,16 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             let spacing = &case.fluid.particles_per_m;
             let ppm = *spacing.get_ref();
             let regions = Region::of_case(&case.fluid);
-            let own = case.domain.simulated();
-            check_domain(&case.domain, &own, method.model)
-                .map_err(|(span, why)| args.at_key(span, why))?;
-            // --periodic's axes replace the case's: the domain they make checked too.
-            let domain = args.with_periodic(own)?;
-            check_domain(&case.domain, &domain, method.model)
-                .map_err(|(_, why)| UsageError(format!("with --periodic: {why}")))?;
+            // --periodic's axes replace the case's: the domain they make is checked (a
+            // fault the flag made is the flag's; the case's own, at its key).
+            let domain = args.with_periodic(case.domain.simulated())?;
+            if let Err((span, why)) = check_domain(&case.domain, &domain, method.model) {
+                let own = check_domain(&case.domain, &case.domain.simulated(), method.model);
+                return Err(match (args.periodic.is_some(), own) {
+                    (true, Ok(())) => UsageError(format!("with --periodic: {why}")).into(),
+                    _ => args.at_key(span, why),
+                });
+            }
             check_memory(case).map_err(|why| args.at_key(spacing.span(), why))?;
             // An empty fill at its own key (the boxes, then the spheres, as `regions`).
             let fills = case.fluid.boxes.iter().map(|fill| fill.span());

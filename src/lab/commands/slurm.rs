@@ -94,6 +94,7 @@ struct TaskArgs {
     /// The job folder.
     job_dir: PathBuf,
     /// The point's array index.
+    #[arg(allow_negative_numbers = true, value_parser = super::whole::<usize>(0, u32::MAX.into()))]
     index: usize,
 }
 
@@ -137,6 +138,9 @@ pub fn exec(args: SlurmArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
         Action::Resubmit(args) => resubmit(args, stdout),
     }
 }
+
+/// The job folder's file of an accuracy sweep's scene fingerprint ([`Tool::scene`]).
+const SCENE_FILE: &str = "scene";
 
 /// A subcommand whose points a job array runs.
 enum Tool {
@@ -256,6 +260,32 @@ impl Tool {
         }
     }
 
+    /// The fingerprint of the scene an accuracy sweep's points share ([`SCENE_FILE`]).
+    fn scene(&self) -> Result<Option<String>, Box<dyn Error>> {
+        match self {
+            Tool::Accuracy(args) => args.scene_fingerprint().map(Some),
+            Tool::Sweep(_) | Tool::Stability(_) => Ok(None),
+        }
+    }
+
+    /// Refuses to go on when the scene's file changed since the job was submitted: its
+    /// points would measure two scenes (a job folder from before fingerprints passes).
+    fn check_scene(&self, dir: &JobDir) -> Result<(), Box<dyn Error>> {
+        let (Some(now), true) = (self.scene()?, dir.file(SCENE_FILE).is_file()) else {
+            return Ok(());
+        };
+        let then = crate::io::input::read_regular_text(&dir.file(SCENE_FILE))?;
+        if then.trim_end() != now {
+            return Err(format!(
+                "the scene changed since the job was submitted ({} then, {now} now): its \
+                 points would measure two scenes; submit the job again",
+                then.trim_end()
+            )
+            .into());
+        }
+        Ok(())
+    }
+
     /// The CSV the subcommand writes, which the merge writes.
     fn csv_path(&self) -> PathBuf {
         match self {
@@ -359,6 +389,9 @@ fn submit(args: SubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error
         cwd: cwd.clone(),
         points,
     })?;
+    if let Some(scene) = tool.scene()? {
+        dir.write(SCENE_FILE, format!("{scene}\n").as_bytes())?;
+    }
     dir.write_script(&script)?;
     let mut job_ids: Vec<String> = Vec::new();
     for stage in tool.stages(count) {
@@ -478,8 +511,10 @@ fn task(args: TaskArgs) -> Result<(), Box<dyn Error>> {
     );
     std::env::set_current_dir(&job.cwd)
         .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
+    let tool = Tool::parse(&job.command)?;
+    tool.check_scene(&dir)?;
     let shard = OutputFile::create(&dir.shard(args.index))?;
-    let rows = Tool::parse(&job.command)?.run_point(args.index, &dir, job.points.len())?;
+    let rows = tool.run_point(args.index, &dir, job.points.len())?;
     shard.commit(&slurm::with_place(&rows, &place)?)?;
     Ok(())
 }
@@ -505,6 +540,7 @@ fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
     std::env::set_current_dir(&job.cwd)
         .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
     let tool = Tool::parse(&job.command)?;
+    tool.check_scene(&dir)?;
     let merged = slurm::merge(&dir, &tool.merge_order(job.points.len()))?;
     let submissions = dir.submissions()?;
     let job_ids: Vec<String> = submissions.iter().map(|s| s.job_id.clone()).collect();

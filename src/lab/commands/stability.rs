@@ -31,7 +31,7 @@ pub struct StabilityArgs {
     #[arg(long, value_enum, default_value_t = SceneKind::DamBreak)]
     scene: SceneKind,
     /// Seed of the scene.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = super::whole::<u64>(0, u64::MAX))]
     seed: u64,
     /// Models to run [default: every model; in 2-D the water model, wcsph]
     #[arg(long, value_enum, value_delimiter = ',', num_args = 1..)]

@@ -98,7 +98,7 @@ pub struct ValidateArgs {
     #[arg(long, allow_negative_numbers = true, conflicts_with = "dt", value_parser = parse_courant)]
     adaptive: Option<f64>,
     /// Seed of the lattice jitter [default: 1]
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::whole::<u64>(0, u64::MAX))]
     seed: Option<u64>,
     /// 2 for the dam break in the plane of the box's x-y section (the water model only),
     /// 3, or 2,3 for both side by side [default: 3]
@@ -842,8 +842,16 @@ fn poiseuille(
     let case = args.read.clone().expect("a case read");
     let mut channel =
         Channel::of_case(&case).map_err(|(span, message)| args.at_key(span, message))?;
-    // The viscosity the runs take: a flag's over the case's.
-    if let Some(nu) = water.laminar_viscosity.filter(|&nu| nu > 0.0) {
+    // The viscosity the runs take: a flag's over the case's (as the case's, above 0).
+    if let Some(nu) = water.laminar_viscosity {
+        let positive = nu > 0.0;
+        if !positive {
+            return Err(UsageError(format!(
+                "--laminar-viscosity {}: a Poiseuille flow needs a viscosity above 0",
+                format_g(nu)
+            ))
+            .into());
+        }
         channel.viscosity = nu;
     }
     let Extent::Until(end) = args.extent(None)? else {
@@ -945,12 +953,19 @@ fn poiseuille(
             let numbers = numbers.map(format_shortest).join(",");
             startups += &format!("{count},{numbers}\n");
         }
-        if let Some(worst) = worst_startup(startup) {
-            writeln!(
+        match worst_startup(startup) {
+            Some(worst) => writeln!(
                 stdout,
                 "startup across={count} worst_l2_error={:.4} at_t={:.3}",
                 worst.error, worst.time
-            )?;
+            )?,
+            // Nothing to check: said, not passed over.
+            None => writeln!(
+                stdout,
+                "startup across={count} none: the run ends before the first sample at {:.4} s \
+                 (a tenth of W^2 / (pi^2 nu))",
+                0.1 * channel.time_constant()
+            )?,
         }
     }
     let machine = Machine::this();
