@@ -697,6 +697,29 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         stderr(&other)
     );
     assert!(!folder.exists());
+    // Nor for other methods or times than the sweep's (the sixth hostile pass charted
+    // them, exit 0): each flag's value changed in turn.
+    let csv = dir.path().join("accuracy.csv");
+    for (from, to) in [("1,2", "1,4"), ("0.002,0.004", "0.002,0.003")] {
+        let mut args: Vec<&std::ffi::OsStr> = methods
+            .iter()
+            .map(|&arg| if arg == from { to.as_ref() } else { arg })
+            .collect();
+        args.extend::<[&std::ffi::OsStr; 4]>([
+            "--from-csv".as_ref(),
+            csv.as_os_str(),
+            "--output-dir".as_ref(),
+            folder.as_os_str(),
+        ]);
+        let other = run_lab(&args);
+        assert_eq!(exit_code(&other), 1, "{to}: {}", stderr(&other));
+        assert!(
+            stderr(&other).contains("its methods or times are not these arguments'"),
+            "{}",
+            stderr(&other)
+        );
+        assert!(!folder.exists());
+    }
 
     let bad = run_lab(&[
         "accuracy".as_ref(),

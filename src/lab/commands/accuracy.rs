@@ -82,7 +82,8 @@ pub struct AccuracyArgs {
     #[arg(long, value_enum, default_value_t = Metric::Median)]
     metric: Metric,
     /// Run nothing: draw the charts and report the orders and choices of this
-    /// accuracy.csv, written by an earlier sweep of the same arguments.
+    /// accuracy.csv, written by an earlier sweep of the same arguments (its methods, times
+    /// and scene are checked against them).
     #[arg(long, value_name = "CSV")]
     from_csv: Option<PathBuf>,
 }
@@ -512,6 +513,24 @@ impl AccuracyArgs {
                 csv.display(),
                 start.file_name,
                 start.particles
+            )
+            .into());
+        }
+        // And of these arguments' methods and times (each method's samples the first of
+        // them).
+        let (times, candidates) = self.plan()?;
+        let methods: Vec<Candidate> = sweep.runs.iter().map(|run| run.candidate).collect();
+        let sampled_as_asked = sweep.runs.iter().all(|run| {
+            let requested = run.samples.iter().map(|sample| sample.requested);
+            requested.zip(&times).all(|(csv, &asked)| csv == asked)
+        });
+        if methods != candidates || !sampled_as_asked {
+            return Err(format!(
+                "{}: its methods or times are not these arguments' ({} methods at {} times \
+                 asked): give the arguments of the sweep that wrote it",
+                csv.display(),
+                candidates.len(),
+                times.len()
             )
             .into());
         }
