@@ -2599,3 +2599,72 @@ fn stability_runs_a_lattice_scene_in_the_plane() {
         assert!(!dir.path().join("refused").exists());
     }
 }
+
+#[test]
+fn a_poiseuille_case_s_faults_are_at_their_keys_not_the_resolution_s() {
+    // The sixth hostile pass: a case's gravity or face was blamed on --across, and a
+    // viscosity of 0 or a half-filled channel on other lines.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.toml");
+    let good = std::fs::read_to_string(case("poiseuille")).unwrap();
+    // The line and column (1-based) where `value` stands in `text`, after `key`.
+    let place = |text: &str, key: &str, value: &str| {
+        let at = text.find(key).unwrap() + text[text.find(key).unwrap()..].find(value).unwrap();
+        let line = text[..at].matches('\n').count() + 1;
+        let column = at - text[..at].rfind('\n').map_or(0, |k| k + 1) + 1;
+        (line, column)
+    };
+    for (from, to, key, value, message) in [
+        (
+            "gravity_m_s2 = [0.08, 0.0]",
+            "gravity_m_s2 = [0.001, 0.0]",
+            "gravity_m_s2",
+            "[",
+            "the water model's floor is the box's low y wall",
+        ),
+        (
+            "laminar_viscosity_m2_s = 1e-4",
+            "laminar_viscosity_m2_s = 0.0",
+            "laminar_viscosity_m2_s",
+            "0.0",
+            "a Poiseuille case gives its laminar_viscosity_m2_s > 0",
+        ),
+        (
+            "name = \"wcsph\"",
+            "name = \"wcsph\"\nfaces = { x_low = \"free-slip\" }",
+            "faces",
+            "\"free-slip\"",
+            "the face x_low is periodic: it has no wall to choose",
+        ),
+        (
+            "\nmin_m = [0.0, 0.0]",
+            "\nmin_m = [0.0, 0.005]",
+            "[[fluid.box]]",
+            "[[fluid.box]]",
+            "a Poiseuille case's fluid is one box from plate to plate",
+        ),
+    ] {
+        assert!(good.contains(from), "{from}");
+        let text = good.replace(from, to);
+        std::fs::write(&path, &text).unwrap();
+        let output = run_lab(&[
+            "validate".as_ref(),
+            "poiseuille".as_ref(),
+            "--case".as_ref(),
+            path.as_os_str(),
+            "--across".as_ref(),
+            "20".as_ref(),
+            "--output-dir".as_ref(),
+            dir.path().join("out").as_os_str(),
+        ]);
+        let (line, column) = place(&text, key, value);
+        let said = format!("{}:{line}:{column}: {message}", path.display());
+        assert_eq!(exit_code(&output), 2, "{to}: {}", stderr(&output));
+        assert!(
+            stderr(&output).contains(&said),
+            "{said}\n{}",
+            stderr(&output)
+        );
+        assert!(!dir.path().join("out").exists());
+    }
+}

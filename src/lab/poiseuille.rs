@@ -45,14 +45,24 @@ impl Channel {
         }
         let [force, gy, gz] = *domain.gravity_m_s2.get_ref();
         if !(force > 0.0 && gy == 0.0 && gz == 0.0) {
+            let vector = if domain.is_planar() {
+                "[F, 0]"
+            } else {
+                "[F, 0, 0]"
+            };
             return Err((
                 domain.gravity_m_s2.span(),
-                "a Poiseuille case is driven along x: gravity_m_s2 = [F, 0, 0], F > 0".into(),
+                format!("a Poiseuille case is driven along x: gravity_m_s2 = {vector}, F > 0"),
             ));
         }
+        // The viscosity at its key where given (else at the model's name).
         let viscosity = case.model.laminar_viscosity_m2_s.as_ref();
         let Some(viscosity) = viscosity.filter(|nu| *nu.get_ref() > 0.0) else {
-            let at = case.model.name.as_ref().map_or(whole, |name| name.span());
+            let at = match (viscosity, case.model.name.as_ref()) {
+                (Some(nu), _) => nu.span(),
+                (None, Some(name)) => name.span(),
+                (None, None) => whole,
+            };
             return Err((
                 at,
                 "a Poiseuille case gives its laminar_viscosity_m2_s > 0".into(),
@@ -69,8 +79,11 @@ impl Channel {
                 force,
                 viscosity: *viscosity.get_ref(),
             }),
-            _ => Err((
-                fills.particles_per_m.span(),
+            // At its fill where it has one (the first box, else the first sphere).
+            (boxes, spheres) => Err((
+                (boxes.first().map(|fill| fill.span()))
+                    .or(spheres.map(|fill| fill.span()))
+                    .unwrap_or(fills.particles_per_m.span()),
                 "a Poiseuille case's fluid is one box from plate to plate (the box's y walls)"
                     .into(),
             )),

@@ -858,20 +858,29 @@ fn poiseuille(
         let at = case.run.steps.as_ref().map_or(0..0, |steps| steps.span());
         return Err(args.at_key(at, "a Poiseuille case runs to [run] until_s".into()));
     };
+    // Where the case's particles_per_m stands: a fault found there is the resolution's.
+    let spacing_key = args.at_key(case.fluid.particles_per_m.span(), String::new());
+    let spacing_at = spacing_key
+        .downcast::<CaseError>()
+        .ok()
+        .and_then(|key| key.at);
     let mut runs = Vec::new();
     for &count in across {
         // The case at `count` particles across: its lattice spacing W / count.
         let ppm = count as f64 / channel.width;
         args.read = Some(case.at_particles_per_m(ppm));
-        // A resolution the case's box cannot take is the flag's fault.
-        // (A case's fault is said without its place: the case's own particles_per_m is not
-        // the one that failed.)
+        // A resolution the case's box cannot take is the flag's fault, said without the
+        // place of the case's own particles_per_m (not the one that failed); any other
+        // fault of the case (its gravity, a face) is at its key.
         let Loaded { mut simulation, .. } = load(&args).map_err(|error| {
-            let why = match error.downcast_ref::<CaseError>() {
-                Some(fault) => fault.message.clone(),
-                None => error.to_string(),
+            let across = |why: &dyn std::fmt::Display| -> Box<dyn Error> {
+                UsageError(format!("--across {count} ({ppm} per metre): {why}")).into()
             };
-            UsageError(format!("--across {count} ({ppm} per metre): {why}"))
+            match error.downcast::<CaseError>() {
+                Ok(fault) if fault.at != spacing_at => fault,
+                Ok(fault) => across(&fault.message),
+                Err(other) => across(&other),
+            }
         })?;
         let started = Instant::now();
         let mut progress = Progress::towards(Goal::Until(end)).labelled(format!("{count} across"));
