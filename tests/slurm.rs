@@ -949,6 +949,18 @@ fn an_accuracy_array_of_a_case_merges_and_refuses_a_case_edited_while_it_runs() 
     assert!(errors
         .iter()
         .any(|e| e.parse::<f64>().is_ok_and(|e| e > 0.0)));
+    // A job folder whose command was edited after submit gives other points: refused
+    // (the sixth hostile pass merged a 2-D and a 3-D row into one map, exit 0).
+    let command = job.join("command");
+    let edited = String::from_utf8(std::fs::read(&command).unwrap()).unwrap();
+    std::fs::write(&command, edited.replace("verlet", "leapfrog")).unwrap();
+    let merged = slurm.merge(&job, &[]);
+    assert_eq!(exit_code(&merged), 1, "{}", stderr(&merged));
+    assert!(
+        stderr(&merged).contains("its command no longer gives the points in points.txt"),
+        "{}",
+        stderr(&merged)
+    );
     // What a local run refuses is not submitted: the 2-D case on another model.
     let mut refused: Vec<std::ffi::OsString> = vec![
         "slurm".into(),

@@ -268,6 +268,21 @@ impl Tool {
         }
     }
 
+    /// Refuses to go on when the job folder's command no longer gives the points it was
+    /// submitted with (`points`, from points.txt), or when the scene's file changed
+    /// since: its points would measure two things.
+    fn check_job(&self, dir: &JobDir, points: &[String]) -> Result<(), Box<dyn Error>> {
+        if self.points()? != points {
+            return Err(format!(
+                "{}: its command no longer gives the points in points.txt (was the job \
+                 folder edited?); submit the job again",
+                dir.path.display()
+            )
+            .into());
+        }
+        self.check_scene(dir)
+    }
+
     /// Refuses to go on when the scene's file changed since the job was submitted: its
     /// points would measure two scenes (a job folder from before fingerprints passes).
     fn check_scene(&self, dir: &JobDir) -> Result<(), Box<dyn Error>> {
@@ -512,7 +527,7 @@ fn task(args: TaskArgs) -> Result<(), Box<dyn Error>> {
     std::env::set_current_dir(&job.cwd)
         .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
     let tool = Tool::parse(&job.command)?;
-    tool.check_scene(&dir)?;
+    tool.check_job(&dir, &job.points)?;
     let shard = OutputFile::create(&dir.shard(args.index))?;
     let rows = tool.run_point(args.index, &dir, job.points.len())?;
     shard.commit(&slurm::with_place(&rows, &place)?)?;
@@ -540,7 +555,7 @@ fn merge(args: MergeArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
     std::env::set_current_dir(&job.cwd)
         .map_err(|error| format!("cannot enter {}: {error}", job.cwd.display()))?;
     let tool = Tool::parse(&job.command)?;
-    tool.check_scene(&dir)?;
+    tool.check_job(&dir, &job.points)?;
     let merged = slurm::merge(&dir, &tool.merge_order(job.points.len()))?;
     let submissions = dir.submissions()?;
     let job_ids: Vec<String> = submissions.iter().map(|s| s.job_id.clone()).collect();
