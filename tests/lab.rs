@@ -700,11 +700,44 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     // Nor for other methods or times than the sweep's (the sixth hostile pass charted
     // them, exit 0): each flag's value changed in turn.
     let csv = dir.path().join("accuracy.csv");
-    for (from, to) in [("1,2", "1,4"), ("0.002,0.004", "0.002,0.003")] {
+    // (The seventh: a subset of the times, another model or reference step passed.)
+    for (from, to, extra, said) in [
+        (
+            "1,2",
+            "1,4",
+            None,
+            "its methods or times are not these arguments'",
+        ),
+        (
+            "0.002,0.004",
+            "0.002,0.003",
+            None,
+            "its methods or times are not these arguments'",
+        ),
+        (
+            "0.002,0.004",
+            "0.002",
+            None,
+            "its methods or times are not these arguments'",
+        ),
+        (
+            "",
+            "",
+            Some(["--model", "course"]),
+            "its rows are of the fluidanimate model, not course",
+        ),
+        (
+            "",
+            "",
+            Some(["--reference-dt", "1e-5"]),
+            "not one of --reference-dt 1e-05",
+        ),
+    ] {
         let mut args: Vec<&std::ffi::OsStr> = methods
             .iter()
             .map(|&arg| if arg == from { to.as_ref() } else { arg })
             .collect();
+        args.extend(extra.iter().flatten().map(std::ffi::OsStr::new));
         args.extend::<[&std::ffi::OsStr; 4]>([
             "--from-csv".as_ref(),
             csv.as_os_str(),
@@ -713,11 +746,7 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         ]);
         let other = run_lab(&args);
         assert_eq!(exit_code(&other), 1, "{to}: {}", stderr(&other));
-        assert!(
-            stderr(&other).contains("its methods or times are not these arguments'"),
-            "{}",
-            stderr(&other)
-        );
+        assert!(stderr(&other).contains(said), "{}", stderr(&other));
         assert!(!folder.exists());
     }
 

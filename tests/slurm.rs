@@ -1010,3 +1010,79 @@ fn an_accuracy_array_of_a_case_merges_and_refuses_a_case_edited_while_it_runs() 
     assert!(stderr(&merged).contains(changed), "{}", stderr(&merged));
     assert!(!out.join("accuracy.csv").exists());
 }
+
+#[test]
+fn a_sweep_array_refuses_an_input_changed_between_its_tasks_and_submits_no_resume() {
+    // The seventh hostile pass: a sweep's input replaced between tasks was merged (rows of
+    // 4800 and 15138 particles under one name, exit 0); --resume and --from-csv were
+    // submitted as arrays that ran everything.
+    let temp = tempfile::tempdir().unwrap();
+    let slurm = FakeSlurm::in_folder(temp.path(), "exit 1");
+    let input = temp.path().join("small.fld");
+    std::fs::copy(common::input("small"), &input).unwrap();
+    let csv = temp.path().join("sweep.csv");
+    let submit = |job: &Path, extra: &[&str]| {
+        let mut args: Vec<std::ffi::OsString> = vec![
+            "slurm".into(),
+            "submit".into(),
+            "--job-dir".into(),
+            job.into(),
+        ];
+        args.extend(slurm.options(&["sbatch", "squeue"]));
+        args.push("--".into());
+        args.extend(extra.iter().map(Into::into));
+        run_lab(&args)
+    };
+    let sweep = [
+        "sweep",
+        "--iterations",
+        "0",
+        "--repeats",
+        "1",
+        "--idle-seconds",
+        "0",
+        "--output",
+        csv.to_str().unwrap(),
+        input.to_str().unwrap(),
+    ];
+    let job = temp.path().join("job");
+    let output = submit(&job, &sweep);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let first = task_of_job_77(&job, "0", "node-a");
+    assert_eq!(exit_code(&first), 0, "{}", stderr(&first));
+    std::fs::copy(common::input("large"), &input).unwrap();
+    let changed = "the scene changed since the job was submitted";
+    let later = task_of_job_77(&job, "1", "node-a");
+    assert_eq!(exit_code(&later), 1, "{}", stderr(&later));
+    assert!(stderr(&later).contains(changed), "{}", stderr(&later));
+    let merged = slurm.merge(&job, &[]);
+    assert_eq!(exit_code(&merged), 1, "{}", stderr(&merged));
+    assert!(stderr(&merged).contains(changed), "{}", stderr(&merged));
+    assert!(!csv.exists());
+    // What runs nothing, or goes on from its own CSV, is no job array.
+    let resumed = [&sweep[..], &["--resume"]].concat();
+    let accuracy = [
+        "accuracy",
+        input.to_str().unwrap(),
+        "--output-dir",
+        "acc",
+        "--from-csv",
+        "acc/accuracy.csv",
+    ];
+    for (args, said) in [
+        (
+            &resumed[..],
+            "--resume: a sweep run as a job array goes on with fluid-lab slurm resubmit",
+        ),
+        (
+            &accuracy[..],
+            "--from-csv runs nothing to submit: run fluid-lab accuracy --from-csv itself",
+        ),
+    ] {
+        let job = temp.path().join("refused");
+        let output = submit(&job, args);
+        assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+        assert!(stderr(&output).contains(said), "{}", stderr(&output));
+        assert!(!job.exists());
+    }
+}

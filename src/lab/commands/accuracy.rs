@@ -268,6 +268,13 @@ impl AccuracyArgs {
     /// The points a Slurm array runs, one a task: each method, then the reference, which
     /// needs every method's sample times and so runs after them.
     pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
+        if self.from_csv.is_some() {
+            return Err(UsageError(
+                "--from-csv runs nothing to submit: run fluid-lab accuracy --from-csv itself"
+                    .into(),
+            )
+            .into());
+        }
         // The input read as its tasks will read it, before anything is submitted; a
         // case's scene made, as a run of the sweep makes it, so that what a local run
         // refuses is not submitted.
@@ -480,9 +487,51 @@ impl AccuracyArgs {
 
     /// Checks CSV text as [`Self::chart`] reads it.
     pub fn check_csv(&self, text: &str) -> Result<(), Box<dyn Error>> {
-        Sweep::read(text, self.model())
-            .map(drop)
-            .map_err(Into::into)
+        self.sweep_of(text).map(drop)
+    }
+
+    /// The sweep of accuracy CSV `text`, if it is these arguments': their model, their
+    /// reference step if given, their methods in order, each sampled at their times (all
+    /// of them, or the first until it failed).
+    fn sweep_of(&self, text: &str) -> Result<Sweep, Box<dyn Error>> {
+        let sweep = Sweep::read(text, self.model())?;
+        let (times, candidates) = self.plan()?;
+        let mut reader = csv::Reader::from_reader(text.as_bytes());
+        let model = reader.headers()?.iter().position(|h| h == "model");
+        let records: Vec<csv::StringRecord> = reader.records().collect::<Result<_, _>>()?;
+        let name = self.model().name();
+        if let Some(other) = (model.iter())
+            .flat_map(|&k| records.iter().map(move |record| &record[k]))
+            .find(|&cell| cell != name)
+        {
+            return Err(format!("its rows are of the {other} model, not {name}").into());
+        }
+        if let Some(step) = self.reference_dt {
+            if sweep.reference.candidate.time_step != TimeStep::Fixed(step) {
+                return Err(format!(
+                    "its reference is {}, not one of --reference-dt {}",
+                    sweep.reference.candidate.label(),
+                    format_g(step)
+                )
+                .into());
+            }
+        }
+        let methods: Vec<Candidate> = sweep.runs.iter().map(|run| run.candidate).collect();
+        let sampled_as_asked = sweep.runs.iter().all(|run| {
+            let requested: Vec<f64> = run.samples.iter().map(|sample| sample.requested).collect();
+            let whole = requested.len() == times.len() || run.failure.is_some();
+            whole && requested.len() <= times.len() && requested == times[..requested.len()]
+        });
+        if methods != candidates || !sampled_as_asked {
+            return Err(format!(
+                "its methods or times are not these arguments' ({} methods at {} times \
+                 asked): give the arguments of the sweep that wrote it",
+                candidates.len(),
+                times.len()
+            )
+            .into());
+        }
+        Ok(sweep)
     }
 
     /// Draws the charts of the accuracy CSV at `csv` (a merged array's) and reports its
@@ -490,8 +539,6 @@ impl AccuracyArgs {
     pub fn chart(&self, csv: &Path, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
         let text = crate::io::input::read_regular_text(csv)
             .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;
-        let sweep = Sweep::read(&text, self.model())
-            .map_err(|error| format!("{}: {error}", csv.display()))?;
         let mut reader = csv::Reader::from_reader(text.as_bytes());
         let headers = reader.headers()?.clone();
         let first = reader.records().next().transpose()?.unwrap_or_default();
@@ -516,24 +563,10 @@ impl AccuracyArgs {
             )
             .into());
         }
-        // And of these arguments' methods and times (each method's samples the first of
-        // them).
-        let (times, candidates) = self.plan()?;
-        let methods: Vec<Candidate> = sweep.runs.iter().map(|run| run.candidate).collect();
-        let sampled_as_asked = sweep.runs.iter().all(|run| {
-            let requested = run.samples.iter().map(|sample| sample.requested);
-            requested.zip(&times).all(|(csv, &asked)| csv == asked)
-        });
-        if methods != candidates || !sampled_as_asked {
-            return Err(format!(
-                "{}: its methods or times are not these arguments' ({} methods at {} times \
-                 asked): give the arguments of the sweep that wrote it",
-                csv.display(),
-                candidates.len(),
-                times.len()
-            )
-            .into());
-        }
+        // And of these arguments ([`Self::sweep_of`]).
+        let sweep = self
+            .sweep_of(&text)
+            .map_err(|error| format!("{}: {error}", csv.display()))?;
         self.report(&sweep, &start, &cell("cpu_model"), &cell("commit"), stdout)
     }
 }

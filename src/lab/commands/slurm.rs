@@ -139,7 +139,7 @@ pub fn exec(args: SlurmArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
     }
 }
 
-/// The job folder's file of an accuracy sweep's scene fingerprint ([`Tool::scene`]).
+/// The job folder's file of the fingerprint of the files its points read ([`Tool::scene`]).
 const SCENE_FILE: &str = "scene";
 
 /// A subcommand whose points a job array runs.
@@ -260,11 +260,13 @@ impl Tool {
         }
     }
 
-    /// The fingerprint of the scene an accuracy sweep's points share ([`SCENE_FILE`]).
+    /// The fingerprint of the files the points read ([`SCENE_FILE`]): an accuracy
+    /// sweep's case or input, a sweep's inputs (a stability map's scenes are made).
     fn scene(&self) -> Result<Option<String>, Box<dyn Error>> {
         match self {
             Tool::Accuracy(args) => args.scene_fingerprint().map(Some),
-            Tool::Sweep(_) | Tool::Stability(_) => Ok(None),
+            Tool::Sweep(args) => args.inputs_fingerprint().map(Some),
+            Tool::Stability(_) => Ok(None),
         }
     }
 
@@ -293,7 +295,7 @@ impl Tool {
         if then.trim_end() != now {
             return Err(format!(
                 "the scene changed since the job was submitted ({} then, {now} now): its \
-                 points would measure two scenes; submit the job again",
+                 points would measure two; submit the job again",
                 then.trim_end()
             )
             .into());

@@ -117,9 +117,31 @@ impl SweepArgs {
         &self.output
     }
 
+    /// The inputs' fingerprint: each file and the CRC-32 of its bytes, which a Slurm
+    /// array records at submit and checks at each task and merge.
+    pub fn inputs_fingerprint(&self) -> Result<String, Box<dyn Error>> {
+        let prints = self.inputs.iter().map(|input| {
+            let bytes = crate::io::input::read_regular(input)
+                .map_err(|error| format!("cannot read {}: {error}", input.display()))?;
+            Ok(format!(
+                "{} {:08x}",
+                input.display(),
+                crc32fast::hash(&bytes)
+            ))
+        });
+        Ok(prints.collect::<Result<Vec<String>, String>>()?.join("; "))
+    }
+
     /// The points a Slurm array runs, one a task: the idle baseline (all its windows),
     /// then each input at each iteration count (all its repeats, after a warm-up run).
     pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
+        // A job array goes on with `slurm resubmit`, not with a sweep's --resume.
+        if self.resume {
+            return Err(UsageError(
+                "--resume: a sweep run as a job array goes on with fluid-lab slurm resubmit".into(),
+            )
+            .into());
+        }
         let sweep = self.sweep()?;
         let mut points = vec![format!(
             "idle baseline, {} windows of {} s",
