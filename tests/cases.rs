@@ -897,6 +897,9 @@ fn the_dam_break_validates_in_2_d_from_its_flags_and_its_case() {
     ] {
         assert!(svg.contains(line), "{line}");
     }
+    // One resolution of each: no convergence chart (the eighth hostile pass found one
+    // line through the 2-D and the 3-D run, as if they were two resolutions).
+    assert!(!both.join("dam-break-convergence-wcsph.svg").exists());
     // Only the water model runs in 2-D.
     let output = validate(
         &["--dimensions", "2", "--models", "wcsph,fluidanimate"],
@@ -1455,6 +1458,21 @@ fn faces_periodic_axes_and_resolutions_that_cannot_be_are_usage_errors() {
                 &out,
             ],
             "--dimensions comes from the case's [domain] dimensions with --case".into(),
+        ),
+        (
+            vec![
+                "validate",
+                "dam-break",
+                "--case",
+                dam_2d,
+                "--ppms",
+                "100",
+                "--output-dir",
+                &out,
+            ],
+            "--ppms comes from the case with --case (its model, kernel, time step and scene): \
+             set it there"
+                .into(),
         ),
         (
             vec![

@@ -60,8 +60,9 @@ pub struct ValidateArgs {
     output_dir: PathBuf,
     /// The case to validate: still-water, a tank of one box of fluid on the floor, run to
     /// its until_s; dam-break, a column of one box of fluid a wide and 2a high against the
-    /// low-x wall, whose model, kernel, settings, time step, resolution and seed replace
-    /// the flags' (--until-t or --until, and --every, stay).
+    /// low-x wall, whose model, kernel, time step, resolution and seed are its own (those
+    /// flags are refused beside it; the water model's settings as flags override its;
+    /// --until-t or --until, and --every, stay).
     #[arg(long, value_name = "FILE")]
     case: Option<PathBuf>,
     /// Models to run [default: every model].
@@ -565,10 +566,20 @@ fn convergence_chart(runs: &[Validated], model: Model, footer: &str) -> Option<P
         .comparisons
         .iter()
         .filter(|c| c.t <= SUMMARY_T);
-    let series: Vec<(String, Vec<(f64, f64)>)> = points
-        .map(|point| {
+    // A line per point and per dimensions (2-D and 3-D runs apart, each labelled when
+    // both ran).
+    let both = runs.iter().any(|run| run.planar) && runs.iter().any(|run| !run.planar);
+    let kinds: &[bool] = if both {
+        &[true, false]
+    } else {
+        &[runs[0].planar]
+    };
+    let lines = points.flat_map(|point| kinds.iter().map(move |&planar| (point, planar)));
+    let series: Vec<(String, Vec<(f64, f64)>)> = lines
+        .map(|(point, planar)| {
             let errors = runs
                 .iter()
+                .filter(|run| run.planar == planar)
                 .filter_map(|run| {
                     let same = run
                         .comparisons
@@ -582,11 +593,17 @@ fn convergence_chart(runs: &[Validated], model: Model, footer: &str) -> Option<P
                 .split_whitespace()
                 .filter_map(|word| word.chars().next().filter(char::is_ascii_uppercase))
                 .collect();
-            (format!("{initials} T = {:.2}", point.t), errors)
+            let dimensions = match (both, planar) {
+                (false, _) => "",
+                (true, true) => " 2-D",
+                (true, false) => " 3-D",
+            };
+            (format!("{initials} T = {:.2}{dimensions}", point.t), errors)
         })
         .collect();
     let reached = series.iter().any(|(_, errors)| !errors.is_empty());
-    (runs.len() > 1 && reached).then(|| PointChart {
+    let resolutions = series.iter().any(|(_, errors)| errors.len() > 1);
+    (resolutions && reached).then(|| PointChart {
         name: match model {
             Model::Course => "dam-break-convergence-course",
             Model::Fluidanimate => "dam-break-convergence-fluidanimate",
@@ -748,6 +765,24 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
         return Err(UsageError(
             "--dimensions comes from the case's [domain] dimensions with --case".into(),
         )
+        .into());
+    }
+    // What the case gives is not also taken from a flag, and a flag is not let pass
+    // unheeded (the eighth hostile pass: --ppms, --models and --seed were).
+    let replaced = [
+        ("--models", args.models.is_some()),
+        ("--ppms", args.ppms.is_some()),
+        ("--width", args.width.is_some()),
+        ("--seed", args.seed.is_some()),
+        ("--kernel", args.kernel.is_some()),
+        ("--dt", args.dt.is_some()),
+        ("--adaptive", args.adaptive.is_some()),
+    ];
+    if let Some((flag, _)) = replaced.iter().find(|(_, given)| *given) {
+        return Err(UsageError(format!(
+            "{flag} comes from the case with --case (its model, kernel, time step and \
+             scene): set it there"
+        ))
         .into());
     }
     if case.domain.simulated() != course {
