@@ -55,15 +55,25 @@ fn wendland(r: f64, support: f64) -> f64 {
     sigma * (1.0 - q).powi(4) * (1.0 + 4.0 * q)
 }
 
-/// The slots of the particles within `support` of `at`, or of the vertical line through
-/// it where `vertical`.
-fn near(simulation: &Simulation, at: DVec3, support: f64, vertical: bool) -> Vec<usize> {
-    let p = &simulation.particles().p;
-    (0..simulation.particles().len())
-        .filter(|&slot| {
-            let (dx, dz) = (p[0][slot] - at.x, p[2][slot] - at.z);
-            let dy = if vertical { 0.0 } else { p[1][slot] - at.y };
-            dx * dx + dy * dy + dz * dz < support * support
+/// The particles within `support` of `at`, or of the vertical line through it where
+/// `vertical`: each slot with its position, or along a periodic axis its image nearest
+/// `at` (a gauge on a periodic face reads the fluid on both sides of it).
+fn near(simulation: &Simulation, at: DVec3, support: f64, vertical: bool) -> Vec<(usize, DVec3)> {
+    let particles = simulation.particles();
+    let domain = &simulation.params().domain;
+    let extent = domain.extent();
+    (0..particles.len())
+        .filter_map(|slot| {
+            let mut image = particles.position(slot);
+            for axis in (0..3).filter(|&axis| domain.periodic[axis]) {
+                let d = image[axis] - at[axis];
+                image[axis] -= extent[axis] * (d / extent[axis]).round();
+            }
+            let mut d = image - at;
+            if vertical {
+                d.y = 0.0;
+            }
+            (d.length_squared() < support * support).then_some((slot, image))
         })
         .collect()
 }
@@ -100,12 +110,14 @@ pub fn read_point(state: &Simulation, at: DVec3) -> Option<PointReading> {
     let support = support(state);
     let particles = state.particles();
     let mass = state.params().mass;
-    let samples = near(state, at, support, false).into_iter().map(|slot| {
-        let rho = particles.rho[slot];
-        let v = crate::sim::particles::vector_at(&particles.v, slot);
-        let values = [state.pressure(rho), v.x, v.y, v.z, rho];
-        (particles.position(slot), mass / rho, values)
-    });
+    let samples = near(state, at, support, false)
+        .into_iter()
+        .map(|(slot, image)| {
+            let rho = particles.rho[slot];
+            let v = crate::sim::particles::vector_at(&particles.v, slot);
+            let values = [state.pressure(rho), v.x, v.y, v.z, rho];
+            (image, mass / rho, values)
+        });
     let [pressure, vx, vy, vz, density] = interpolate(samples, at, support)?;
     Some(PointReading {
         pressure,
@@ -130,7 +142,7 @@ pub fn read_height(state: &Simulation, at: DVec2) -> Option<f64> {
     if slots.is_empty() {
         return None;
     }
-    let heights = slots.iter().map(|&slot| particles.p[1][slot]);
+    let heights = slots.iter().map(|&(_, image)| image.y);
     let (bottom, top) = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
         (lo.min(y), hi.max(y))
     });
@@ -142,8 +154,8 @@ pub fn read_height(state: &Simulation, at: DVec2) -> Option<f64> {
     let flip = |value: f64, wall: Option<f64>| wall.map_or(value, |w| 2.0 * w - value);
     let images: Vec<(DVec3, f64)> = slots
         .iter()
-        .flat_map(|&slot| {
-            let (p, v) = (particles.position(slot), mass / particles.rho[slot]);
+        .flat_map(|&(slot, p)| {
+            let v = mass / particles.rho[slot];
             let below = (p.y - floor < support).then_some(2.0 * floor - p.y);
             mirrors.iter().flat_map(move |&(x, z)| {
                 let side = DVec3::new(flip(p.x, x), p.y, flip(p.z, z));
@@ -178,11 +190,13 @@ pub fn read_height(state: &Simulation, at: DVec2) -> Option<f64> {
 
 /// The walls (x, z) a position is mirrored across for its images seen from the vertical
 /// `line`: the particle itself (no wall), and across the side walls of `domain` within
-/// `support` of the line, each alone and both together.
+/// `support` of the line, each alone and both together (a periodic axis has none).
 fn side_mirrors(domain: &Domain, line: DVec3, support: f64) -> Vec<(Option<f64>, Option<f64>)> {
     let wall = |axis: usize| {
         let (low, high) = (line[axis] - domain.min[axis], domain.max[axis] - line[axis]);
-        if low < support && low <= high {
+        if domain.periodic[axis] {
+            None
+        } else if low < support && low <= high {
             Some(domain.min[axis])
         } else if high < support {
             Some(domain.max[axis])
@@ -441,6 +455,17 @@ mod tests {
 
     /// [`slab`] on `model`.
     fn slab_of(model: Model, ppm: f64, depth: f64) -> Simulation {
+        let method = Method {
+            model,
+            kernel: crate::sim::kernel::Kernel::Scalar,
+        };
+        Simulation::with_method(ppm, slab_particles(ppm, depth), method)
+            .unwrap()
+            .with_fresh_densities()
+    }
+
+    /// The particles of [`slab`].
+    fn slab_particles(ppm: f64, depth: f64) -> Particles {
         let spacing = 1.0 / ppm;
         let extent = BOX_MAX - BOX_MIN;
         let [nx, nz] = [extent.x, extent.z].map(|e| (e * ppm).floor() as usize);
@@ -454,13 +479,7 @@ mod tests {
                 particles.p[axis][slot] = BOX_MIN[axis] + (k[axis] as f64 + 0.5) * spacing;
             }
         }
-        let method = Method {
-            model,
-            kernel: crate::sim::kernel::Kernel::Scalar,
-        };
-        Simulation::with_method(ppm, particles, method)
-            .unwrap()
-            .with_fresh_densities()
+        particles
     }
 
     #[test]
@@ -560,6 +579,41 @@ mod tests {
                 (Some(BOX_MIN.x), Some(BOX_MAX.z))
             ]
         );
+    }
+
+    #[test]
+    fn a_gauge_on_a_periodic_face_reads_both_sides_of_it() {
+        // The eighth hostile pass: gauges at x = 0 and x = L of a box periodic along x,
+        // one place, read 96 and 99 Pa (each only its own side).
+        let (ppm, depth) = (150.0, 0.04);
+        let domain = Domain {
+            periodic: [true, false, false],
+            ..Domain::COURSE
+        };
+        let method = Method {
+            model: Model::Wcsph,
+            kernel: crate::sim::kernel::Kernel::Scalar,
+        };
+        let particles = slab_particles(ppm, depth);
+        let periodic =
+            Simulation::with_dynamics(ppm, domain, particles, method, Model::Wcsph.dynamics())
+                .unwrap()
+                .with_fresh_densities();
+        let at = |x: f64| DVec3::new(x, BOX_MIN.y + 0.5 * depth, 0.0);
+        let (low, high) = (
+            read_point(&periodic, at(BOX_MIN.x)).unwrap(),
+            read_point(&periodic, at(BOX_MAX.x)).unwrap(),
+        );
+        assert!(
+            (low.pressure - high.pressure).abs() < 1e-9 * low.pressure.abs().max(1.0),
+            "{low:?} {high:?}"
+        );
+        let height = |x: f64| read_height(&periodic, DVec2::new(x, 0.0)).unwrap();
+        assert!((height(BOX_MIN.x) - height(BOX_MAX.x)).abs() < 1e-12);
+        assert!((height(BOX_MIN.x) - (BOX_MIN.y + depth)).abs() < 1.0 / ppm);
+        // No wall to mirror across along the periodic axis.
+        let mirrors = side_mirrors(&domain, DVec3::new(BOX_MIN.x, 0.0, 0.0), 0.01);
+        assert_eq!(mirrors, [(None, None)]);
     }
 
     #[test]
