@@ -2057,23 +2057,25 @@ fn a_disk_too_full_for_the_stability_map_leaves_no_csv() {
     // Issue 47, third hostile pass: stability wrote its CSV and then failed on the map,
     // leaving the CSV of a command that failed. The output folder is a 64 KiB tmpfs in a
     // mount namespace of the run's own (`unshare`).
-    let namespaces = Command::new("unshare").args(["-rm", "true"]).status();
-    if !namespaces.is_ok_and(|status| status.success()) {
-        eprintln!("skipped: no mount namespace here (unshare -rm)");
-        return;
-    }
     let dir = tempfile::tempdir().unwrap();
     let folder = dir.path().join("map");
     std::fs::create_dir(&folder).unwrap();
-    let script = "mount -t tmpfs -o size=64k none \"$1\" && \"$2\" stability --output-dir \"$1\" \
-                  --ppms 100 --dt-factors 1 --adaptive '' --duration 0.002; status=$?; \
-                  ls -a \"$1\"; exit $status";
-    let output = Command::new("unshare")
-        .args(["-rm", "sh", "-c", script, "sh"])
-        .arg(&folder)
-        .arg(env!("CARGO_BIN_EXE_fluid-lab"))
-        .output()
-        .unwrap();
+    let stability = [
+        "stability",
+        "--output-dir",
+        folder.to_str().unwrap(),
+        "--ppms",
+        "100",
+        "--dt-factors",
+        "1",
+        "--adaptive",
+        "",
+        "--duration",
+        "0.002",
+    ];
+    let Some(output) = on_a_full_disk(&folder, &stability) else {
+        return;
+    };
     assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
     // The system's words, not plotters' debug text of the error inside its wrappers.
     assert_eq!(
@@ -2087,26 +2089,47 @@ fn a_disk_too_full_for_the_stability_map_leaves_no_csv() {
     assert!(stdout(&output).ends_with(".\n..\n"), "{}", stdout(&output));
     // A picture too large for the disk says so, naming it, and leaves nothing.
     for picture in ["x.png", "x.gif"] {
-        let script = "mount -t tmpfs -o size=64k none \"$1\" && \"$2\" render \"$3\" \"$1/$4\" \
-                      --steps 2; status=$?; ls -a \"$1\"; exit $status";
-        let output = Command::new("unshare")
-            .args(["-rm", "sh", "-c", script, "sh"])
-            .arg(&folder)
-            .arg(env!("CARGO_BIN_EXE_fluid-lab"))
-            .arg(input("small"))
-            .arg(picture)
-            .output()
-            .unwrap();
+        let path = folder.join(picture);
+        let small = input("small");
+        let render = [
+            "render",
+            small.to_str().unwrap(),
+            path.to_str().unwrap(),
+            "--steps",
+            "2",
+        ];
+        let output = on_a_full_disk(&folder, &render).expect("a mount namespace");
         assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
         assert_eq!(
             stderr(&output),
             format!(
                 "fluid-lab: error: {}: No space left on device\n",
-                folder.join(picture).display()
+                path.display()
             )
         );
         assert!(stdout(&output).ends_with(".\n..\n"), "{}", stdout(&output));
     }
+}
+
+/// `fluid-lab ARGS` with `folder` a 64 KiB tmpfs in a mount namespace of the run's own
+/// (`unshare -rm`), its entries listed on stdout after the run's; `None` (said) where
+/// this machine makes no mount namespace.
+fn on_a_full_disk(folder: &Path, args: &[&str]) -> Option<std::process::Output> {
+    let namespaces = Command::new("unshare").args(["-rm", "true"]).status();
+    if !namespaces.is_ok_and(|status| status.success()) {
+        eprintln!("skipped: no mount namespace here (unshare -rm)");
+        return None;
+    }
+    let script = "folder=$1; shift; mount -t tmpfs -o size=64k none \"$folder\" && \"$@\"; \
+                  status=$?; ls -a \"$folder\"; exit $status";
+    let output = Command::new("unshare")
+        .args(["-rm", "sh", "-c", script, "sh"])
+        .arg(folder)
+        .arg(env!("CARGO_BIN_EXE_fluid-lab"))
+        .args(args)
+        .output()
+        .unwrap();
+    Some(output)
 }
 
 #[test]

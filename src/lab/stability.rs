@@ -192,6 +192,14 @@ pub fn read_csv(text: &str) -> Result<Vec<Outcome>, String> {
     Ok(outcomes)
 }
 
+/// The box a scene runs in: the course's, or in 2 `dimensions` its section at `ppm`.
+pub fn domain(dimensions: usize, ppm: f64) -> Domain {
+    match dimensions {
+        2 => Domain::COURSE.section(ppm),
+        _ => Domain::COURSE,
+    }
+}
+
 /// Runs `scene` (seed `seed`, in `dimensions`: 2 for the section of the course's box in
 /// the plane, a lattice scene on the water model) at `ppm` with `method`, `integrator`
 /// and `time_step` until it has simulated `duration` seconds (finite and positive),
@@ -208,10 +216,7 @@ pub fn watch(
     if !(duration.is_finite() && duration > 0.0) {
         return Err(format!("a duration of {duration} s is not a run"));
     }
-    let domain = match dimensions {
-        2 => Domain::COURSE.section(ppm),
-        _ => Domain::COURSE,
-    };
+    let domain = domain(dimensions, ppm);
     let particles = match (dimensions, scene.regions()) {
         (2, Some(regions)) => scene::filled(ppm, seed, &regions, &domain)
             .map_err(|error| format!("the {} in 2-D at {ppm} per metre: {error}", scene.name()))?,

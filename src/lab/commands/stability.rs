@@ -14,7 +14,7 @@ use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
-use crate::sim::params::{Domain, TIME_STEP};
+use crate::sim::params::TIME_STEP;
 use crate::sim::timestep::{is_time, Integrator, TimeStep};
 use clap::Args;
 use std::error::Error;
@@ -159,10 +159,7 @@ impl StabilityArgs {
         // a usage error before anything is made or submitted.
         for &ppm in &self.ppms {
             let why = |error| UsageError(format!("--ppms {}: {error}", format_g(ppm)));
-            let domain = match self.dimensions {
-                2 => Domain::COURSE.section(ppm),
-                _ => Domain::COURSE,
-            };
+            let domain = stability::domain(self.dimensions, ppm);
             for model in self.models() {
                 let cutoff = model.dynamics().cutoff(ppm);
                 check_grid(ppm, cutoff, &domain).map_err(why)?;

@@ -182,26 +182,33 @@ impl ValidateArgs {
         self.seed.unwrap_or(1)
     }
 
+    /// The flags that only a dam break reads that were given, in order, each with
+    /// whether a dam-break case gives its value instead (its model, kernel, time step and
+    /// scene; the run's length and sampling stay the flags').
+    fn dam_break_flags(&self) -> impl Iterator<Item = (&'static str, bool)> {
+        let flags = [
+            ("--models", self.models.is_some(), true),
+            ("--ppms", self.ppms.is_some(), true),
+            ("--width", self.width.is_some(), true),
+            ("--until-t", self.until_t.is_some(), false),
+            ("--until", self.until.is_some(), false),
+            ("--every", self.every.is_some(), false),
+            ("--kernel", self.kernel.is_some(), true),
+            ("--dt", self.dt.is_some(), true),
+            ("--adaptive", self.adaptive.is_some(), true),
+            ("--seed", self.seed.is_some(), true),
+            ("--dimensions", self.dimensions.is_some(), true),
+        ];
+        flags
+            .into_iter()
+            .filter(|&(_, given, _)| given)
+            .map(|(flag, _, from_case)| (flag, from_case))
+    }
+
     /// The first of the flags that only a dam break reads, if given (still water runs
     /// its case's model, kernel, time step and scene).
     fn dam_break_flag(&self) -> Option<&'static str> {
-        let given = [
-            ("--models", self.models.is_some()),
-            ("--ppms", self.ppms.is_some()),
-            ("--width", self.width.is_some()),
-            ("--until-t", self.until_t.is_some()),
-            ("--until", self.until.is_some()),
-            ("--every", self.every.is_some()),
-            ("--kernel", self.kernel.is_some()),
-            ("--dt", self.dt.is_some()),
-            ("--adaptive", self.adaptive.is_some()),
-            ("--seed", self.seed.is_some()),
-            ("--dimensions", self.dimensions.is_some()),
-        ];
-        given
-            .into_iter()
-            .find(|&(_, given)| given)
-            .map(|(flag, _)| flag)
+        self.dam_break_flags().next().map(|(flag, _)| flag)
     }
 }
 
@@ -769,16 +776,8 @@ fn take_dam_break_case(args: &mut ValidateArgs, path: &Path) -> Result<(), Box<d
     }
     // What the case gives is not also taken from a flag, and a flag is not let pass
     // unheeded (the eighth hostile pass: --ppms, --models and --seed were).
-    let replaced = [
-        ("--models", args.models.is_some()),
-        ("--ppms", args.ppms.is_some()),
-        ("--width", args.width.is_some()),
-        ("--seed", args.seed.is_some()),
-        ("--kernel", args.kernel.is_some()),
-        ("--dt", args.dt.is_some()),
-        ("--adaptive", args.adaptive.is_some()),
-    ];
-    if let Some((flag, _)) = replaced.iter().find(|(_, given)| *given) {
+    let replaced = args.dam_break_flags().find(|&(_, from_case)| from_case);
+    if let Some((flag, _)) = replaced {
         return Err(UsageError(format!(
             "{flag} comes from the case with --case (its model, kernel, time step and \
              scene): set it there"
