@@ -273,6 +273,19 @@ fn sbatch_path(path: &Path) -> Result<&str, String> {
         })
 }
 
+/// A file's fingerprint as a job folder records it (the files its points read): its
+/// path as given and the CRC-32 of `bytes`, its contents.
+pub fn fingerprint(path: &Path, bytes: &[u8]) -> String {
+    format!("{} {:08x}", path.display(), crc32fast::hash(bytes))
+}
+
+/// The fingerprint of the file at `path`, read.
+pub fn file_fingerprint(path: &Path) -> Result<String, String> {
+    let bytes = crate::io::input::read_regular(path)
+        .map_err(|error| format!("cannot read {}: {error}", path.display()))?;
+    Ok(fingerprint(path, &bytes))
+}
+
 /// The batch script: the placement's `#SBATCH` lines, logs in `dir/logs`, the task run
 /// in `cwd` as `lab slurm task DIR $SLURM_ARRAY_TASK_ID`.
 pub fn job_script(

@@ -9,6 +9,7 @@ use crate::io::output::OutputFile;
 use crate::lab::accuracy::{self, Candidate, Convergence, Errors, Metric, Observed, Run, Sweep};
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
+use crate::lab::slurm;
 use crate::lab::UsageError;
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
@@ -237,22 +238,19 @@ impl AccuracyArgs {
     /// The scene's fingerprint: its file (the case, or the input) and the CRC-32 of its
     /// bytes, which a Slurm array records at submit and checks at each task and merge.
     pub fn scene_fingerprint(&self) -> Result<String, Box<dyn Error>> {
-        let (path, crc) = match &self.read {
-            Some(case) => (
-                case.source(),
-                crc32fast::hash(case.case_text.as_deref().unwrap_or_default().as_bytes()),
-            ),
+        Ok(match &self.read {
+            Some(case) => {
+                let text = case.case_text.as_deref().unwrap_or_default();
+                slurm::fingerprint(case.source(), text.as_bytes())
+            }
             None => {
                 let input = self
                     .input
                     .as_deref()
                     .expect("an input or a case (clap requires one)");
-                let bytes = crate::io::input::read_regular(input)
-                    .map_err(|error| format!("cannot read {}: {error}", input.display()))?;
-                (input, crc32fast::hash(&bytes))
+                slurm::file_fingerprint(input)?
             }
-        };
-        Ok(format!("{} {crc:08x}", path.display()))
+        })
     }
 
     /// The accuracy.csv these arguments write.
@@ -265,9 +263,10 @@ impl AccuracyArgs {
         &self.output_dir
     }
 
-    /// The points a Slurm array runs, one a task: each method, then the reference, which
-    /// needs every method's sample times and so runs after them.
-    pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
+    /// Refuses what a Slurm array of these arguments could not run, before anything is
+    /// submitted: `--from-csv` (which runs nothing), an input its tasks could not read, or
+    /// a case whose scene a run of the sweep refuses (it is made, as a run makes it).
+    pub fn check_submittable(&self) -> Result<(), Box<dyn Error>> {
         if self.from_csv.is_some() {
             return Err(UsageError(
                 "--from-csv runs nothing to submit: run fluid-lab accuracy --from-csv itself"
@@ -275,13 +274,16 @@ impl AccuracyArgs {
             )
             .into());
         }
-        // The input read as its tasks will read it, before anything is submitted; a
-        // case's scene made, as a run of the sweep makes it, so that what a local run
-        // refuses is not submitted.
         match (&self.read, &self.input) {
             (None, Some(input)) => drop(fld::header(&fld::map_input(input)?, input)?),
             _ => drop(self.start()?),
         }
+        Ok(())
+    }
+
+    /// The points a Slurm array runs, one a task: each method, then the reference, which
+    /// needs every method's sample times and so runs after them.
+    pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
         let (_, candidates) = self.plan()?;
         let mut points: Vec<String> = candidates.iter().map(Candidate::label).collect();
         points.push("the reference (compensated kernel, fixed step), after every method".into());

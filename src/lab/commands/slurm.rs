@@ -260,6 +260,15 @@ impl Tool {
         }
     }
 
+    /// Refuses what an array of the subcommand could not run, before it is submitted.
+    fn check_submittable(&self) -> Result<(), Box<dyn Error>> {
+        match self {
+            Tool::Sweep(args) => Ok(args.check_submittable()?),
+            Tool::Accuracy(args) => args.check_submittable(),
+            Tool::Stability(_) => Ok(()),
+        }
+    }
+
     /// The fingerprint of the files the points read ([`SCENE_FILE`]): an accuracy
     /// sweep's case or input, a sweep's inputs (a stability map's scenes are made).
     fn scene(&self) -> Result<Option<String>, Box<dyn Error>> {
@@ -372,6 +381,7 @@ impl PlacementArgs {
 /// Submits the array of every point.
 fn submit(args: SubmitArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let tool = Tool::parse(&args.command)?;
+    tool.check_submittable()?;
     let points = tool.points()?;
     if points.is_empty() {
         return Err(format!("the {} has no points to run", tool.name()).into());

@@ -6,6 +6,7 @@ use crate::io::input::read_regular_text;
 use crate::io::output::OutputFile;
 use crate::lab::energy::{EnergyMethod, Sources};
 use crate::lab::machine::Machine;
+use crate::lab::slurm;
 use crate::lab::sweep::{self, Plan, Sweep};
 use crate::lab::UsageError;
 use clap::Args;
@@ -117,31 +118,30 @@ impl SweepArgs {
         &self.output
     }
 
+    /// Refuses what a Slurm array of these arguments could not run: `--resume` (a job
+    /// array goes on with `slurm resubmit`).
+    pub fn check_submittable(&self) -> Result<(), UsageError> {
+        match self.resume {
+            true => Err(UsageError(
+                "--resume: a sweep run as a job array goes on with fluid-lab slurm resubmit".into(),
+            )),
+            false => Ok(()),
+        }
+    }
+
     /// The inputs' fingerprint: each file and the CRC-32 of its bytes, which a Slurm
     /// array records at submit and checks at each task and merge.
     pub fn inputs_fingerprint(&self) -> Result<String, Box<dyn Error>> {
-        let prints = self.inputs.iter().map(|input| {
-            let bytes = crate::io::input::read_regular(input)
-                .map_err(|error| format!("cannot read {}: {error}", input.display()))?;
-            Ok(format!(
-                "{} {:08x}",
-                input.display(),
-                crc32fast::hash(&bytes)
-            ))
-        });
+        let prints = self
+            .inputs
+            .iter()
+            .map(|input| slurm::file_fingerprint(input));
         Ok(prints.collect::<Result<Vec<String>, String>>()?.join("; "))
     }
 
     /// The points a Slurm array runs, one a task: the idle baseline (all its windows),
     /// then each input at each iteration count (all its repeats, after a warm-up run).
     pub fn points(&self) -> Result<Vec<String>, Box<dyn Error>> {
-        // A job array goes on with `slurm resubmit`, not with a sweep's --resume.
-        if self.resume {
-            return Err(UsageError(
-                "--resume: a sweep run as a job array goes on with fluid-lab slurm resubmit".into(),
-            )
-            .into());
-        }
         let sweep = self.sweep()?;
         let mut points = vec![format!(
             "idle baseline, {} windows of {} s",
