@@ -1910,7 +1910,8 @@ fn a_fifo_given_as_a_csv_to_read_or_an_output_to_write_is_refused_at_once() {
 
 #[test]
 fn an_export_of_a_state_beyond_f32_is_an_error_not_an_infinity() {
-    // Issue 47, third hostile pass: export wrote `inf` and exited 0 where run refuses.
+    // Issue 47, third hostile pass: export wrote `inf` and exited 0 where run refuses. On
+    // the course model, which may leave the box (the others' runs blow up at step 1).
     let dir = tempfile::tempdir().unwrap();
     let far = dir.path().join("far.fld");
     let at = |x: f32| [x, -x, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
@@ -1923,8 +1924,6 @@ fn an_export_of_a_state_beyond_f32_is_an_error_not_an_infinity() {
             frames.as_os_str(),
             "--steps".as_ref(),
             "1".as_ref(),
-            "--model".as_ref(),
-            "fluidanimate".as_ref(),
             "--format".as_ref(),
             format.as_ref(),
         ]);

@@ -89,6 +89,13 @@ impl Tank {
         self.high.y - self.low.y
     }
 
+    /// The shortest run that tests the tank (s) under gravity `g` (m/s^2): the time water
+    /// takes to fall its depth, sqrt(2 H / g). A shorter one reads back little more than
+    /// the hydrostatic start it was given.
+    pub fn shortest_run(&self, g: f64) -> f64 {
+        (2.0 * self.depth() / g).sqrt()
+    }
+
     /// The depth (m) of the pressure gauge at `fraction` of H.
     pub fn gauge_depth(&self, fraction: f64) -> f64 {
         match fraction < 1.0 {

@@ -5,7 +5,7 @@ use crate::io::case::{self, Case, CaseError};
 use crate::io::fld;
 use crate::io::gformat::{format_g, format_shortest};
 use crate::io::input::read_regular;
-use crate::lab::diagnostics::Vitals;
+use crate::lab::diagnostics::{Failure, Vitals};
 use crate::lab::machine;
 use crate::lab::progress::{Goal, Progress};
 use crate::lab::scene::{self, Region};
@@ -851,13 +851,26 @@ pub fn steps_beyond_limit(end: f64, dt: f64) -> Option<f64> {
 }
 
 /// Why a run fails after `step`: a particle that is not finite (NaN or infinities are not
-/// drawn, exported or written as if they were a state), or, on the way to a physical
-/// time, an adaptive step collapsed so far that more than [`MOST_STEPS_TO_GO`] steps
-/// would remain.
+/// drawn, exported or written as if they were a state); on a model that keeps its fluid
+/// in the box ([`Model::keeps_to_its_box`]), particles more than h outside it (the run
+/// blew up); or, on the way to a physical time, an adaptive step collapsed so far that
+/// more than [`MOST_STEPS_TO_GO`] steps would remain.
 pub fn failure(simulation: &Simulation, extent: Extent, step: u64) -> Option<String> {
-    if let Some(id) = Vitals::of(simulation).non_finite {
+    let vitals = Vitals::of(simulation);
+    if let Some(id) = vitals.non_finite {
         return Some(format!(
             "the run failed at step {step}: particle {id} is not finite"
+        ));
+    }
+    if vitals.outside > 0 && simulation.method().model.keeps_to_its_box() {
+        let time = format_g(simulation.time());
+        let (model, left) = (
+            simulation.method().model.name(),
+            Failure::LeftBox(vitals.outside),
+        );
+        return Some(format!(
+            "the run blew up at step {step}, t = {time} s: {left} by more than h (the \
+             {model} model keeps its fluid in; a shorter time step may)"
         ));
     }
     let Extent::Until(end) = extent else {

@@ -1223,6 +1223,15 @@ fn still_water(
     };
     // The folder once the scene is made: a case refused leaves none behind.
     let Loaded { mut simulation, .. } = load(&args)?;
+    let shortest = tank.shortest_run(-simulation.params().domain.gravity.y);
+    if let Some(until) = case.run.until_s.as_ref().filter(|_| end < shortest) {
+        let message = format!(
+            "a still-water run lasts at least the {} s its water takes to fall its depth \
+             (sqrt(2 H / g)): a shorter one reads back the hydrostatic start",
+            format_g(shortest)
+        );
+        return Err(args.at_key(until.span(), message));
+    }
     let _folder = create_output_dir(folder)?;
     let readings_path = folder.join("still-water.csv");
     let checks_path = folder.join("still-water-checks.csv");

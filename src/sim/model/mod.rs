@@ -64,6 +64,13 @@ impl Model {
         }
     }
 
+    /// Whether the model keeps its fluid in the box: every model but the course's, which
+    /// SPEC.md makes leave it within a few steps. A run of one that has particles more
+    /// than h outside has blown up.
+    pub fn keeps_to_its_box(self) -> bool {
+        self != Model::Course
+    }
+
     /// The time-step rule the model runs with unless told otherwise: the course's fixed
     /// 1 ms, or for the stiff weakly compressible model its CFL step.
     pub fn default_time_step(self) -> TimeStep {
