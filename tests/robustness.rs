@@ -1091,6 +1091,10 @@ fn valid_checkpoints() -> &'static [Vec<u8>; 3] {
             step: 2,
             input: 0x1234_5678,
             case: Some("[fluid]\nparticles_per_m = 204\n".into()),
+            readings: vec![
+                (0.0, vec![Some(101.0), None]),
+                (0.002, vec![Some(99.5), Some(0.01)]),
+            ],
             state: simulation.resumable(),
         };
         let mut fresh = stepped.clone();
@@ -1102,6 +1106,7 @@ fn valid_checkpoints() -> &'static [Vec<u8>; 3] {
             step: 3,
             input: 0x1234_5678,
             case: None,
+            readings: Vec::new(),
             state: simulation.resumable(),
         };
         assert!(skinned.state.skin.as_ref().unwrap().builds == 1);
@@ -1209,9 +1214,15 @@ fn last_step_offset(decoded: &Checkpoint) -> usize {
         state.structure.name(),
     ];
     // The magic, step, input CRC, ppm and time; the case block (a flag, then its length
-    // and text); the box's corners and gravity (9 f64) and the planar flag (a u8).
+    // and text); the readings (their rows and columns, then each row's time and values);
+    // the box's corners and gravity (9 f64) and the planar flag (a u8).
     let case = decoded.case.as_ref().map_or(1, |text| 1 + 8 + text.len());
-    36 + case + 72 + 1 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
+    let columns = decoded
+        .readings
+        .first()
+        .map_or(0, |(_, values)| values.len());
+    let readings = 16 + 8 * decoded.readings.len() * (1 + columns);
+    36 + case + readings + 72 + 1 + names.iter().map(|name| 1 + name.len()).sum::<usize>() + 8
 }
 
 /// The properties of [`checkpoint::decode`] on `bytes`: no panic; an error is a non-empty
@@ -1253,7 +1264,7 @@ proptest! {
         magic in any::<bool>(),
         tail in prop::collection::vec(any::<u8>(), 0..300),
     ) {
-        let mut bytes = if magic { b"FLUIDCKA".to_vec() } else { Vec::new() };
+        let mut bytes = if magic { b"FLUIDCKB".to_vec() } else { Vec::new() };
         bytes.extend(tail);
         check_checkpoint(&bytes)?;
     }

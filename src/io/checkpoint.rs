@@ -1,10 +1,12 @@
 //! Checkpoint files: the full f64 state of a run after a number of steps
 //! ([`crate::sim::simulation::Resumable`]), from which a resumed run goes on bit for bit.
 //!
-//! Layout (little-endian): the magic `FLUIDCKA` (version 10); the step count (u64); the CRC-32 of the
+//! Layout (little-endian): the magic `FLUIDCKB` (version 11); the step count (u64); the CRC-32 of the
 //! input file the run started from (u32, so a resume from another input is refused); the
 //! case file it started from, if it did (a u8, 0 for none, else 1, then its length, u64,
-//! and its UTF-8 text: a resume needs nothing else);
+//! and its UTF-8 text: a resume needs nothing else); its gauges' readings so far (rows,
+//! u64, and columns, u64, 0 without rows; then each row's time and values, f64, the
+//! canonical NaN where a gauge read nothing), which a resumed run's table goes on from;
 //! particles per metre and the time (f64); the box's low and high corners and gravity
 //! (x, y, z each, f64) and its shape (u8: bit 0 planar, bits 1-3 the periodic axes x, y,
 //! z); the model, kernel, time-step rule, last step's
@@ -20,10 +22,10 @@
 //! the particle count n (u64); then n ids (u32) and, per particle field p, hv, v, a (x,
 //! y, z) and rho, n f64 each; a built skin's positions at its last build (x, y, z, n f64
 //! each); last, the CRC-32 of every byte before it (u32), so a corrupted checkpoint is
-//! refused. Versions 1-9 (before the integrators; version 3 before the models kept
+//! refused. Versions 1-10 (before the integrators; version 3 before the models kept
 //! their own state; version 5 before the skin and the pair structure; version 6 before
 //! the case; version 7 before the box and gravity; version 9 before planar and periodic
-//! scenes) are
+//! scenes; version 10 before the gauges' readings) are
 //! refused, with a message that says so.
 
 use crate::sim::kernel::Kernel;
@@ -37,14 +39,14 @@ use crate::sim::skin::KeptSkin;
 use crate::sim::timestep::{Integrator, Limit, TimeStep};
 use glam::DVec3;
 
-/// The first bytes of every checkpoint (format version 10, which adds the domain's shape,
-/// planar and periodic, to version 9; version 8 holds version 9's fields, but its particles were ordered within a
-/// cell by the order they came in, not by id, so a resume from it would not go on as its
-/// run did).
-const MAGIC: &[u8; 8] = b"FLUIDCKA";
+/// The first bytes of every checkpoint (format version 11, which adds the gauges' readings
+/// to version 10, which added the domain's shape, planar and periodic, to version 9;
+/// version 8 holds version 9's fields, but its particles were ordered within a cell by the
+/// order they came in, not by id, so a resume from it would not go on as its run did).
+const MAGIC: &[u8; 8] = b"FLUIDCKB";
 
 /// The first bytes of a checkpoint of an earlier format, which is refused.
-const OLDER: [&[u8; 8]; 9] = [
+const OLDER: [&[u8; 8]; 10] = [
     b"FLUIDCK1",
     b"FLUIDCK2",
     b"FLUIDCK3",
@@ -54,6 +56,7 @@ const OLDER: [&[u8; 8]; 9] = [
     b"FLUIDCK7",
     b"FLUIDCK8",
     b"FLUIDCK9",
+    b"FLUIDCKA",
 ];
 
 /// A checkpoint's content: the steps run and the state after them.
@@ -65,14 +68,21 @@ pub struct Checkpoint {
     pub input: u32,
     /// The text of the case file the run started from, if it did.
     pub case: Option<String>,
+    /// The readings its gauges took so far: each row's time (s) and values (`None` where
+    /// a gauge read nothing), all rows of one length.
+    pub readings: Vec<Reading>,
     /// The state to go on from.
     pub state: Resumable,
 }
 
-/// At least the size of a checkpoint of `particles` particles and a case of `case` bytes
-/// (for the room reserved before a run): a model may keep a value per particle, a skin 3.
-pub fn size_bound(particles: usize, case: usize) -> u64 {
-    (256 + case + particles * (4 + 17 * 8)) as u64
+/// One row of gauge readings: its time (s) and each column's value, if read.
+pub type Reading = (f64, Vec<Option<f64>>);
+
+/// At least the size of a checkpoint of `particles` particles, a case of `case` bytes
+/// and `readings` gauge values, times included (for the room reserved before a run): a
+/// model may keep a value per particle, a skin 3.
+pub fn size_bound(particles: usize, case: usize, readings: usize) -> u64 {
+    (256 + case + 8 * readings + particles * (4 + 17 * 8)) as u64
 }
 
 /// Encodes a checkpoint.
@@ -81,7 +91,12 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
     let particles = &state.particles;
     let n = particles.len();
     let case = checkpoint.case.as_deref();
-    let mut bytes = Vec::with_capacity(size_bound(n, case.map_or(0, str::len)) as usize);
+    let columns = checkpoint
+        .readings
+        .first()
+        .map_or(0, |(_, values)| values.len());
+    let values = checkpoint.readings.len() * (1 + columns);
+    let mut bytes = Vec::with_capacity(size_bound(n, case.map_or(0, str::len), values) as usize);
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&checkpoint.step.to_le_bytes());
     bytes.extend_from_slice(&checkpoint.input.to_le_bytes());
@@ -92,6 +107,14 @@ pub fn encode(checkpoint: &Checkpoint) -> Vec<u8> {
             bytes.extend_from_slice(text.as_bytes());
         }
         None => bytes.push(0),
+    }
+    bytes.extend_from_slice(&(checkpoint.readings.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&(columns as u64).to_le_bytes());
+    for (time, values) in &checkpoint.readings {
+        let values = values.iter().map(|value| value.unwrap_or(f64::NAN));
+        for value in [*time].into_iter().chain(values) {
+            bytes.extend_from_slice(&value.to_le_bytes());
+        }
     }
     bytes.extend_from_slice(&state.ppm.to_le_bytes());
     bytes.extend_from_slice(&state.time.to_le_bytes());
@@ -179,7 +202,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         ));
     }
     if magic != Some(&MAGIC[..]) {
-        return Err("it is not a fluid checkpoint (format version 10)".into());
+        return Err("it is not a fluid checkpoint (format version 11)".into());
     }
     let (body, checksum) = bytes.split_at(bytes.len().saturating_sub(4).max(MAGIC.len()));
     if checksum.len() != 4 || crc32fast::hash(body).to_le_bytes() != checksum {
@@ -201,6 +224,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         }
         _ => return Err("bad case flag".into()),
     };
+    let readings = readings(&mut reader)?;
     let ppm = reader.f64()?;
     let time = reader.f64()?;
     let mut vector = || Ok::<_, String>(DVec3::new(reader.f64()?, reader.f64()?, reader.f64()?));
@@ -355,6 +379,7 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
         step,
         input,
         case,
+        readings,
         state: Resumable {
             ppm,
             domain,
@@ -370,6 +395,29 @@ pub fn decode(bytes: &[u8]) -> Result<Checkpoint, String> {
             skin,
         },
     })
+}
+
+/// The gauge readings at `reader`: finite times and values, or the canonical NaN for a
+/// value not read (so that they encode to the bytes they came from).
+fn readings(reader: &mut Reader) -> Result<Vec<Reading>, String> {
+    let (rows, columns) = (reader.u64()?, reader.u64()?);
+    if rows == 0 && columns != 0 {
+        return Err("its gauge readings have columns but no rows".into());
+    }
+    let columns = usize::try_from(columns).map_err(|_| "too many gauge columns")?;
+    let bad = || "its gauge readings hold values that are not finite".to_string();
+    let row = |reader: &mut Reader| {
+        let time = Some(reader.f64()?)
+            .filter(|t| t.is_finite())
+            .ok_or_else(bad)?;
+        let values = (0..columns).map(|_| match reader.f64()? {
+            value if value.is_finite() => Ok(Some(value)),
+            value if value.to_bits() == f64::NAN.to_bits() => Ok(None),
+            _ => Err(bad()),
+        });
+        Ok::<_, String>((time, values.collect::<Result<Vec<_>, _>>()?))
+    };
+    (0..rows).map(|_| row(reader)).collect()
 }
 
 /// Reads a checkpoint's bytes in order.
@@ -431,6 +479,7 @@ mod tests {
             step: 2,
             input: 0xdead_beef,
             case: None,
+            readings: Vec::new(),
             state: simulation.resumable(),
         }
     }
@@ -450,7 +499,21 @@ mod tests {
             cased.case = Some(text.to_string());
             let bytes = encode(&cased);
             assert_eq!(decode(&bytes).unwrap(), cased);
-            assert!(bytes.len() as u64 <= size_bound(3, text.len()));
+            assert!(bytes.len() as u64 <= size_bound(3, text.len(), 0));
+        }
+        // With gauge readings, some not read; values beyond finite are refused.
+        let mut gauged = checkpoint.clone();
+        gauged.readings = vec![(0.0, vec![Some(1.5), None]), (0.01, vec![None, Some(-2.0)])];
+        let bytes = encode(&gauged);
+        assert_eq!(decode(&bytes).unwrap(), gauged);
+        assert!(bytes.len() as u64 <= size_bound(3, 0, 6));
+        for bad in [f64::INFINITY, -f64::NAN] {
+            let mut unreadable = gauged.clone();
+            unreadable.readings[1].1[1] = Some(bad);
+            assert_eq!(
+                decode(&encode(&unreadable)).unwrap_err(),
+                "its gauge readings hold values that are not finite"
+            );
         }
     }
 
@@ -477,7 +540,7 @@ mod tests {
             assert_eq!(skin.built[0].len(), if built { 3 } else { 0 });
             let bytes = encode(&checkpoint);
             assert_eq!(decode(&bytes).unwrap(), checkpoint);
-            assert!(bytes.len() as u64 <= size_bound(3, 0));
+            assert!(bytes.len() as u64 <= size_bound(3, 0, 0));
             for length in 0..bytes.len() {
                 assert!(decode(&bytes[..length]).is_err(), "{length} bytes");
             }
@@ -530,7 +593,7 @@ mod tests {
         wrong_magic[6] = b'X';
         assert_eq!(
             decode(&wrong_magic).unwrap_err(),
-            "it is not a fluid checkpoint (format version 10)"
+            "it is not a fluid checkpoint (format version 11)"
         );
         let mut older = bytes.clone();
         older[7] = b'3';

@@ -316,15 +316,40 @@ impl GaugeTable {
         due
     }
 
-    /// Takes up the reading schedule of a run resumed at the state of `simulation`: the
-    /// next reading is the one the run would have taken had it not stopped (its due
-    /// times are sums of `interval` from 0, the first past the last step's start).
+    /// Takes up the readings a run resumed from a checkpoint had taken (`readings`, as
+    /// [`Self::rows`] gave them), so that its table is the whole run's; refused where they
+    /// are not of these gauges' columns.
+    pub fn resume_readings(
+        &mut self,
+        readings: Vec<(f64, Vec<Option<f64>>)>,
+    ) -> Result<(), String> {
+        let columns = self.columns().len();
+        if let Some((_, values)) = readings.iter().find(|(_, values)| values.len() != columns) {
+            return Err(format!(
+                "its gauge readings have {} columns where the case's gauges have {columns}",
+                values.len()
+            ));
+        }
+        self.rows = readings;
+        Ok(())
+    }
+
+    /// Takes up the reading schedule of a run resumed at the state of `simulation`, after
+    /// [`Self::resume_readings`]: the next reading is the one the run would have taken had
+    /// it not stopped (its due times are sums of `interval` from 0, the first past the last
+    /// step's start, or past the resumed state where the table read it).
     pub fn resume_schedule(&mut self, simulation: &Simulation, interval: f64) {
         let Some((dt, _)) = simulation.last_step() else {
             return;
         };
         let before = simulation.time() - dt;
-        self.next = Some(next_due(0.0, before, interval));
+        let mut next = next_due(0.0, before, interval);
+        // Past the reading of the resumed state itself, where the table holds it.
+        let time = simulation.time();
+        if self.rows.last().is_some_and(|(read, _)| *read == time) {
+            next = next_due(next, time, interval);
+        }
+        self.next = Some(next);
     }
 
     /// Reads every gauge at the state of `simulation` (on a copy with the densities of its

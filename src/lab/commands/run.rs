@@ -16,6 +16,7 @@ use crate::lab::progress::{Goal, Progress};
 use crate::lab::UsageError;
 use crate::sim::simulation::Simulation;
 use crate::sim::skin::Skin;
+use crate::sim::timestep::TimeStep;
 use clap::Args;
 use std::error::Error;
 use std::io::Write;
@@ -254,7 +255,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
             made.push_front(super::create_output_dir(folder)?);
             let table = folder.join(gauges::TABLE_FILE);
             // A case run again writes over its last run's readings: said once they are.
-            let replaces = table.exists();
+            let replaces = table.exists() && args.resume.is_none();
             Some((OutputFile::create(&table)?, folder, replaces))
         }
         _ => None,
@@ -289,6 +290,11 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
             return Err(format!("{} is at {beyond}", path.display()).into());
         }
         first = checkpoint.step + 1;
+        // Its gauges go on from the readings the checkpoint kept.
+        if !gauges.is_empty() {
+            (gauges.resume_readings(checkpoint.readings))
+                .map_err(|error| format!("{}: {error}", path.display()))?;
+        }
         simulation = Simulation::resume(checkpoint.state).map_err(|error| error.to_string())?;
         if let Some(interval) = interval {
             gauges.resume_schedule(&simulation, interval);
@@ -298,7 +304,8 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     let particles = simulation.particles().len();
     if let Some(path) = &args.checkpoint {
         let case = case_text.as_ref().map_or(0, String::len);
-        OutputFile::create(path)?.reserve(checkpoint::size_bound(particles, case))?;
+        let readings = expected_readings(&gauges, interval, extent, &simulation);
+        OutputFile::create(path)?.reserve(checkpoint::size_bound(particles, case, readings))?;
     }
     if let Some(output) = &mut output {
         output.reserve(fld::file_size(particles))?;
@@ -372,7 +379,8 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         }
         if let (Some(every), Some(path)) = (args.checkpoint_every, &args.checkpoint) {
             if step % every == 0 {
-                write_checkpoint(path, step, input_crc, case_text.clone(), &simulation)?;
+                let (case, readings) = (case_text.clone(), gauges.rows().to_vec());
+                write_checkpoint(path, (step, input_crc), (case, readings), &simulation)?;
             }
         }
     }
@@ -604,12 +612,34 @@ fn significant(value: f64) -> String {
     }
 }
 
-/// Writes the checkpoint of `simulation` after `step` steps to `path`, atomically.
+/// The gauge values (times included) a checkpoint of a run over `extent` may hold, as far
+/// as known before it: its readings every `interval` to its end, where its steps' times
+/// are known (a physical end, or fixed steps); none beyond the next where not.
+fn expected_readings(
+    gauges: &GaugeTable,
+    interval: Option<f64>,
+    extent: Extent,
+    simulation: &Simulation,
+) -> usize {
+    let (Some(interval), false) = (interval, gauges.is_empty()) else {
+        return 0;
+    };
+    let end = match (extent, simulation.time_step()) {
+        (Extent::Until(end), _) => end,
+        (Extent::Steps(steps), TimeStep::Fixed(dt)) => steps as f64 * dt,
+        (Extent::Steps(_), TimeStep::Adaptive { .. }) => 0.0,
+    };
+    let rows = (end / interval).ceil().min(1e9) as usize + 2;
+    rows.saturating_mul(1 + gauges.columns().len())
+}
+
+/// Writes the checkpoint of `simulation` after `step` steps of the run from the input
+/// whose CRC-32 is `input` (and the `case` text, if any, with its gauges' `readings`) to
+/// `path`, atomically.
 fn write_checkpoint(
     path: &Path,
-    step: u64,
-    input: u32,
-    case: Option<String>,
+    (step, input): (u64, u32),
+    (case, readings): (Option<String>, Vec<checkpoint::Reading>),
     simulation: &Simulation,
 ) -> Result<(), Box<dyn Error>> {
     let state = simulation.resumable();
@@ -617,6 +647,7 @@ fn write_checkpoint(
         step,
         input,
         case,
+        readings,
         state,
     });
     Ok(OutputFile::create(path)?.commit(&bytes)?)
