@@ -601,7 +601,8 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         .all(|r| r[column("integrator")] == "verlet"));
     let number = |row: &[&str], name: &str| row[column(name)].parse::<f64>().unwrap();
     for row in &rows {
-        assert_eq!(&row[..3], ["small.fld", "4800", "fluidanimate"]);
+        let crc32 = format!("{:08x}", crc32fast::hash(&std::fs::read(&small).unwrap()));
+        assert_eq!(&row[..4], ["small.fld", &crc32, "4800", "fluidanimate"]);
         assert!(number(row, "cpu_s_per_simulated_s") > 0.0);
         assert!(number(row, "pairs_tested") >= number(row, "pairs_within_h"));
         assert_eq!(row[column("failure")], "");
@@ -677,6 +678,20 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         );
         assert!(!folder.exists(), "{name} {value}");
     }
+    // A CSV of its header alone has no rows to chart (the eighth hostile pass: its scene
+    // was "unknown").
+    let empty = dir.path().join("empty.csv");
+    std::fs::write(&empty, format!("{}\n", header.join(","))).unwrap();
+    let refused = redraw(&empty, &dir.path().join("edited"));
+    assert_eq!(exit_code(&refused), 1);
+    assert_eq!(
+        stderr(&refused),
+        format!(
+            "fluid-lab: error: {}: the accuracy CSV has no rows\n",
+            empty.display()
+        )
+    );
+    assert!(!dir.path().join("edited").exists());
     // Its charts drawn for another input are refused: the rows are of small.fld.
     let large = common::input("large");
     let folder = dir.path().join("other");
@@ -697,9 +712,41 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
         stderr(&other)
     );
     assert!(!folder.exists());
+    // Nor for another small.fld of as many particles (the eighth hostile pass's): one
+    // coordinate moved by one ulp.
+    let moved = dir.path().join("moved");
+    std::fs::create_dir(&moved).unwrap();
+    let mut bytes = std::fs::read(&small).unwrap();
+    let at = bytes.len() - 4;
+    let word = f32::from_le_bytes(bytes[at..].try_into().unwrap());
+    bytes[at..].copy_from_slice(&word.next_up().to_le_bytes());
+    let (moved, csv) = (moved.join("small.fld"), dir.path().join("accuracy.csv"));
+    std::fs::write(&moved, &bytes).unwrap();
+    let mut args = methods.to_vec();
+    args[1] = moved.as_os_str();
+    args.extend::<[&std::ffi::OsStr; 4]>([
+        "--from-csv".as_ref(),
+        csv.as_os_str(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+    ]);
+    let other = run_lab(&args);
+    assert_eq!(exit_code(&other), 1, "{}", stderr(&other));
+    let (theirs, ours) = (
+        crc32fast::hash(&std::fs::read(&small).unwrap()),
+        crc32fast::hash(&bytes),
+    );
+    assert!(
+        stderr(&other).ends_with(&format!(
+            "its rows are of another small.fld (its bytes' CRC-32 {theirs:08x}, not \
+             {ours:08x}): give the input or case its sweep ran\n"
+        )),
+        "{}",
+        stderr(&other)
+    );
+    assert!(!folder.exists());
     // Nor for other methods or times than the sweep's (the sixth hostile pass charted
     // them, exit 0): each flag's value changed in turn.
-    let csv = dir.path().join("accuracy.csv");
     // (The seventh: a subset of the times, another model or reference step passed.)
     for (from, to, extra, said) in [
         (
@@ -1030,7 +1077,10 @@ fn a_short_dam_break_front_moves_as_the_experiment_s_and_the_course_model_fails_
         .lines()
         .find(|l| l.starts_with("model=wcsph"))
         .unwrap();
+    // Compared up to the run's end, T = 2 (not the full runs' 3.6).
     for key in [
+        " T_le=2 ",
+        " max_density_error_T_le_2=",
         "martin_worst=",
         "martin_mean=",
         "koshizuka_worst=",

@@ -302,6 +302,47 @@ fn a_failed_point_keeps_the_rows_measured_and_resume_goes_on_from_them() {
 }
 
 #[test]
+fn a_resume_of_a_slurm_arrays_merged_csv_points_to_resubmit() {
+    // Issue 47, eighth hostile pass: it blamed the CSV's columns.
+    let dir = tempfile::tempdir().unwrap();
+    let csv_path = dir.path().join("sweep.csv");
+    let columns = fluid::lab::sweep::COLUMNS.join(",");
+    let merged = format!("{columns},{}\n", fluid::lab::slurm::COLUMNS.join(","));
+    for (header, said) in [
+        (
+            merged,
+            "it is a Slurm array's merged CSV: the array goes on with fluid-lab slurm resubmit",
+        ),
+        (
+            format!("{columns},extra\n"),
+            "its columns are not those of this version's sweep",
+        ),
+    ] {
+        std::fs::write(&csv_path, &header).unwrap();
+        let small = input("small");
+        let output = run_lab(&[
+            "sweep".as_ref(),
+            "--iterations".as_ref(),
+            "0".as_ref(),
+            "--output".as_ref(),
+            csv_path.as_os_str(),
+            "--resume".as_ref(),
+            "--".as_ref(),
+            small.as_os_str(),
+        ]);
+        assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+        assert_eq!(
+            stderr(&output),
+            format!(
+                "fluid-lab: error: --resume: {}: {said}\n",
+                csv_path.display()
+            )
+        );
+        assert_eq!(std::fs::read_to_string(&csv_path).unwrap(), header);
+    }
+}
+
+#[test]
 fn a_program_must_be_an_executable_file_and_iterations_what_fluid_takes() {
     let dir = tempfile::tempdir().unwrap();
     let csv_path = dir.path().join("sweep.csv");

@@ -599,8 +599,29 @@ fn same_time(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-8 * a.abs().max(b.abs())
 }
 
+/// The scene a sweep ran, as its rows name it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneId {
+    /// Its file's name (the input's or the case's), as rows and charts show it.
+    pub file_name: String,
+    /// The CRC-32 of that file's bytes: another scene of that name is not this one.
+    pub crc32: u32,
+    /// Its particle count.
+    pub particles: usize,
+}
+
+impl SceneId {
+    /// Its CSV cells: `scene`, `scene_crc32` (8 hex digits) and `particles`.
+    fn cells(&self) -> String {
+        format!("{},{:08x},{}", self.file_name, self.crc32, self.particles)
+    }
+}
+
+/// The column of the scene's CRC-32, which a CSV written before it lacks (and reads alike).
+pub const SCENE_CRC_COLUMN: &str = "scene_crc32";
+
 /// The CSV header of the accuracy sweep.
-pub const CSV_HEADER: &str = "scene,particles,model,method,kernel,time_step,dt_s,courant,skin_h,\
+pub const CSV_HEADER: &str = "scene,scene_crc32,particles,model,method,kernel,time_step,dt_s,courant,skin_h,\
      integrator,requested_time_s,time_s,steps,cpu_s,cpu_s_per_simulated_s,shortest_step_s,pairs_tested,pairs_within_h,\
      heap_bytes,median_error_m,max_error_m,centre_error_m,kinetic_error,mean_density_error,\
      max_density_error,front_error_m,failure,host,cpu_model,commit";
@@ -608,10 +629,10 @@ pub const CSV_HEADER: &str = "scene,particles,model,method,kernel,time_step,dt_s
 impl Sweep {
     /// The sweep as CSV rows (with [`CSV_HEADER`]): the reference's, then each run's
     /// ([`Run::csv`]).
-    pub fn csv(&self, scene: &str, particles: usize, model: Model, machine: &Machine) -> String {
+    pub fn csv(&self, scene: &SceneId, model: Model, machine: &Machine) -> String {
         std::iter::once(&self.reference)
             .chain(&self.runs)
-            .map(|run| run.csv(scene, particles, model, machine))
+            .map(|run| run.csv(scene, model, machine))
             .collect()
     }
 
@@ -650,7 +671,7 @@ impl Sweep {
 impl Run {
     /// The run's CSV rows (of [`CSV_HEADER`]): one per time reached, then one saying when
     /// and why it failed, if it did; the reference's errors are empty.
-    pub fn csv(&self, scene: &str, particles: usize, model: Model, machine: &Machine) -> String {
+    pub fn csv(&self, scene: &SceneId, model: Model, machine: &Machine) -> String {
         let mut text = String::new();
         let machine_cells = format!(
             "{},{},{}",
@@ -659,7 +680,8 @@ impl Run {
             machine.commit
         );
         let method = format!(
-            "{scene},{particles},{},{},{},{}",
+            "{},{},{},{},{}",
+            scene.cells(),
             model.name(),
             self.candidate.label(),
             self.candidate.kernel.name(),
@@ -894,7 +916,9 @@ pub fn read_runs(text: &str) -> Result<Vec<Run>, String> {
             .position(|header| header == name)
             .ok_or_else(|| format!("the accuracy CSV has no column {name}"))
     };
-    let names: Vec<&str> = CSV_HEADER.split(',').collect();
+    let names: Vec<&str> = (CSV_HEADER.split(','))
+        .filter(|&name| name != SCENE_CRC_COLUMN)
+        .collect();
     let columns: Vec<usize> = names.iter().map(|n| column(n)).collect::<Result<_, _>>()?;
     let mut runs: Vec<Run> = Vec::new();
     for (line, record) in reader.records().enumerate() {
@@ -1327,7 +1351,12 @@ mod tests {
             Candidate::default_for(Model::Fluidanimate)
         );
         let machine = Machine::this();
-        let text = sweep.csv("corner.fld", 300, Model::Fluidanimate, &machine);
+        let scene = SceneId {
+            file_name: "corner.fld".into(),
+            crc32: 0xc0ffee,
+            particles: 300,
+        };
+        let text = sweep.csv(&scene, Model::Fluidanimate, &machine);
         assert_eq!(text.lines().count(), 4 + 4 * 2);
         for line in text.lines() {
             assert_eq!(
@@ -1336,7 +1365,7 @@ mod tests {
                 "{line}"
             );
         }
-        assert!(text.starts_with("corner.fld,300,fluidanimate,reference dt "));
+        assert!(text.starts_with("corner.fld,00c0ffee,300,fluidanimate,reference dt "));
         // The CSV reads back as the same sweep, with a column added after the others.
         let with_column: String = text
             .lines()
@@ -1351,11 +1380,19 @@ mod tests {
         let mut failed = sweep.runs[3].clone();
         failed.samples.truncate(1);
         failed.failure = Some((0.0031, Failure::NonFinite(42)));
-        let rows = failed.csv("corner.fld", 300, Model::Fluidanimate, &machine);
+        let rows = failed.csv(&scene, Model::Fluidanimate, &machine);
         assert_eq!(
             read_runs(&format!("{CSV_HEADER}\n{rows}")).unwrap(),
-            [failed]
+            [failed.clone()]
         );
+        // A CSV written before the scene's CRC-32 column reads alike.
+        let older = |line: &str| {
+            let mut cells: Vec<&str> = line.split(',').collect();
+            cells.remove(1);
+            cells.join(",") + "\n"
+        };
+        let older = older(CSV_HEADER) + &rows.lines().map(older).collect::<String>();
+        assert_eq!(read_runs(&older).unwrap(), [failed]);
         assert_eq!(
             read_runs("scene,particles\n").unwrap_err(),
             "the accuracy CSV has no column model"

@@ -157,8 +157,17 @@ impl Record {
 /// The keys of the records in a sweep CSV's text, for a sweep that goes on from it.
 pub fn measured_keys(text: &str) -> Result<HashSet<RecordKey>, Box<dyn Error>> {
     let mut reader = csv::Reader::from_reader(text.as_bytes());
-    if reader.headers()?.iter().ne(COLUMNS) {
-        return Err("its columns are not those of this version's sweep".into());
+    let headers = reader.headers()?;
+    if headers.iter().ne(COLUMNS) {
+        let merged = (headers.iter().skip(COLUMNS.len())).eq(crate::lab::slurm::COLUMNS);
+        return Err(
+            match merged && headers.iter().take(COLUMNS.len()).eq(COLUMNS) {
+                true => "it is a Slurm array's merged CSV: the array goes on with fluid-lab \
+                     slurm resubmit"
+                    .into(),
+                false => "its columns are not those of this version's sweep".into(),
+            },
+        );
     }
     let mut keys = HashSet::new();
     for (line, record) in reader.records().enumerate() {

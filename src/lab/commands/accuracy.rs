@@ -5,8 +5,11 @@
 use super::simulation_args::{self, parse_courants, Courants, SimulationArgs, MOST_STEPS_TO_GO};
 use crate::io::fld;
 use crate::io::gformat::format_g;
+use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
-use crate::lab::accuracy::{self, Candidate, Convergence, Errors, Metric, Observed, Run, Sweep};
+use crate::lab::accuracy::{
+    self, Candidate, Convergence, Errors, Metric, Observed, Run, SceneId, Sweep,
+};
 use crate::lab::chart::{self, PointChart};
 use crate::lab::machine::Machine;
 use crate::lab::slurm;
@@ -165,10 +168,8 @@ impl AccuracyArgs {
 struct Start {
     /// The start state, on the model asked for.
     simulation: Simulation,
-    /// The input's (or the case's) file name, as rows and charts name the scene.
-    file_name: String,
-    /// Its particle count.
-    particles: usize,
+    /// The scene as rows and charts name it.
+    scene: SceneId,
 }
 
 impl AccuracyArgs {
@@ -208,8 +209,16 @@ impl AccuracyArgs {
 
     /// The input (or the case's scene) as the model's start.
     fn start(&self) -> Result<Start, Box<dyn Error>> {
-        let (simulation, source) = match &self.read {
-            Some(case) => (simulation_args::load(case)?.simulation, case.source()),
+        let (simulation, source, crc32) = match &self.read {
+            Some(case) => {
+                let text = case.case_text.as_deref().unwrap_or_default();
+                let crc32 = crc32fast::hash(text.as_bytes());
+                (
+                    simulation_args::load(case)?.simulation,
+                    case.source(),
+                    crc32,
+                )
+            }
             None => {
                 let input = self
                     .input
@@ -220,19 +229,20 @@ impl AccuracyArgs {
                     kernel: Kernel::NATIVE,
                 };
                 let scene = fld::read(input)?;
-                (
-                    scene.into_simulation(method, &input.display().to_string())?,
-                    input,
-                )
+                let simulation = scene.into_simulation(method, &input.display().to_string())?;
+                let bytes = read_regular(input)
+                    .map_err(|error| format!("cannot read {}: {error}", input.display()))?;
+                (simulation, input, crc32fast::hash(&bytes))
             }
         };
-        let particles = simulation.particles().len();
-        let file_name = source.file_name().unwrap_or_default();
-        Ok(Start {
-            simulation,
-            file_name: file_name.to_string_lossy().into_owned(),
-            particles,
-        })
+        let scene = SceneId {
+            file_name: (source.file_name().unwrap_or_default())
+                .to_string_lossy()
+                .into_owned(),
+            crc32,
+            particles: simulation.particles().len(),
+        };
+        Ok(Start { simulation, scene })
     }
 
     /// The scene's fingerprint: its file (the case, or the input) and the CRC-32 of its
@@ -336,7 +346,7 @@ impl AccuracyArgs {
     /// `run`'s rows under the CSV's header.
     fn rows(&self, run: &Run, start: &Start) -> String {
         let machine = Machine::this();
-        let rows = run.csv(&start.file_name, start.particles, self.model(), &machine);
+        let rows = run.csv(&start.scene, self.model(), &machine);
         format!("{}\n{rows}", accuracy::CSV_HEADER)
     }
 
@@ -430,11 +440,11 @@ impl AccuracyArgs {
     ) -> Result<(), Box<dyn Error>> {
         let (times, _) = self.plan()?;
         let metric = self.metric;
-        let scene = &start.file_name;
+        let scene = &start.scene.file_name;
         let footer = footer(
             sweep,
             scene,
-            start.particles,
+            start.scene.particles,
             self.model(),
             cpu_model,
             commit,
@@ -543,7 +553,9 @@ impl AccuracyArgs {
             .map_err(|error| format!("cannot read {}: {error}", csv.display()))?;
         let mut reader = csv::Reader::from_reader(text.as_bytes());
         let headers = reader.headers()?.clone();
-        let first = reader.records().next().transpose()?.unwrap_or_default();
+        let Some(first) = reader.records().next().transpose()? else {
+            return Err(format!("{}: the accuracy CSV has no rows", csv.display()).into());
+        };
         let cell = |name: &str| {
             headers
                 .iter()
@@ -552,16 +564,28 @@ impl AccuracyArgs {
                 .unwrap_or("unknown")
                 .to_string()
         };
-        // The rows are of this scene: its file name and its particle count.
+        // The rows are of this scene: its file name, its particle count and (in a CSV
+        // that has the column) the CRC-32 of its bytes.
         let start = self.start()?;
+        let ours = &start.scene;
         let (scene, particles) = (cell("scene"), cell("particles"));
-        if scene != start.file_name || particles != start.particles.to_string() {
+        if scene != ours.file_name || particles != ours.particles.to_string() {
             return Err(format!(
                 "{}: its rows are of {scene} ({particles} particles), not of {} ({} \
                  particles): give the input or case its sweep ran",
                 csv.display(),
-                start.file_name,
-                start.particles
+                ours.file_name,
+                ours.particles
+            )
+            .into());
+        }
+        let crc32 = cell(accuracy::SCENE_CRC_COLUMN);
+        if crc32 != "unknown" && crc32 != format!("{:08x}", ours.crc32) {
+            return Err(format!(
+                "{}: its rows are of another {scene} (its bytes' CRC-32 {crc32}, not \
+                 {:08x}): give the input or case its sweep ran",
+                csv.display(),
+                ours.crc32
             )
             .into());
         }
@@ -649,7 +673,7 @@ pub fn exec(mut args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<d
     let rows = format!(
         "{}\n{}",
         accuracy::CSV_HEADER,
-        sweep.csv(&start.file_name, start.particles, args.model(), &machine)
+        sweep.csv(&start.scene, args.model(), &machine)
     );
     csv_file.commit(rows.as_bytes())?;
     writeln!(stdout, "wrote {}", csv_path.display())?;
