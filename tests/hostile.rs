@@ -1097,6 +1097,27 @@ fn a_checkpoint_of_another_input_with_the_same_size_is_refused() {
         "{}",
         stderr(&output)
     );
+    // Beside a case, the message speaks of the case (the eighth hostile pass: it spoke of
+    // a positional input).
+    let case = dir.path().join("c.toml");
+    std::fs::write(&case, "[fluid]\nparticles_per_m = 100\n[[fluid.box]]\nmin_m = [-0.065, -0.08, -0.065]\nmax_m = [-0.03, -0.05, -0.03]\n").unwrap();
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--case".as_ref(),
+        case.as_os_str(),
+        "--resume".as_ref(),
+        checkpoint.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: {} is not a checkpoint of a run of {}: give --resume alone (a \
+             checkpoint of a case keeps it), or the input its run started from\n",
+            checkpoint.display(),
+            case.display()
+        )
+    );
 }
 
 #[test]

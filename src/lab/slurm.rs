@@ -518,11 +518,7 @@ pub fn submit(
     let stdout = String::from_utf8_lossy(&output.stdout);
     let job_id = stdout.trim().split(';').next().unwrap_or("").to_string();
     if !output.status.success() {
-        return Err(format!(
-            "sbatch failed ({}): {}",
-            output.status,
-            last_line(&output.stderr)
-        ));
+        return Err(format!("sbatch failed: {}", said(&output)));
     }
     if job_id.is_empty() || !job_id.bytes().all(|b| b.is_ascii_digit()) {
         let printed = stdout.trim();
@@ -532,6 +528,15 @@ pub fn submit(
         });
     }
     Ok(job_id)
+}
+
+/// What a Slurm client that failed said: the last line it wrote to stderr, or its exit
+/// status where it wrote none.
+fn said(output: &std::process::Output) -> String {
+    match last_line(&output.stderr) {
+        line if line.is_empty() => format!("{}, with nothing on its stderr", output.status),
+        line => line,
+    }
 }
 
 /// The last line a Slurm client wrote to stderr (the fatal one, after its errors on the
@@ -565,7 +570,7 @@ pub fn queued(squeue: &Path, job_ids: &[String]) -> Result<HashSet<(String, usiz
     let stderr = String::from_utf8_lossy(&output.stderr);
     // A job Slurm has already forgotten is no longer queued.
     if !output.status.success() && !stderr.contains("Invalid job id") {
-        return Err(format!("squeue failed: {}", last_line(&output.stderr)));
+        return Err(format!("squeue failed: {}", said(&output)));
     }
     Ok(parse_queued(&String::from_utf8_lossy(&output.stdout)))
 }
@@ -617,7 +622,7 @@ impl SlurmEnergy {
                 SlurmEnergy::NotAvailable(format!("cannot run {}: {error}", sacct.display()))
             }
             Ok(output) if !output.status.success() => {
-                SlurmEnergy::NotAvailable(format!("sacct: {}", last_line(&output.stderr)))
+                SlurmEnergy::NotAvailable(format!("sacct: {}", said(&output)))
             }
             Ok(output) => SlurmEnergy::parse(&String::from_utf8_lossy(&output.stdout)),
         }
@@ -891,6 +896,12 @@ mod tests {
         assert_eq!(
             SlurmEnergy::of(&sacct, &["1".into()]).describe(),
             "slurm-sacct not available: sacct: Slurm accounting storage is disabled"
+        );
+        // One that fails without a word (the eighth hostile pass: an empty reason).
+        std::fs::write(&sacct, "#!/bin/sh\nexit 3\n").unwrap();
+        assert_eq!(
+            SlurmEnergy::of(&sacct, &["1".into()]).describe(),
+            "slurm-sacct not available: sacct: exit status: 3, with nothing on its stderr"
         );
         let absent = SlurmEnergy::of(&temp.path().join("none"), &["1".into()]);
         assert!(absent

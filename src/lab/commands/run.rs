@@ -64,13 +64,13 @@ fn read_checkpoint(path: &Path) -> Result<Checkpoint, String> {
 }
 
 /// Checks that `checkpoint`, read from `path`, continues the run `simulation` starts from
-/// the input whose CRC-32 is `input` (same input, model, kernel, time-step rule,
-/// integrator, model settings, skin and pair structure).
+/// the input (or the `case`) whose CRC-32 is `input` (same input, model, kernel, time-step
+/// rule, integrator, model settings, skin and pair structure).
 fn resume(
     path: &Path,
     checkpoint: Checkpoint,
     simulation: &Simulation,
-    input: u32,
+    (input, case): (u32, Option<&Path>),
 ) -> Result<Checkpoint, String> {
     let shown = path.display();
     let state = &checkpoint.state;
@@ -96,16 +96,21 @@ fn resume(
     } else {
         None
     };
-    match differs {
+    match (differs, case) {
+        (Some("input"), Some(case)) => Err(format!(
+            "{shown} is not a checkpoint of a run of {}: give --resume alone (a checkpoint \
+             of a case keeps it), or the input its run started from",
+            case.display()
+        )),
         // (The one file given may be meant as the output: say what goes where.)
-        Some("input") => Err(format!(
+        (Some("input"), None) => Err(format!(
             "{shown} is a checkpoint of a run from another input: give the input the run \
              started from, then the output"
         )),
-        Some(what) => Err(format!(
+        (Some(what), _) => Err(format!(
             "{shown} is a checkpoint of a run with another {what}"
         )),
-        None => Ok(checkpoint),
+        (None, _) => Ok(checkpoint),
     }
 }
 
@@ -276,7 +281,8 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
             Some(read) => read,
             None => read_checkpoint(path)?,
         };
-        let checkpoint = resume(path, read, &simulation, input_crc)?;
+        let case = args.simulation.case.as_deref();
+        let checkpoint = resume(path, read, &simulation, (input_crc, case))?;
         let beyond = match extent {
             Extent::Steps(steps) => (checkpoint.step > steps)
                 .then(|| format!("step {}, beyond --steps {steps}", checkpoint.step)),
