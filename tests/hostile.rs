@@ -1246,9 +1246,9 @@ fn limits_that_would_run_for_ever_or_overflow_are_refused_in_one_line() {
             entries(dir.path())
         );
     }
-    // A fixed step of 1e5 s samples there, where the reference's steps (an eighth of an
-    // adaptive method's) would never arrive: refused once the methods have run, leaving
-    // nothing.
+    // A fixed step of 1e5 s would sample there, where the reference's steps (an eighth of
+    // an adaptive method's) would never arrive: refused before anything runs (the ninth
+    // hostile pass: the methods ran first), leaving nothing.
     let output = run_lab(&[
         "accuracy",
         small,
@@ -1260,15 +1260,11 @@ fn limits_that_would_run_for_ever_or_overflow_are_refused_in_one_line() {
         "0.002",
         "--quiet",
     ]);
-    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
-    let message = stderr(&output);
-    assert!(
-        message.starts_with("fluid-lab: error: the reference would take ")
-            && message.ends_with(
-                " s to reach the last sample, at 100000 s, more than the 1e7 a run may take\n"
-            )
-            && message.lines().count() == 1,
-        "{message}"
+    assert_refused(
+        &output,
+        2,
+        "fluid-lab: error: a fixed step of 100000 s passes the first of --times, 0.002 s: \
+         each method samples every time (shorten --dt-factors or give later times)",
     );
     assert!(entries(dir.path()).is_empty(), "{:?}", entries(dir.path()));
 }
@@ -2201,4 +2197,213 @@ fn an_os_error_is_said_in_the_system_s_words_without_its_code() {
             missing.display()
         )
     );
+}
+
+#[test]
+fn no_output_replaces_what_its_command_reads_whatever_its_name() {
+    // Issue 47, ninth hostile pass: an input or case named as one of the command's own
+    // outputs (a .pvd, gauges.csv, still-water.csv, accuracy.csv, a sweep's CSV, a chart)
+    // was written over, exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let small = std::fs::read(input("small")).unwrap();
+    let tank = "[fluid]\nparticles_per_m = 100\n[[fluid.box]]\nmin_m = [-0.065, -0.08, -0.065]\n\
+                max_m = [0.065, 0.02, 0.065]\n[model]\nname = \"wcsph\"\n[run]\nuntil_s = 0.15\n";
+    let gauged = "[fluid]\nparticles_per_m = 100\n[[fluid.box]]\nmin_m = [-0.065, -0.08, -0.065]\n\
+                  max_m = [-0.03, -0.05, -0.03]\n[model]\nname = \"wcsph\"\n[run]\nsteps = 2\n\
+                  [output]\nfolder = \"FOLDER\"\n[gauges]\ninterval_s = 0.001\n\
+                  [[gauges.point]]\nname = \"p\"\nat_m = [-0.05, -0.07, -0.05]\n";
+    // A sweep's CSV of one run, to chart.
+    let measured = dir.path().join("measured.csv");
+    let small_path = input("small");
+    let output = run_lab(&[
+        "sweep".as_ref(),
+        "--iterations".as_ref(),
+        "0".as_ref(),
+        "--repeats".as_ref(),
+        "1".as_ref(),
+        "--idle-seconds".as_ref(),
+        "0".as_ref(),
+        "--output".as_ref(),
+        measured.as_os_str(),
+        "--".as_ref(),
+        small_path.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let sweep_csv = std::fs::read(&measured).unwrap();
+    let cases: [(&str, &[u8], &[&str]); 5] = [
+        (
+            "a.pvd",
+            &small,
+            &["export", "IN", "FOLDER", "--format", "vtp", "--steps", "0"],
+        ),
+        ("gauges.csv", gauged.as_bytes(), &["run", "--case", "IN"]),
+        (
+            "still-water.csv",
+            tank.as_bytes(),
+            &[
+                "validate",
+                "still-water",
+                "--case",
+                "IN",
+                "--output-dir",
+                "FOLDER",
+            ],
+        ),
+        (
+            "accuracy.csv",
+            &small,
+            &[
+                "accuracy",
+                "IN",
+                "--output-dir",
+                "FOLDER",
+                "--kernels",
+                "simd",
+                "--dt-factors",
+                "1",
+                "--adaptive",
+                "",
+                "--integrators",
+                "leapfrog",
+                "--times",
+                "0.001",
+            ],
+        ),
+        (
+            "time.png",
+            &sweep_csv,
+            &["chart", "IN", "--output-dir", "FOLDER"],
+        ),
+    ];
+    for (name, content, args) in cases {
+        let folder = dir.path().join(name.replace('.', "-"));
+        std::fs::create_dir(&folder).unwrap();
+        let path = folder.join(name);
+        // A case names the folder its gauges write to; an input is left as it is.
+        let content = match std::str::from_utf8(content) {
+            Ok(text) => text
+                .replace("FOLDER", &folder.display().to_string())
+                .into_bytes(),
+            Err(_) => content.to_vec(),
+        };
+        std::fs::write(&path, &content).unwrap();
+        let args: Vec<String> = (args.iter())
+            .map(|arg| {
+                arg.replace("IN", &path.display().to_string())
+                    .replace("FOLDER", &folder.display().to_string())
+            })
+            .collect();
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 1, "{name}: {}", stderr(&output));
+        assert_eq!(
+            stderr(&output).lines().last().unwrap(),
+            format!(
+                "fluid-lab: error: Cannot write {}: this command reads it: give its outputs a \
+                 place of their own.",
+                path.display()
+            ),
+            "{name}"
+        );
+        assert_eq!(std::fs::read(&path).unwrap(), content, "{name}");
+        assert_eq!(entries(&folder), [name], "{name}");
+    }
+}
+
+#[test]
+fn refusals_of_the_ninth_hostile_pass() {
+    // Issue 47, ninth hostile pass: each of these ran and exited 0 on a meaningless result.
+    let dir = tempfile::tempdir().unwrap();
+    let (small, large) = (input("small"), input("large"));
+    // An ensemble of another scene's states (the table said "within: yes").
+    let output = run_lab(&[
+        "chaos".as_ref(),
+        "check".as_ref(),
+        small.as_os_str(),
+        small.as_os_str(),
+        large.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert_eq!(
+        stderr(&output),
+        format!(
+            "fluid-lab: error: {} holds 15138 particles where {} holds 4800: an ensemble is \
+             of runs of one input\n",
+            large.display(),
+            small.display()
+        )
+    );
+    assert_eq!(stdout(&output), "");
+    // A colour range whose width overflows (the bar read inf and NaN), or is subnormal.
+    for range in ["-1e308,1e308", "0,1e-320"] {
+        let picture = dir.path().join("p.png");
+        let output = run_lab(&[
+            "render".as_ref(),
+            small.as_os_str(),
+            picture.as_os_str(),
+            "--steps".as_ref(),
+            "0".as_ref(),
+            format!("--range={range}").as_ref(),
+        ]);
+        assert_eq!(exit_code(&output), 2, "{range}: {}", stderr(&output));
+        assert!(
+            stderr(&output).contains(&format!(
+                "{range}: HIGH - LOW must be a finite width of at least 2.2250738585072014e-308"
+            )),
+            "{}",
+            stderr(&output)
+        );
+        assert!(!picture.exists());
+    }
+    // A fixed step past the first time asked (its error at 10 s was charted as at 2 ms,
+    // after a reference run to 10 s).
+    let folder = dir.path().join("acc");
+    let output = run_lab(&[
+        "accuracy".as_ref(),
+        small.as_os_str(),
+        "--output-dir".as_ref(),
+        folder.as_os_str(),
+        "--kernels".as_ref(),
+        "simd".as_ref(),
+        "--dt-factors".as_ref(),
+        "1,10000".as_ref(),
+        "--adaptive".as_ref(),
+        "".as_ref(),
+        "--times".as_ref(),
+        "0.002,0.004".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 2, "{}", stderr(&output));
+    assert_eq!(
+        stderr(&output),
+        "fluid-lab: error: a fixed step of 10 s passes the first of --times, 0.002 s: each \
+         method samples every time (shorten --dt-factors or give later times)\n"
+    );
+    assert!(!folder.exists());
+}
+
+#[test]
+fn a_full_standard_output_is_named_and_loses_no_output_file() {
+    // Issue 47, ninth hostile pass: `run ... > /dev/full` said "No space left on device" as
+    // if the disk were full, and did not write its final state.
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("state.fld");
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_fluid-lab"))
+        .args([
+            "run".as_ref(),
+            input("small").as_os_str(),
+            state.as_os_str(),
+        ])
+        .args(["--model", "fluidanimate", "--steps", "1"])
+        .stdout(full)
+        .output()
+        .unwrap();
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert_eq!(
+        stderr(&output),
+        "fluid-lab: error: cannot write to standard output: No space left on device\n"
+    );
+    assert_eq!(std::fs::read(&state).unwrap().len(), 8 + 36 * 4800);
 }

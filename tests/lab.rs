@@ -751,7 +751,7 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     for (from, to, extra, said) in [
         (
             "1,2",
-            "1,4",
+            "0.5,2",
             None,
             "its methods or times are not these arguments'",
         ),
@@ -920,6 +920,39 @@ fn stability_reports_each_run_and_maps_them() {
             stderr(&output)
         );
     }
+}
+
+#[test]
+fn a_dam_break_column_too_narrow_for_a_front_is_said_so() {
+    // Issue 47, ninth hostile pass: a column 2 particles wide, run past the first point,
+    // was told to run to that point.
+    let dir = tempfile::tempdir().unwrap();
+    let output = run_lab(&[
+        "validate",
+        "dam-break",
+        "--models",
+        "wcsph",
+        "--ppms",
+        "100",
+        "--width",
+        "0.02",
+        "--dimensions",
+        "2",
+        "--until-t",
+        "0.5",
+        "--output-dir",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
+    assert!(
+        stderr(&output).ends_with(
+            "1 of 1 runs failed: wcsph 2-D at 100 per m found no front to compare (fewer than \
+             10 particles within 2h of the floor at every sample: a column of 8 particles is \
+             too small)\n"
+        ),
+        "{}",
+        stderr(&output)
+    );
 }
 
 #[test]

@@ -36,7 +36,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match lab.execute(&mut std::io::stdout().lock()) {
+    match lab.execute(&mut StandardOutput(std::io::stdout().lock())) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             // File names as given, byte for byte, where the error is a file's.
@@ -53,6 +53,29 @@ fn main() -> ExitCode {
                 false => ExitCode::FAILURE,
             }
         }
+    }
+}
+
+/// Standard output, whose failures say that it was standard output that failed (a full
+/// disk or a closed pipe behind it), not a file of the command's.
+struct StandardOutput<W>(W);
+
+impl<W: Write> StandardOutput<W> {
+    fn named(error: std::io::Error) -> std::io::Error {
+        std::io::Error::new(
+            error.kind(),
+            format!("cannot write to standard output: {error}"),
+        )
+    }
+}
+
+impl<W: Write> Write for StandardOutput<W> {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.0.write(bytes).map_err(Self::named)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush().map_err(Self::named)
     }
 }
 

@@ -13,7 +13,8 @@
 //!   that no program reads is refused when opened, not waited on.
 //!
 //! Temporary files are removed when an output is dropped unwritten, and when a signal
-//! ends the process ([`crate::io::signals`]).
+//! ends the process ([`crate::io::signals`]). A file a command reads and must not replace
+//! ([`keep_intact`]: its input, its case) is refused as an output, whatever the name.
 
 use crate::io::fld::FileError;
 use crate::io::signals;
@@ -32,6 +33,31 @@ const WRITE_BUFFER: usize = 1 << 16;
 /// The bytes a temporary name adds to the target's besides its suffix: `.`, `.` and 6
 /// random characters.
 const TEMPORARY_EXTRA: usize = 8;
+
+/// The files ([`keep_intact`]) no output may replace, by device and inode.
+static KEPT_INTACT: std::sync::Mutex<Vec<(u64, u64, OsString)>> = std::sync::Mutex::new(Vec::new());
+
+/// Keeps the existing file at `path` (as the command names it) from being replaced by any
+/// [`OutputFile`] of this process: a file it reads, whose name one of its outputs (a
+/// table, a chart, a frame series' index) may share.
+pub fn keep_intact(path: &Path) {
+    if let Ok(meta) = std::fs::metadata(path) {
+        let mut kept = KEPT_INTACT
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        kept.push((meta.dev(), meta.ino(), path.as_os_str().to_owned()));
+    }
+}
+
+/// The name of the file kept intact that `meta` is, if it is one.
+fn kept_intact(meta: &std::fs::Metadata) -> Option<OsString> {
+    let kept = KEPT_INTACT
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    (kept.iter())
+        .find(|(dev, ino, _)| (*dev, *ino) == (meta.dev(), meta.ino()))
+        .map(|(_, _, name)| name.clone())
+}
 
 /// An output file being prepared; nothing changes at its path until [`OutputFile::commit`].
 #[derive(Debug)]
@@ -56,7 +82,8 @@ enum Sink {
 
 impl OutputFile {
     /// Checks that `path` can be written (rule 5) before anything is computed: a path
-    /// naming a folder (`out/`, `..`, `x/.`) or a name longer than 255 bytes is refused,
+    /// naming a folder (`out/`, `..`, `x/.`), a file kept intact ([`keep_intact`]) or a
+    /// name longer than 255 bytes is refused,
     /// and the temporary file is created (or the file opened for writing, and a special
     /// file given an empty write, which `/dev/full` refuses). A symbolic link is written
     /// through, not replaced, even when its target does not exist yet.
@@ -71,6 +98,18 @@ impl OutputFile {
         }
         let sink = match std::fs::metadata(&target) {
             Ok(meta) if meta.is_dir() => return Err(cannot_open()),
+            Ok(meta) if let Some(read) = kept_intact(&meta) => {
+                let read = match read == path.as_os_str() {
+                    true => "it".into(),
+                    false => read.to_string_lossy().into_owned(),
+                };
+                return Err(FileError::CannotWriteOutput {
+                    file: path.as_os_str().to_owned(),
+                    reason: format!(
+                        "this command reads {read}: give its outputs a place of their own"
+                    ),
+                });
+            }
             Ok(meta) if !meta.is_file() => {
                 let mut file = open_special(&target).map_err(|_| cannot_open())?;
                 file.write(&[]).map_err(|_| cannot_open())?;

@@ -241,7 +241,7 @@ pub fn step_collapsed(simulation: &Simulation, shortest: f64) -> bool {
 }
 
 /// Fewest particles near the floor for [`front`] to name a front.
-const FRONT_PARTICLES: usize = 10;
+pub const FRONT_PARTICLES: usize = 10;
 
 /// The front of a fluid spreading along +x: the 95th percentile of x (measured from the
 /// box's low-x wall) among the particles within 2h of the floor (h the course's

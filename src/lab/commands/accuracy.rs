@@ -194,6 +194,22 @@ impl AccuracyArgs {
             });
         let shortest = fixed.chain(self.reference_dt).fold(f64::INFINITY, f64::min);
         let last = times.iter().copied().fold(0.0, f64::max);
+        // Each method samples every time at a state of its own: no step passes the first.
+        let first = times.iter().copied().fold(f64::INFINITY, f64::min);
+        let longest = (candidates.iter()).filter_map(|candidate| match candidate.time_step {
+            TimeStep::Fixed(dt) => Some(dt),
+            TimeStep::Adaptive { .. } => None,
+        });
+        let longest = longest.fold(f64::NEG_INFINITY, f64::max);
+        if longest > first {
+            return Err(UsageError(format!(
+                "a fixed step of {} s passes the first of --times, {} s: each method samples \
+                 every time (shorten --dt-factors or give later times)",
+                format_g(longest),
+                format_g(first)
+            ))
+            .into());
+        }
         let steps = last / shortest;
         if steps > MOST_STEPS_TO_GO {
             return Err(UsageError(format!(
@@ -640,6 +656,10 @@ impl States {
 /// choices within the budgets (or, with `--from-csv`, only the charts and choices).
 pub fn exec(mut args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     args.read_case()?;
+    // Its outputs replace neither its input nor the CSV it charts again.
+    for read in [&args.input, &args.from_csv].into_iter().flatten() {
+        crate::io::output::keep_intact(read);
+    }
     let (times, candidates) = args.plan()?;
     let _folder = super::create_output_dir(&args.output_dir)?;
     if let Some(csv) = &args.from_csv {

@@ -69,6 +69,7 @@ fn read(path: &Path) -> Result<Vec<u8>, String> {
 fn perturb(args: PerturbArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let name = args.input.display().to_string();
     let bytes = read(&args.input)?;
+    crate::io::output::keep_intact(&args.input);
     let stem = args
         .input
         .file_stem()
@@ -106,16 +107,27 @@ fn perturb(args: PerturbArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
 }
 
 fn check(args: CheckArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let statistics = |path: &PathBuf| -> Result<Statistics, Box<dyn Error>> {
-        let bytes = read(path)?;
-        Ok(Statistics::of_file(&bytes, &path.display().to_string())?)
+    let statistics = |path: &PathBuf| -> Result<(usize, Statistics), Box<dyn Error>> {
+        let (bytes, name) = (read(path)?, path.display().to_string());
+        let particles = fld::validate(&bytes, &name)?.particles;
+        Ok((particles, Statistics::of_file(&bytes, &name)?))
     };
-    let candidate = statistics(&args.candidate)?;
-    let ensemble = args
-        .ensemble
-        .iter()
-        .map(statistics)
-        .collect::<Result<Vec<_>, _>>()?;
+    let (count, candidate) = statistics(&args.candidate)?;
+    let mut ensemble = Vec::new();
+    for path in &args.ensemble {
+        let (particles, member) = statistics(path)?;
+        // An ensemble is of states of one scene: runs of one input and its copies.
+        if particles != count {
+            return Err(format!(
+                "{} holds {particles} particles where {} holds {count}: an ensemble is of \
+                 runs of one input",
+                path.display(),
+                args.candidate.display()
+            )
+            .into());
+        }
+        ensemble.push(member);
+    }
     let verdicts = chaos::judge(&ensemble, &candidate);
     write!(stdout, "{}", chaos::table(&verdicts))?;
     if ensemble.len() >= 3 {

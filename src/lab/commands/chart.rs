@@ -22,6 +22,7 @@ pub struct ChartArgs {
 /// Reads the sweep CSV and draws its charts.
 pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let table = read(&args.csv)?;
+    crate::io::output::keep_intact(&args.csv);
     let _made = args
         .output_dir
         .as_deref()

@@ -48,6 +48,7 @@ pub enum ExportFormat {
 /// Runs the scene and writes the states asked for, one file each.
 pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     args.simulation.read_case(&mut args.output_dir)?;
+    args.simulation.keep_input_intact();
     args.span
         .take_case(args.simulation.read.as_ref(), args.every);
     let output_dir = needed(args.output_dir.take(), "output folder")?;
@@ -69,6 +70,8 @@ pub fn exec(mut args: ExportArgs, stdout: &mut impl Write) -> Result<(), Box<dyn
         ExportFormat::Vtp => output_dir.join(format!("{stem}.pvd")),
         ExportFormat::Csv | ExportFormat::Vtk => output_dir.join(format!("{stem}-frames.csv")),
     };
+    // The index is tried before the run: it may not replace what the export reads.
+    drop(OutputFile::create(&collection)?);
     let mut frames = Vec::new();
     run_visiting(&mut simulation, extent, visits, |simulation, step| {
         let snapshot = Snapshot::of(simulation, step);

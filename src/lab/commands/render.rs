@@ -65,6 +65,7 @@ impl Picture {
 /// written whole or not at all, and the first is opened before anything is simulated.
 pub fn exec(mut args: RenderArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     args.simulation.read_case(&mut args.output)?;
+    args.simulation.keep_input_intact();
     args.span
         .take_case(args.simulation.read.as_ref(), args.every);
     let output = &needed(args.output.take(), "output (.png or .gif)")?;
@@ -180,7 +181,8 @@ fn is_frame_of(output: &Path, path: &Path) -> bool {
     numbered && super::same_file(&folder(output).join("."), &folder(path).join("."))
 }
 
-/// Parses `LOW,HIGH` into a non-empty range of finite numbers.
+/// Parses `LOW,HIGH` into a non-empty range of finite numbers whose width is finite and
+/// normal.
 fn parse_range(text: &str) -> Result<(f64, f64), String> {
     let numbers = text.split_once(',').and_then(|(low, high)| {
         Some((
@@ -192,6 +194,12 @@ fn parse_range(text: &str) -> Result<(f64, f64), String> {
         Some((low, high)) if !(low.is_finite() && high.is_finite()) => {
             Err(format!("{text}: LOW and HIGH must be finite numbers"))
         }
+        // A width the colour bar can divide by and label: finite, and not below the
+        // smallest normal f64.
+        Some((low, high)) if low < high && !(high - low).is_normal() => Err(format!(
+            "{text}: HIGH - LOW must be a finite width of at least {:e}",
+            f64::MIN_POSITIVE
+        )),
         Some((low, high)) if low < high => Ok((low, high)),
         Some(_) => Err(format!("{text} is empty: LOW must be below HIGH")),
         None => Err(format!("{text} is not LOW,HIGH")),

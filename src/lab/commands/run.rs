@@ -407,8 +407,8 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     } else {
         String::from("none")
     };
-    writeln!(
-        stdout,
+    // Printed once the outputs are written: standard output failing loses no file.
+    let timing = format!(
         "model={} kernel={} particles={particles} steps={run} seconds={seconds:.6} \
          ns_per_particle_step={:.3} simulated_s={} \
          seconds_per_simulated_s={per_simulated_second}{builds}",
@@ -416,7 +416,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         args.simulation.kernel().name(),
         per_particle_step * 1e9,
         significant(simulated),
-    )?;
+    );
     // The gauges' charts are drawn first, none of them written: a disk too full for them
     // fails the run before its state or table replaces anything.
     let machine = Machine::this();
@@ -473,6 +473,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
             eprintln!("fluid-lab: note: {shown} and its charts replaced an earlier run's");
         }
     }
+    writeln!(stdout, "{timing}")?;
     Ok(())
 }
 

@@ -384,9 +384,20 @@ impl SimulationArgs {
         };
         let shown = path.display().to_string();
         let bytes = read_regular(path).map_err(|error| format!("cannot read {shown}: {error}"))?;
+        // No output of the command replaces it, whatever its name.
+        crate::io::output::keep_intact(path);
         let text = String::from_utf8(bytes)
             .map_err(|error| CaseError::not_utf8(error.as_bytes(), &shown, error.utf8_error()))?;
         self.take_case(text, &shown, output)
+    }
+
+    /// Keeps the input file, if any, from being replaced by an output of the command (as
+    /// [`Self::read_case`] keeps the case): for the commands whose outputs are not a
+    /// final state, which `run` may write over its input as `fluid` does.
+    pub fn keep_input_intact(&self) {
+        if let Some(input) = &self.input {
+            crate::io::output::keep_intact(input);
+        }
     }
 
     /// Takes `text`, the case file `name` (read from it, or kept by a checkpoint), as

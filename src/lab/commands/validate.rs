@@ -12,6 +12,7 @@ use crate::io::case::CaseError;
 use crate::io::gformat::{format_g, format_rate, format_shortest};
 use crate::io::output::OutputFile;
 use crate::lab::chart::{self, PointChart};
+use crate::lab::diagnostics;
 use crate::lab::machine::Machine;
 use crate::lab::progress::{Goal, Progress};
 use crate::lab::still_water::{self, Tank};
@@ -235,6 +236,8 @@ struct Validated {
     planar: bool,
     /// The simulated time it reached (s).
     simulated: f64,
+    /// Its particles.
+    particles: usize,
     label: String,
     collapse: Collapse,
     comparisons: Vec<Comparison>,
@@ -500,6 +503,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
                 ppm,
                 planar,
                 simulated,
+                particles: simulation.particles().len(),
                 label,
                 collapse,
                 comparisons,
@@ -556,11 +560,19 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
             return Some(format!("{name} failed at T = {t:.3} ({failure})"));
         }
         let compared = run.comparisons.iter().any(|c| c.z_model.is_some());
-        (!compared).then(|| {
-            format!(
+        let reached = (run.collapse.samples.last()).is_some_and(|sample| sample.t >= first_t);
+        (!compared).then(|| match reached {
+            // Run far enough, its front never found: too few particles near the floor.
+            true => format!(
+                "{name} found no front to compare (fewer than {} particles within 2h of the \
+                 floor at every sample: a column of {} particles is too small)",
+                diagnostics::FRONT_PARTICLES,
+                run.particles
+            ),
+            false => format!(
                 "{name} compared no front with an experiment (the first point is at \
                  T = {first_t}: run to --until-t {first_t} or later)"
-            )
+            ),
         })
     });
     verdict(String::new(), failed.collect(), runs.len(), "runs", "; ")
