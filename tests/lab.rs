@@ -923,6 +923,43 @@ fn stability_reports_each_run_and_maps_them() {
 }
 
 #[test]
+fn an_accuracy_sweep_shows_each_runs_progress_in_a_log() {
+    // Issue 47, ninth hostile pass: accuracy took --progress-every and printed nothing,
+    // for a reference run of many minutes.
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let output = run_lab(&[
+        "--progress-every".as_ref(),
+        "0".as_ref(),
+        "accuracy".as_ref(),
+        small.as_os_str(),
+        "--output-dir".as_ref(),
+        dir.path().as_os_str(),
+        "--kernels".as_ref(),
+        "simd".as_ref(),
+        "--dt-factors".as_ref(),
+        "1".as_ref(),
+        "--adaptive".as_ref(),
+        "".as_ref(),
+        "--integrators".as_ref(),
+        "leapfrog".as_ref(),
+        "--times".as_ref(),
+        "0.002".as_ref(),
+    ]);
+    assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    let log = stderr(&output);
+    for first in [
+        "fluid-lab: progress: simd dt 1 ms: step 1, t = 0.001000 of 0.002 s (50%)",
+        "fluid-lab: progress: reference dt 0.125 ms verlet: step 1, t = 0.000125 of 0.002 s",
+    ] {
+        assert!(
+            log.lines().any(|line| line.starts_with(first)),
+            "{first}: {log}"
+        );
+    }
+}
+
+#[test]
 fn a_dam_break_column_too_narrow_for_a_front_is_said_so() {
     // Issue 47, ninth hostile pass: a column 2 particles wide, run past the first point,
     // was told to run to that point.

@@ -7,6 +7,7 @@
 use crate::io::gformat::format_shortest;
 use crate::lab::diagnostics::{self, Failure, PairCounts, Vitals};
 use crate::lab::machine::Machine;
+use crate::lab::progress::{Goal, Progress};
 use crate::sim::kernel::Kernel;
 use crate::sim::method::Method;
 use crate::sim::model::Model;
@@ -390,7 +391,7 @@ enum Sampling {
 /// Runs `candidate` on `model` from `start` through `times` (ascending, s), sampled as
 /// `sampling` says, calling `observe` with each sampled state (densities fresh); stops
 /// at the first time whose state is not finite, or at an adaptive step shorter than
-/// [`SHORTEST_STEP`].
+/// [`SHORTEST_STEP`]. Its progress is shown as a run's, labelled with the method.
 fn run(
     start: &Simulation,
     model: Model,
@@ -414,6 +415,8 @@ fn run(
     let (mut cpu_seconds, mut steps, mut shortest) = (0.0, 0, f64::INFINITY);
     let mut samples = Vec::new();
     let mut failure = None;
+    let last = times.last().copied().unwrap_or(0.0);
+    let mut progress = Progress::towards(Goal::Until(last)).labelled(candidate.label());
     for &requested in times {
         let mut collapsed = false;
         let started = cpu_time();
@@ -429,6 +432,7 @@ fn run(
                 }
             }
             collapsed = diagnostics::step_collapsed(&simulation, SHORTEST_STEP);
+            progress.show(steps, simulation.time());
         }
         cpu_seconds += cpu_time() - started;
         if collapsed {
@@ -451,6 +455,7 @@ fn run(
             errors: None,
         });
     }
+    progress.finish();
     Ok(Run {
         candidate,
         samples,
