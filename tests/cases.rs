@@ -1986,6 +1986,24 @@ fn a_run_to_a_time_that_would_take_too_many_fixed_steps_is_refused_at_its_key() 
         "{}",
         stderr(&output)
     );
+    // A count past the largest f64 (the ninth hostile pass: "inf steps").
+    let output = run_lab(&[
+        "run".as_ref(),
+        "--model".as_ref(),
+        "fluidanimate".as_ref(),
+        "--until".as_ref(),
+        "1e308".as_ref(),
+        small.as_os_str(),
+    ]);
+    assert_eq!(exit_code(&output), 2);
+    assert!(
+        stderr(&output).starts_with(
+            "fluid-lab: error: the model's time step of 0.001 s would take more steps than an \
+             f64 counts to --until 1e+308, "
+        ),
+        "{}",
+        stderr(&output)
+    );
     let output = run_lab(&[
         "run".as_ref(),
         "--dt".as_ref(),
@@ -2738,6 +2756,15 @@ fn a_poiseuille_case_s_faults_are_at_their_keys_not_the_resolution_s() {
             "[[fluid.box]]",
             "[[fluid.box]]",
             "a Poiseuille case's fluid is one box from plate to plate",
+        ),
+        // A key left out is said missing (the ninth hostile pass: box_min_m was blamed).
+        (
+            "periodic = [\"x\"]\n",
+            "",
+            "box_min_m",
+            "[",
+            "[domain] has no key periodic: a Poiseuille case is periodic along x: \
+             periodic = [\"x\"]",
         ),
     ] {
         assert!(good.contains(from), "{from}");

@@ -2378,6 +2378,21 @@ fn refusals_of_the_ninth_hostile_pass() {
          method samples every time (shorten --dt-factors or give later times)\n"
     );
     assert!(!folder.exists());
+    // A truncated input named, as run names it (compare and chaos check did not).
+    let truncated = dir.path().join("trunc.fld");
+    std::fs::write(&truncated, &std::fs::read(&small).unwrap()[..100]).unwrap();
+    let said = format!(
+        "fluid-lab: error: {}: Number of particles mismatch. Header: 4800, Found: 2.",
+        truncated.display()
+    );
+    let shown = truncated.to_str().unwrap();
+    for args in [
+        vec!["compare", shown, shown],
+        vec!["chaos", "check", shown, shown, shown],
+        vec!["run", shown],
+    ] {
+        assert_refused(&run_lab(&args), 1, &said);
+    }
 }
 
 #[test]

@@ -100,6 +100,20 @@ impl FileError {
     }
 }
 
+impl FileError {
+    /// The error for a command that names its files (the workbench's): the course's count
+    /// messages (SPEC.md rules 6 and 7) name none, so `file`'s name goes before them; the
+    /// others, which name it, are left as they are.
+    pub fn naming(self, file: &std::path::Path) -> Box<dyn std::error::Error> {
+        match self {
+            Self::InvalidParticleCount(_) | Self::ParticleCountMismatch { .. } => {
+                format!("{}: {self}", file.display()).into()
+            }
+            other => other.into(),
+        }
+    }
+}
+
 impl fmt::Display for FileError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&String::from_utf8_lossy(&self.message()))

@@ -62,7 +62,7 @@ pub struct Lab {
 /// every step).
 fn parse_interval(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
-        Ok(seconds) if (0.0..1e9).contains(&seconds) => Ok(seconds),
+        Ok(seconds) if (0.0..=1e9).contains(&seconds) => Ok(seconds),
         _ => Err(format!("{text} is not a number of seconds from 0 to 1e9")),
     }
 }

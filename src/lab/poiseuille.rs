@@ -37,11 +37,12 @@ impl Channel {
         let periodic = domain.periodic_axes();
         let whole = domain.box_min_m.span();
         if !periodic[0] {
-            let at = domain.periodic.as_ref().map_or(whole, |p| p.span());
-            return Err((
-                at,
-                "a Poiseuille case is periodic along x: periodic = [\"x\"]".into(),
-            ));
+            let why = "a Poiseuille case is periodic along x: periodic = [\"x\"]";
+            // A key not there is said as missing, in its table (at its first key).
+            return Err(match &domain.periodic {
+                Some(given) => (given.span(), why.into()),
+                None => (whole, format!("[domain] has no key periodic: {why}")),
+            });
         }
         let [force, gy, gz] = *domain.gravity_m_s2.get_ref();
         if !(force > 0.0 && gy == 0.0 && gz == 0.0) {

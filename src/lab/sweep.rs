@@ -428,15 +428,9 @@ fn file_name(path: &Path) -> String {
 
 /// The number of particles in a `.fld` input (which also checks that it is one).
 fn particle_count(path: &Path) -> Result<usize, Box<dyn Error>> {
-    use crate::io::fld::FileError;
     match crate::io::fld::read(path) {
         Ok(scene) => Ok(scene.particles.len()),
-        // The course's count messages (SPEC.md rules 6 and 7) name no file: here, the
-        // input's name goes before them.
-        Err(
-            error @ (FileError::InvalidParticleCount(_) | FileError::ParticleCountMismatch { .. }),
-        ) => Err(format!("{}: {error}", path.display()).into()),
-        Err(error) => Err(error.into()),
+        Err(error) => Err(error.naming(path)),
     }
 }
 

@@ -109,8 +109,8 @@ fn perturb(args: PerturbArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
 fn check(args: CheckArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
     let statistics = |path: &PathBuf| -> Result<(usize, Statistics), Box<dyn Error>> {
         let (bytes, name) = (read(path)?, path.display().to_string());
-        let particles = fld::validate(&bytes, &name)?.particles;
-        Ok((particles, Statistics::of_file(&bytes, &name)?))
+        let particles = (fld::validate(&bytes, &name).map_err(|error| error.naming(path)))?;
+        Ok((particles.particles, Statistics::of_file(&bytes, &name)?))
     };
     let (count, candidate) = statistics(&args.candidate)?;
     let mut ensemble = Vec::new();

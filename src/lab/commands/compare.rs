@@ -18,7 +18,8 @@ pub struct CompareArgs {
 
 /// Reads both states and prints the error of each field.
 pub fn exec(args: CompareArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
-    let (first, second) = (fld::read(&args.first)?, fld::read(&args.second)?);
+    let read = |path: &PathBuf| fld::read(path).map_err(|error| error.naming(path));
+    let (first, second) = (read(&args.first)?, read(&args.second)?);
     let errors = accuracy::compare(&first.particles, &second.particles).map_err(|reason| {
         format!(
             "cannot compare {} with {}: {reason}",

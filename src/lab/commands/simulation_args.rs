@@ -344,9 +344,14 @@ impl SimulationArgs {
             Some(_) => format!("until_s = {end} s"),
             None => format!("--until {end}"),
         };
+        // A count past the largest f64 is said as that: more than can be counted.
+        let steps = match steps.is_finite() {
+            true => format!("{steps:.3e} steps"),
+            false => "more steps than an f64 counts".into(),
+        };
         let message = format!(
-            "{step} would take {steps:.3e} steps to {time}, more than the \
-             {MOST_STEPS_TO_GO:.0e} a run to a time may take (give steps for a longer run)"
+            "{step} would take {steps} to {time}, more than the {MOST_STEPS_TO_GO:.0e} a run \
+             to a time may take (give steps for a longer run)"
         );
         Err(match dt_key.or(end_key) {
             Some(key) => self.at_key(key.span(), message),
@@ -685,23 +690,13 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
         }
         None => {
             // What the particles need is known from the header, before they are decoded.
-            // The course's count messages (SPEC.md rules 6 and 7) name no file: here, the
-            // input's name goes before them.
-            let named = |error: fld::FileError| -> Box<dyn Error> {
-                match error {
-                    fld::FileError::InvalidParticleCount(_)
-                    | fld::FileError::ParticleCountMismatch { .. } => {
-                        format!("{name}: {error}").into()
-                    }
-                    other => other.into(),
-                }
-            };
             let bytes = fld::map_input(source)?;
-            let particles = fld::header(&bytes, source).map_err(named)?.particles;
+            let header = fld::header(&bytes, source).map_err(|error| error.naming(source))?;
+            let particles = header.particles;
             memory_beyond_usable(particles as f64).map_err(|(needed, usable)| {
                 format!("{name}: its {particles} particles need about {needed}; {usable}")
             })?;
-            let scene = fld::parse(&bytes, source).map_err(named)?;
+            let scene = fld::parse(&bytes, source).map_err(|error| error.naming(source))?;
             drop(bytes);
             let ppm = scene.ppm;
             let domain = args.with_periodic(params::Domain::COURSE)?;
