@@ -642,7 +642,7 @@ fn bad_gauges_are_refused_with_their_line() {
         (
             "at_m = [0.0, 0.09, 0.0]",
             "at_m = [0.0, 0.3, 0.0]",
-            "point gauge outside",
+            "point gauge's at_m = [0, 0.3, 0] is outside the domain",
         ),
         ("name = \"air\"", "name = \"deep\"", "two gauges are named"),
         ("name = \"air\"", "name = \"a,b\"", "letters, digits"),

@@ -2422,3 +2422,206 @@ fn a_full_standard_output_is_named_and_loses_no_output_file() {
     );
     assert_eq!(std::fs::read(&state).unwrap().len(), 8 + 36 * 4800);
 }
+
+#[test]
+fn refusals_of_the_tenth_hostile_pass() {
+    // Issue 47, tenth hostile pass.
+    let dir = tempfile::tempdir().unwrap();
+    let small = input("small");
+    let small = small.to_str().unwrap();
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    let (out, case) = (at("out"), at("g.toml"));
+    let (frames, acc, named) = (at("dangling/frames"), at("acc"), at("acc/error-time.svg"));
+    let gauged = |at_m: &str| {
+        format!(
+            "[fluid]\nparticles_per_m = 100\n[[fluid.box]]\nmin_m = [-0.065, -0.08, -0.065]\n\
+             max_m = [-0.03, -0.05, -0.03]\n[output]\nfolder = \"{out}\"\n[gauges]\n\
+             interval_s = 0.01\n[[gauges.point]]\nname = \"p\"\nat_m = {at_m}\n"
+        )
+    };
+    let refused: [(&str, Vec<&str>, String); 8] = [
+        // A reference step past the first time (its CSV held inf, exit 0).
+        (
+            "",
+            vec![
+                "accuracy",
+                small,
+                "--output-dir",
+                &out,
+                "--dt-factors",
+                "0.5",
+                "--adaptive",
+                "",
+                "--times",
+                "0.001",
+                "--reference-dt",
+                "1",
+            ],
+            "--reference-dt 1 passes the first of --times, 0.001 s: the reference is the \
+             finest run of the sweep"
+                .into(),
+        ),
+        // Rust's parse errors (cannot parse float from empty string; invalid digit).
+        (
+            "",
+            vec!["accuracy", small, "--output-dir", &out, "--times", ""],
+            "invalid value '' for '--times <TIMES>...': '' is not a number".into(),
+        ),
+        (
+            "",
+            vec!["scene", "random-cloud", &out, "--particles", "-1"],
+            "invalid value '-1' for '--particles <PARTICLES>': -1 is not a whole number from 0 \
+             to 18446744073709551615"
+                .into(),
+        ),
+        // A fixed step longer than the run (its CSV showed a 300-digit step, exit 0).
+        (
+            "",
+            vec![
+                "stability",
+                "--models",
+                "fluidanimate",
+                "--ppms",
+                "60",
+                "--adaptive",
+                "",
+                "--dt-factors",
+                "1e300",
+                "--duration",
+                "0.005",
+                "--output-dir",
+                &out,
+            ],
+            "--dt-factors: a step of 1e+297 s is longer than --duration 0.005 s".into(),
+        ),
+        // A gauge outside, or not a point: its at_m named (it said "outside" for NaN).
+        (
+            "[0.07, 0.0, 0.0]",
+            vec!["run", "--case", &case],
+            format!("{case}:10:1: a point gauge's at_m = [0.07, 0, 0] is outside the domain"),
+        ),
+        (
+            "[nan, 0.0, 0.0]",
+            vec!["run", "--case", &case],
+            format!(
+                "{case}:10:1: a point gauge's at_m = [NaN, 0, 0] is not a point (its numbers \
+                 must be finite)"
+            ),
+        ),
+        // A symbolic link that leads nowhere, as a folder ("File exists").
+        (
+            "",
+            vec!["export", small, &frames, "--steps", "0"],
+            format!(
+                "cannot use {} as a folder: {} is a symbolic link that leads to no file",
+                frames,
+                at("dangling")
+            ),
+        ),
+        // An accuracy case named as one of its charts: refused before anything runs
+        // (the sweep ran and left its CSV and first charts).
+        (
+            "",
+            vec![
+                "accuracy",
+                "--case",
+                &named,
+                "--output-dir",
+                &acc,
+                "--dt-factors",
+                "0.5",
+                "--adaptive",
+                "",
+                "--times",
+                "0.001",
+            ],
+            format!(
+                "Cannot write {}: this command reads it: give its outputs a place of their own.",
+                named
+            ),
+        ),
+    ];
+    std::os::unix::fs::symlink(dir.path().join("nowhere"), dir.path().join("dangling")).unwrap();
+    std::fs::create_dir(dir.path().join("acc")).unwrap();
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/still-water-2d.toml");
+    let tank = std::fs::read_to_string(shipped)
+        .unwrap()
+        .replace("until_s = 2.0", "until_s = 0.01");
+    std::fs::write(dir.path().join("acc/error-time.svg"), &tank).unwrap();
+    for (at_m, args, message) in refused {
+        if !at_m.is_empty() {
+            std::fs::write(&case, gauged(at_m)).unwrap();
+        }
+        let output = run_lab(&args);
+        assert_ne!(exit_code(&output), 0, "{args:?}");
+        assert_eq!(
+            stderr(&output),
+            format!("fluid-lab: error: {message}\n"),
+            "{args:?}"
+        );
+        assert!(!Path::new(&out).exists(), "{args:?}");
+    }
+    let mut left = entries(&dir.path().join("acc"));
+    left.sort();
+    assert_eq!(left, ["error-time.svg"]);
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("acc/error-time.svg")).unwrap(),
+        tank
+    );
+    // A smoothing too wide for the box, said at the flag or key that set it (it blamed
+    // particles_per_m, or the input file).
+    let case_2d = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/dam-break-2d.toml");
+    let wide = at("wide.toml");
+    let text = std::fs::read_to_string(&case_2d).unwrap();
+    let text = text.replace(
+        "name = \"wcsph\"",
+        "name = \"wcsph\"\nsmoothing_spacings = 20",
+    );
+    std::fs::write(&wide, &text).unwrap();
+    let line = text
+        .lines()
+        .position(|l| l.starts_with("smoothing_spacings"))
+        .unwrap()
+        + 1;
+    let no_grid = "the water model's cut-off at h = 20 spacings leaves the box no grid (";
+    for (args, at_start) in [
+        (
+            vec![
+                "run",
+                "--case",
+                case_2d.to_str().unwrap(),
+                "--smoothing",
+                "20",
+            ],
+            "--smoothing 20: ".to_string(),
+        ),
+        (
+            vec!["run", small, "--model", "wcsph", "--smoothing", "20"],
+            "--smoothing 20: ".to_string(),
+        ),
+        (
+            vec!["run", "--case", &wide],
+            format!("{wide}:{line}:22: smoothing_spacings = 20: "),
+        ),
+    ] {
+        let output = run_lab(&args);
+        assert_eq!(exit_code(&output), 2, "{args:?}: {}", stderr(&output));
+        let said = format!("fluid-lab: error: {at_start}{no_grid}");
+        assert!(
+            stderr(&output).starts_with(&said),
+            "{said}\n{}",
+            stderr(&output)
+        );
+    }
+    // A file of no particles named, as run names it.
+    let zero = at("zero.fld");
+    std::fs::write(&zero, [0, 0, 0x4c, 0x43, 0, 0, 0, 0]).unwrap();
+    for args in [
+        vec!["chaos", "perturb", &zero, &out],
+        vec!["accuracy", &zero, "--output-dir", &out],
+    ] {
+        let said = format!("fluid-lab: error: {zero}: Invalid number of particles: 0.");
+        assert_refused(&run_lab(&args), 1, &said);
+        assert!(!Path::new(&out).exists(), "{args:?}");
+    }
+}

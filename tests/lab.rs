@@ -629,8 +629,12 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
 
     // The CSV charts again with `--from-csv`; one whose times are not finite numbers >= 0
     // (or whose errors are NaN or negative) is refused, and draws nothing.
-    let redraw = |csv: &std::path::Path, folder: &std::path::Path| {
-        let mut args = methods.to_vec();
+    // `args` charting `csv` again into `folder`; `redraw`, with the sweep's own arguments.
+    fn from_csv<'a>(
+        mut args: Vec<&'a std::ffi::OsStr>,
+        csv: &'a std::path::Path,
+        folder: &'a std::path::Path,
+    ) -> std::process::Output {
         args.extend::<[&std::ffi::OsStr; 4]>([
             "--from-csv".as_ref(),
             csv.as_os_str(),
@@ -638,7 +642,9 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
             folder.as_os_str(),
         ]);
         run_lab(&args)
-    };
+    }
+    let redraw =
+        |csv: &std::path::Path, folder: &std::path::Path| from_csv(methods.to_vec(), csv, folder);
     let again = redraw(&dir.path().join("accuracy.csv"), &dir.path().join("again"));
     assert_eq!(exit_code(&again), 0, "{}", stderr(&again));
     assert!(dir.path().join("again/accuracy-speed.png").is_file());
@@ -724,13 +730,7 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
     std::fs::write(&moved, &bytes).unwrap();
     let mut args = methods.to_vec();
     args[1] = moved.as_os_str();
-    args.extend::<[&std::ffi::OsStr; 4]>([
-        "--from-csv".as_ref(),
-        csv.as_os_str(),
-        "--output-dir".as_ref(),
-        folder.as_os_str(),
-    ]);
-    let other = run_lab(&args);
+    let other = from_csv(args, &csv, &folder);
     assert_eq!(exit_code(&other), 1, "{}", stderr(&other));
     let (theirs, ours) = (
         crc32fast::hash(&std::fs::read(&small).unwrap()),
@@ -785,13 +785,7 @@ fn accuracy_measures_methods_at_equal_times_and_names_the_fastest_within_a_budge
             .map(|&arg| if arg == from { to.as_ref() } else { arg })
             .collect();
         args.extend(extra.iter().flatten().map(std::ffi::OsStr::new));
-        args.extend::<[&std::ffi::OsStr; 4]>([
-            "--from-csv".as_ref(),
-            csv.as_os_str(),
-            "--output-dir".as_ref(),
-            folder.as_os_str(),
-        ]);
-        let other = run_lab(&args);
+        let other = from_csv(args, &csv, &folder);
         assert_eq!(exit_code(&other), 1, "{to}: {}", stderr(&other));
         assert!(stderr(&other).contains(said), "{}", stderr(&other));
         assert!(!folder.exists());

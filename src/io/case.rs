@@ -6,6 +6,7 @@
 //! write. Reading one checks it whole: unknown keys, wrong types and values out of range
 //! are refused, each with the file, the line and the column of the value at fault.
 
+use crate::io::gformat::format_shortest;
 use crate::sim::params::{self, BOX_MAX, BOX_MIN, GRAVITY};
 use crate::sim::timestep::is_time;
 use clap::ValueEnum;
@@ -568,12 +569,13 @@ fn in_the_plane<'i>(
                     1 => "its 1 number, x (the vertical line through it)",
                     _ => "its 2 numbers, x and y",
                 };
+                let has = match numbers.len() {
+                    1 => "1 number".to_string(),
+                    n => format!("{n} numbers"),
+                };
                 return Err((
                     span,
-                    format!(
-                        "{key} has {} numbers, but in a 2-D case (dimensions = 2) it takes {what}",
-                        numbers.len()
-                    ),
+                    format!("{key} has {has}, but in a 2-D case (dimensions = 2) it takes {what}"),
                 ));
             }
             numbers.push(z.clone());
@@ -1055,16 +1057,29 @@ impl Case {
                 return Err((span.clone(), format!("two gauges are named \"{name}\"")));
             }
         }
+        // Said at the gauge's table, naming its at_m as given and what is wrong with it.
+        let dimensions = if self.domain.is_planar() { 2 } else { 3 };
+        let outside = |kind: &str, at: &[f64]| {
+            let shown: Vec<String> = at.iter().map(|x| format_shortest(*x)).collect();
+            let why = match at.iter().all(|x| x.is_finite()) {
+                true => "is outside the domain",
+                false => "is not a point (its numbers must be finite)",
+            };
+            format!("a {kind} gauge's at_m = [{}] {why}", shown.join(", "))
+        };
         for gauge in &gauges.points {
-            if !inside(gauge.get_ref().at_m) {
-                return Err((gauge.span(), "a point gauge outside the domain".into()));
+            let at = gauge.get_ref().at_m;
+            if !inside(at) {
+                let given = &at[..dimensions];
+                return Err((gauge.span(), outside("point", given)));
             }
         }
         let low = self.domain.box_min_m.get_ref()[1];
         for gauge in &gauges.heights {
             let [x, z] = gauge.get_ref().at_m;
             if !inside([x, low, z]) {
-                return Err((gauge.span(), "a height gauge outside the domain".into()));
+                let given = &[x, z][..dimensions - 1];
+                return Err((gauge.span(), outside("height", given)));
             }
         }
         Ok(())

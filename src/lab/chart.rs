@@ -270,7 +270,7 @@ impl SweepTable {
             .max()
             .unwrap_or(0);
         let time = Chart {
-            name: "time",
+            name: SWEEP_CHART_NAMES[0],
             title: "Wall time against iterations".into(),
             y_label: "wall time (s)",
             series: self.series(|row| Some(row.wall_s), None),
@@ -280,7 +280,7 @@ impl SweepTable {
             largest_iterations,
         };
         let energy = Chart {
-            name: "energy",
+            name: SWEEP_CHART_NAMES[1],
             title: "Energy against iterations".into(),
             y_label: "energy (J)",
             series: measured
@@ -293,7 +293,7 @@ impl SweepTable {
             largest_iterations,
         };
         let power = Chart {
-            name: "power",
+            name: SWEEP_CHART_NAMES[2],
             title: "Average power against iterations".into(),
             y_label: "power (W)",
             series: measured
@@ -380,6 +380,9 @@ pub trait Drawing {
     where
         DB::ErrorType: 'static;
 }
+
+/// The names of a sweep's charts: wall time, energy and power against iterations.
+pub const SWEEP_CHART_NAMES: [&str; 3] = ["time", "energy", "power"];
 
 /// The files of the chart `name` in `folder`: its PNG and its SVG.
 pub fn files(folder: &Path, name: &str) -> [PathBuf; 2] {

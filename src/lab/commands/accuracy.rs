@@ -55,7 +55,7 @@ pub struct AccuracyArgs {
     /// Fixed time steps, as multiples of the course's 1 ms (default: 0.25, 0.5, 1, 2
     /// and 4 for fluidanimate; 0.125, 0.25, 0.5 and 1 for the course model; 0.025, 0.05,
     /// 0.1 and 0.2 for wcsph).
-    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., value_parser = super::number)]
     dt_factors: Option<Vec<f64>>,
     /// Courant constants of the adaptive time step ("" for none).
     #[arg(long, allow_negative_numbers = true, default_value = "0.2,0.3,0.4", num_args = 1.., value_parser = parse_courants)]
@@ -65,17 +65,17 @@ pub struct AccuracyArgs {
     integrators: Vec<Integrator>,
     /// Skins of reused neighbour lists, in cut-offs (the course models' h), each method
     /// also run with (default: none, lists rebuilt every step).
-    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., value_parser = super::number)]
     skins: Vec<f64>,
     /// Physical times (s) at which states are compared, ascending (default: every 4 ms to
     /// 48 ms for fluidanimate and wcsph; 1, 2 and 3 ms for the course model, which is chaotic
     /// after). Each method is sampled at the end of its first step at or after each; the
     /// accuracy-speed chart shows the first, a middle and the last.
-    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1..)]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., value_parser = super::number)]
     times: Option<Vec<f64>>,
     /// The reference's fixed step (s) (default: an eighth of the shortest step any method
     /// took).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::number)]
     reference_dt: Option<f64>,
     /// Error budgets, in metres or (with a trailing h, as in 0.1h) smoothing lengths:
     /// name the fastest method whose position error (by --metric) stays within each at
@@ -210,6 +210,16 @@ impl AccuracyArgs {
             ))
             .into());
         }
+        // Nor the reference's, which would land on every time in one cut step.
+        if let Some(step) = self.reference_dt.filter(|&step| step > first) {
+            return Err(UsageError(format!(
+                "--reference-dt {} passes the first of --times, {} s: the reference is the \
+                 finest run of the sweep",
+                format_g(step),
+                format_g(first)
+            ))
+            .into());
+        }
         let steps = last / shortest;
         if steps > MOST_STEPS_TO_GO {
             return Err(UsageError(format!(
@@ -244,7 +254,7 @@ impl AccuracyArgs {
                     model: self.model(),
                     kernel: Kernel::NATIVE,
                 };
-                let scene = fld::read(input)?;
+                let scene = fld::read(input).map_err(|error| error.naming(input))?;
                 let simulation = scene.into_simulation(method, &input.display().to_string())?;
                 let bytes = read_regular(input)
                     .map_err(|error| format!("cannot read {}: {error}", input.display()))?;
@@ -652,6 +662,10 @@ impl States {
     }
 }
 
+/// The names of the sweep's charts: error against cost, error against time, and the
+/// convergence of each family of fixed steps.
+const CHART_NAMES: [&str; 3] = ["accuracy-speed", "error-time", "convergence"];
+
 /// Runs every method against the reference and writes the CSV, the charts and the
 /// choices within the budgets (or, with `--from-csv`, only the charts and choices).
 pub fn exec(mut args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
@@ -662,6 +676,7 @@ pub fn exec(mut args: AccuracyArgs, stdout: &mut impl Write) -> Result<(), Box<d
     }
     let (times, candidates) = args.plan()?;
     let _folder = super::create_output_dir(&args.output_dir)?;
+    super::try_charts(args.output_dir(), &CHART_NAMES)?;
     if let Some(csv) = &args.from_csv {
         return args.chart(csv, stdout);
     }
@@ -862,7 +877,7 @@ fn speed_chart(
         .collect();
     let last = times.len() - 1;
     PointChart {
-        name: "accuracy-speed",
+        name: CHART_NAMES[0],
         title: format!("Error against cost, {scene} (lines: Pareto fronts)"),
         x_label: "CPU seconds per simulated second".into(),
         x_log: true,
@@ -899,7 +914,7 @@ fn convergence_chart(
 ) -> PointChart {
     let at = times.last().map_or(0.0, |t| t * 1e3);
     PointChart {
-        name: "convergence",
+        name: CHART_NAMES[2],
         title: format!("Error against time step at {at} ms, {scene}"),
         x_label: "time step (ms)".into(),
         x_log: true,
@@ -935,7 +950,7 @@ fn convergence_chart(
 /// The position error by `metric` against physical time, one line per method.
 fn time_chart(sweep: &Sweep, metric: Metric, scene: &str, footer: &str) -> PointChart {
     PointChart {
-        name: "error-time",
+        name: CHART_NAMES[1],
         title: format!("Error against time, {scene}"),
         x_label: "physical time (ms)".into(),
         x_log: false,

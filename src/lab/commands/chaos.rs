@@ -76,7 +76,9 @@ fn perturb(args: PerturbArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
         .ok_or_else(|| UsageError(format!("{name} names no file")))?
         .to_string_lossy()
         .into_owned();
-    let particles = fld::validate(&bytes, &args.input)?.particles;
+    let particles =
+        (fld::validate(&bytes, &args.input).map_err(|error| error.naming(&args.input)))?;
+    let particles = particles.particles;
     let copies = args.copies as usize;
     if copies > chaos::most_copies(particles) {
         return Err(UsageError(format!(

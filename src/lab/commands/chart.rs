@@ -32,6 +32,7 @@ pub fn exec(args: ChartArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Erro
         Some(folder) => folder,
         None => args.csv.parent().map(PathBuf::from).unwrap_or_default(),
     };
+    super::try_charts(&folder, &crate::lab::chart::SWEEP_CHART_NAMES)?;
     draw(&table, &folder, stdout)
 }
 

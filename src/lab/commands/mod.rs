@@ -17,6 +17,8 @@ pub mod stability;
 pub mod sweep;
 pub mod validate;
 
+use crate::io::fld::FileError;
+use crate::io::output::OutputFile;
 use crate::io::signals::Pending;
 use std::path::{Path, PathBuf};
 
@@ -35,6 +37,14 @@ pub fn create_output_dir(dir: &Path) -> Result<MadeFolder, String> {
     }
     if dir.exists() && !dir.is_dir() {
         return Err(format!("cannot use {shown} as a folder: it is a file"));
+    }
+    // A symbolic link that leads nowhere (to nothing, or round in a loop) is no folder
+    // to make: the system's "File exists" would not say why.
+    if let Some(link) = (dir.ancestors()).find(|place| place.is_symlink() && !place.exists()) {
+        return Err(format!(
+            "cannot use {shown} as a folder: {} is a symbolic link that leads to no file",
+            link.display()
+        ));
     }
     // The folders missing, outermost first.
     let mut missing: Vec<PathBuf> = (dir.ancestors())
@@ -89,6 +99,27 @@ impl Drop for MadeFolder {
 /// once).
 pub fn repeats<T: PartialEq>(items: &[T]) -> bool {
     (1..items.len()).any(|k| items[k..].contains(&items[k - 1]))
+}
+
+/// Tries every chart file `names` give in `folder` (a PNG and an SVG each) as an output
+/// before anything is drawn: one that cannot be written, or would replace a file the
+/// command reads, fails the command before the others are written.
+pub fn try_charts(folder: &Path, names: &[&str]) -> Result<(), FileError> {
+    for path in names
+        .iter()
+        .flat_map(|name| crate::lab::chart::files(folder, name))
+    {
+        drop(OutputFile::create(&path)?);
+    }
+    Ok(())
+}
+
+/// A flag's parser of numbers (each of a list), whose range its command checks, saying
+/// in one line what is not one (clap's own says "cannot parse float from empty string").
+pub fn number(text: &str) -> Result<f64, String> {
+    text.trim()
+        .parse::<f64>()
+        .map_err(|_| format!("'{text}' is not a number"))
 }
 
 /// A flag's parser of whole numbers from `low` to `high` (and no more than `T` holds),

@@ -25,7 +25,7 @@ pub struct SceneArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 0, value_parser = super::whole::<u64>(0, u64::MAX))]
     seed: u64,
     /// Number of particles (random-cloud and corner-block only).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::whole::<usize>(0, u64::MAX))]
     particles: Option<usize>,
     /// Write the scene's case file (TOML, docs/case-files.md) to OUTPUT instead of its
     /// particles: its fills, run with the weakly compressible model to 0.5 s (dam-break,

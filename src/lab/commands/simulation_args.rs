@@ -366,6 +366,31 @@ impl SimulationArgs {
         Box::new(CaseError::at_span(text, &name, span, message))
     }
 
+    /// Where the model's cut-off leaves `domain` no grid at `ppm` (`error`) at a smoothing
+    /// length given (by --smoothing, or the case's smoothing_spacings) where its default
+    /// would leave one: the refusal, said at the flag or key that set it, not at the
+    /// resolution or the input.
+    fn wide_smoothing(
+        &self,
+        error: &dyn std::fmt::Display,
+        (ppm, domain): (f64, &params::Domain),
+    ) -> Option<Box<dyn Error>> {
+        let smoothing = self.water.smoothing?;
+        let default_cutoff = self.model().dynamics().cutoff(ppm);
+        crate::sim::grid::Grid::new(default_cutoff, domain).ok()?;
+        let shown = format_shortest(smoothing);
+        let why = format!(
+            "the water model's cut-off at h = {shown} spacings leaves the box no grid ({error})"
+        );
+        let key = (self.read.as_ref())
+            .and_then(|case| case.model.smoothing_spacings.as_ref())
+            .filter(|key| *key.get_ref() == smoothing);
+        Some(match key {
+            Some(key) => self.at_key(key.span(), format!("smoothing_spacings = {shown}: {why}")),
+            None => UsageError(format!("--smoothing {shown}: {why}")).into(),
+        })
+    }
+
     /// The file the scene comes from: the case, or the input.
     pub fn source(&self) -> &Path {
         self.case
@@ -679,12 +704,18 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
                     scene::FillError::Other(_) => args.at_key(spacing.span(), error.to_string()),
                 },
             )?;
+            let shape = domain;
             let simulation = Simulation::with_dynamics(ppm, domain, particles, method, dynamics)
                 .map_err(|error| {
-                    args.at_key(
-                        spacing.span(),
-                        format!("particles_per_m = {ppm} gives {error} for the model's cut-off"),
-                    )
+                    args.wide_smoothing(&error, (ppm, &shape))
+                        .unwrap_or_else(|| {
+                            args.at_key(
+                                spacing.span(),
+                                format!(
+                                    "particles_per_m = {ppm} gives {error} for the model's cut-off"
+                                ),
+                            )
+                        })
                 })?;
             (simulation, ppm as f32)
         }
@@ -700,10 +731,19 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
             drop(bytes);
             let ppm = scene.ppm;
             let domain = args.with_periodic(params::Domain::COURSE)?;
-            (
-                scene.into_simulation_with(method, dynamics, domain, &name)?,
-                ppm,
-            )
+            let shape = (ppm as f64, &domain);
+            let simulation = scene
+                .into_simulation_with(method, dynamics, domain, &name)
+                .map_err(|error| {
+                    // Its reason alone: the input is not at fault where the smoothing is.
+                    let reason = match &error {
+                        fld::FileError::InvalidInput { reason, .. } => reason.clone(),
+                        other => other.to_string(),
+                    };
+                    args.wide_smoothing(&reason, shape)
+                        .unwrap_or_else(|| error.into())
+                })?;
+            (simulation, ppm)
         }
     };
     let stem = source.file_stem().unwrap_or_default();

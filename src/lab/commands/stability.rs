@@ -52,18 +52,18 @@ pub struct StabilityArgs {
           default_values_t = [100.0, 150.0, 200.0, 300.0], value_parser = parse_particles_per_metre)]
     ppms: Vec<f64>,
     /// Time steps, as multiples of the course's 1e-3 s.
-    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0])]
+    #[arg(long, allow_negative_numbers = true, value_delimiter = ',', num_args = 1.., default_values_t = [0.25, 0.5, 1.0, 2.0, 4.0], value_parser = super::number)]
     dt_factors: Vec<f64>,
     /// Courant constants of adaptive time steps to run beside the fixed ones ("" for
     /// none).
     #[arg(long, allow_negative_numbers = true, default_value = "0.3", num_args = 1.., value_parser = parse_courants)]
     adaptive: Vec<Courants>,
     /// Simulated seconds each run must last to count as stable.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5, value_parser = super::number)]
     duration: f64,
     /// Shortest adaptive step a run may take (s); a shorter one fails it as collapsed
     /// (the default, a hundredth of the course's step, keeps the map to minutes).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1e-5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1e-5, value_parser = super::number)]
     shortest_step: f64,
 }
 
@@ -125,6 +125,16 @@ impl StabilityArgs {
         let shortest = fixed
             .chain(adaptive.then_some(self.shortest_step))
             .fold(f64::INFINITY, f64::min);
+        // A run is a number of steps: no fixed step longer than the run.
+        let longest =
+            (self.dt_factors.iter()).fold(0.0, |a: f64, factor| a.max(factor * TIME_STEP));
+        if longest > self.duration {
+            return refuse(format!(
+                "--dt-factors: a step of {} s is longer than --duration {} s",
+                format_g(longest),
+                format_g(self.duration)
+            ));
+        }
         let steps = self.duration / shortest;
         if steps > MOST_STEPS_TO_GO {
             return refuse(format!(
