@@ -2314,12 +2314,15 @@ fn refusals_of_the_ninth_hostile_pass() {
     // Issue 47, ninth hostile pass: each of these ran and exited 0 on a meaningless result.
     let dir = tempfile::tempdir().unwrap();
     let (small, large) = (input("small"), input("large"));
-    // An ensemble of another scene's states (the table said "within: yes").
+    // An ensemble of another scene's states (the table said "within: yes"); its first
+    // member a copy of the state judged.
+    let copy = dir.path().join("copy.fld");
+    std::fs::copy(&small, &copy).unwrap();
     let output = run_lab(&[
         "chaos".as_ref(),
         "check".as_ref(),
         small.as_os_str(),
-        small.as_os_str(),
+        copy.as_os_str(),
         large.as_os_str(),
     ]);
     assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
@@ -2381,6 +2384,10 @@ fn refusals_of_the_ninth_hostile_pass() {
     // A truncated input named, as run names it (compare and chaos check did not).
     let truncated = dir.path().join("trunc.fld");
     std::fs::write(&truncated, &std::fs::read(&small).unwrap()[..100]).unwrap();
+    let (first, second) = (dir.path().join("m1.fld"), dir.path().join("m2.fld"));
+    std::fs::copy(&truncated, &first).unwrap();
+    std::fs::copy(&truncated, &second).unwrap();
+    let (first, second) = (first.to_str().unwrap(), second.to_str().unwrap());
     let said = format!(
         "fluid-lab: error: {}: Number of particles mismatch. Header: 4800, Found: 2.",
         truncated.display()
@@ -2388,7 +2395,7 @@ fn refusals_of_the_ninth_hostile_pass() {
     let shown = truncated.to_str().unwrap();
     for args in [
         vec!["compare", shown, shown],
-        vec!["chaos", "check", shown, shown, shown],
+        vec!["chaos", "check", shown, first, second],
         vec!["run", shown],
     ] {
         assert_refused(&run_lab(&args), 1, &said);
@@ -2622,6 +2629,121 @@ fn refusals_of_the_tenth_hostile_pass() {
     ] {
         let said = format!("fluid-lab: error: {zero}: Invalid number of particles: 0.");
         assert_refused(&run_lab(&args), 1, &said);
+        assert!(!Path::new(&out).exists(), "{args:?}");
+    }
+}
+
+#[test]
+fn refusals_of_the_eleventh_hostile_pass() {
+    // Issue 47, eleventh hostile pass.
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    let small = input("small");
+    let small = small.to_str().unwrap();
+    // A validation's case named as one of its charts: refused before the run (its CSVs
+    // were written, then it failed).
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/still-water-2d.toml");
+    std::fs::create_dir(dir.path().join("vs")).unwrap();
+    let named = at("vs/still-water.png");
+    let tank = std::fs::read_to_string(shipped).unwrap();
+    std::fs::write(&named, &tank).unwrap();
+    let vs = at("vs");
+    let args = [
+        "validate",
+        "still-water",
+        "--case",
+        &named,
+        "--output-dir",
+        &vs,
+    ];
+    let said = format!(
+        "fluid-lab: error: Cannot write {named}: this command reads it: give its outputs a \
+         place of their own."
+    );
+    assert_refused(&run_lab(&args), 1, &said);
+    assert_eq!(entries(&dir.path().join("vs")), ["still-water.png"]);
+    assert_eq!(std::fs::read_to_string(&named).unwrap(), tank);
+    // A particle that starts outside the box of a model that keeps its fluid in (it was
+    // called a blow-up at step 1, "a shorter time step may").
+    let mut bytes = std::fs::read(small).unwrap();
+    bytes[8..12].copy_from_slice(&0.5f32.to_le_bytes());
+    let outx = at("outx.fld");
+    std::fs::write(&outx, &bytes).unwrap();
+    let out = at("out");
+    let refused: [(Vec<&str>, i32, String); 7] = [
+        (
+            vec!["run", &outx, "--model", "fluidanimate", "--steps", "2"],
+            1,
+            format!(
+                "{outx}: 1 particle starts more than h outside the box, which the fluidanimate \
+                 model keeps its fluid in"
+            ),
+        ),
+        // A state judged against itself, a member twice (it could not fail).
+        (
+            vec!["chaos", "check", small, small, &outx],
+            2,
+            format!(
+                "{small} and {small} are one file: the state judged and each member of its \
+                 ensemble are files of their own"
+            ),
+        ),
+        // Values named twice (run twice, or measured twice under one key).
+        (
+            vec![
+                "validate",
+                "dam-break",
+                "--ppms",
+                "100,100.0",
+                "--output-dir",
+                &out,
+            ],
+            2,
+            "--ppms names each value once".into(),
+        ),
+        (
+            vec![
+                "validate",
+                "dam-break",
+                "--models",
+                "wcsph,wcsph",
+                "--output-dir",
+                &out,
+            ],
+            2,
+            "--models names each value once".into(),
+        ),
+        (
+            vec![
+                "sweep",
+                "--iterations",
+                "0,0",
+                "--output",
+                &out,
+                "--",
+                small,
+            ],
+            2,
+            "--iterations names each value once".into(),
+        ),
+        // A water setting out of range at its flag (it named --model), not a number said so.
+        (
+            vec!["run", small, "--model", "wcsph", "--sound-speed", "5000"],
+            2,
+            "--sound-speed: its sound speed factor must be between 1 and 1000".into(),
+        ),
+        (
+            vec!["run", small, "--model", "wcsph", "--smoothing", "abc"],
+            2,
+            "invalid value 'abc' for '--smoothing <SPACINGS>': 'abc' is not a number".into(),
+        ),
+    ];
+    for (args, code, message) in refused {
+        assert_refused(
+            &run_lab(&args),
+            code,
+            &format!("fluid-lab: error: {message}"),
+        );
         assert!(!Path::new(&out).exists(), "{args:?}");
     }
 }

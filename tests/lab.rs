@@ -511,12 +511,14 @@ fn chaos_moves_copies_by_one_ulp_and_judges_a_state_against_their_ensemble() {
     let fifo = dir.path().join("fifo.fld");
     let made = std::process::Command::new("mkfifo").arg(&fifo).status();
     if made.is_ok_and(|status| status.success()) {
+        let other = dir.path().join("other.fld");
+        std::fs::copy(&one, &other).unwrap();
         let output = run_lab(&[
             "chaos".as_ref(),
             "check".as_ref(),
             fifo.as_os_str(),
             one.as_os_str(),
-            one.as_os_str(),
+            other.as_os_str(),
         ]);
         assert_eq!(exit_code(&output), 1, "{}", stderr(&output));
     }

@@ -49,6 +49,31 @@ pub fn keep_intact(path: &Path) {
     }
 }
 
+/// Refuses `path` where it is a file kept intact ([`keep_intact`]), as
+/// [`OutputFile::create`] would, creating nothing: for the outputs a command knows before
+/// its work, whose folder it makes later.
+pub fn refuse_kept(path: &Path) -> Result<(), FileError> {
+    match std::fs::metadata(path)
+        .ok()
+        .and_then(|meta| kept_intact(&meta))
+    {
+        Some(read) => Err(replacing(path, read)),
+        None => Ok(()),
+    }
+}
+
+/// The error of an output at `path` that would replace `read`, a file kept intact.
+fn replacing(path: &Path, read: OsString) -> FileError {
+    let read = match read == path.as_os_str() {
+        true => "it".into(),
+        false => read.to_string_lossy().into_owned(),
+    };
+    FileError::CannotWriteOutput {
+        file: path.as_os_str().to_owned(),
+        reason: format!("this command reads {read}: give its outputs a place of their own"),
+    }
+}
+
 /// The name of the file kept intact that `meta` is, if it is one.
 fn kept_intact(meta: &std::fs::Metadata) -> Option<OsString> {
     let kept = KEPT_INTACT
@@ -98,18 +123,7 @@ impl OutputFile {
         }
         let sink = match std::fs::metadata(&target) {
             Ok(meta) if meta.is_dir() => return Err(cannot_open()),
-            Ok(meta) if let Some(read) = kept_intact(&meta) => {
-                let read = match read == path.as_os_str() {
-                    true => "it".into(),
-                    false => read.to_string_lossy().into_owned(),
-                };
-                return Err(FileError::CannotWriteOutput {
-                    file: path.as_os_str().to_owned(),
-                    reason: format!(
-                        "this command reads {read}: give its outputs a place of their own"
-                    ),
-                });
-            }
+            Ok(meta) if let Some(read) = kept_intact(&meta) => return Err(replacing(path, read)),
             Ok(meta) if !meta.is_file() => {
                 let mut file = open_special(&target).map_err(|_| cannot_open())?;
                 file.write(&[]).map_err(|_| cannot_open())?;

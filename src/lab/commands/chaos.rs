@@ -5,7 +5,7 @@ use crate::io::fld;
 use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
 use crate::lab::chaos::{self, Statistics};
-use crate::lab::commands::create_output_dir;
+use crate::lab::commands::{create_output_dir, same_file};
 use crate::lab::UsageError;
 use clap::{Args, Subcommand};
 use std::error::Error;
@@ -109,6 +109,23 @@ fn perturb(args: PerturbArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Err
 }
 
 fn check(args: CheckArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>> {
+    // A state judged against itself, or a member counted twice, is no test: refused.
+    let files = std::iter::once(&args.candidate).chain(&args.ensemble);
+    for (index, path) in files.clone().enumerate() {
+        if let Some(other) = files
+            .clone()
+            .skip(index + 1)
+            .find(|other| same_file(path, other))
+        {
+            return Err(UsageError(format!(
+                "{} and {} are one file: the state judged and each member of its ensemble \
+                 are files of their own",
+                path.display(),
+                other.display()
+            ))
+            .into());
+        }
+    }
     let statistics = |path: &PathBuf| -> Result<(usize, Statistics), Box<dyn Error>> {
         let (bytes, name) = (read(path)?, path.display().to_string());
         let particles = (fld::validate(&bytes, &name).map_err(|error| error.naming(path)))?;

@@ -18,7 +18,6 @@ pub mod sweep;
 pub mod validate;
 
 use crate::io::fld::FileError;
-use crate::io::output::OutputFile;
 use crate::io::signals::Pending;
 use std::path::{Path, PathBuf};
 
@@ -101,17 +100,14 @@ pub fn repeats<T: PartialEq>(items: &[T]) -> bool {
     (1..items.len()).any(|k| items[k..].contains(&items[k - 1]))
 }
 
-/// Tries every chart file `names` give in `folder` (a PNG and an SVG each) as an output
-/// before anything is drawn: one that cannot be written, or would replace a file the
-/// command reads, fails the command before the others are written.
+/// Refuses, before any work, a chart that `names` give in `folder` (a PNG and an SVG
+/// each) where it would replace a file the command reads
+/// ([`crate::io::output::keep_intact`]): found there, it would fail the command after its
+/// work, with its other outputs written.
 pub fn try_charts(folder: &Path, names: &[&str]) -> Result<(), FileError> {
-    for path in names
-        .iter()
+    (names.iter())
         .flat_map(|name| crate::lab::chart::files(folder, name))
-    {
-        drop(OutputFile::create(&path)?);
-    }
-    Ok(())
+        .try_for_each(|path| crate::io::output::refuse_kept(&path))
 }
 
 /// A flag's parser of numbers (each of a list), whose range its command checks, saying

@@ -166,22 +166,22 @@ pub struct WaterArgs {
     #[arg(long, value_enum)]
     pub walls: Option<WallFriction>,
     /// Monaghan's artificial viscosity alpha (wcsph) [default: the validated one]
-    #[arg(long, value_name = "ALPHA", allow_negative_numbers = true)]
+    #[arg(long, value_name = "ALPHA", allow_negative_numbers = true, value_parser = super::number)]
     pub artificial_viscosity: Option<f64>,
     /// Kinematic viscosity of the laminar term in m^2/s, 0 for none; water's is 1e-6
     /// (wcsph) [default: the validated one]
-    #[arg(long, value_name = "NU", allow_negative_numbers = true)]
+    #[arg(long, value_name = "NU", allow_negative_numbers = true, value_parser = super::number)]
     pub laminar_viscosity: Option<f64>,
     /// Smoothing length h in lattice spacings, 0.5 to 26 (wcsph) [default: the validated
     /// one]
-    #[arg(long, value_name = "SPACINGS", allow_negative_numbers = true)]
+    #[arg(long, value_name = "SPACINGS", allow_negative_numbers = true, value_parser = super::number)]
     pub smoothing: Option<f64>,
     /// Sound speed over sqrt(2 g H), H the fluid's height at the start, 1 to 1000 (wcsph)
     /// [default: the validated one]
-    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true)]
+    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true, value_parser = super::number)]
     pub sound_speed: Option<f64>,
     /// delta-SPH density diffusion coefficient (wcsph) [default: the validated one]
-    #[arg(long, value_name = "DELTA", allow_negative_numbers = true)]
+    #[arg(long, value_name = "DELTA", allow_negative_numbers = true, value_parser = super::number)]
     pub density_diffusion: Option<f64>,
     /// One face's friction, FACE=KIND (x_low, x_high, y_low, y_high, z_low or z_high;
     /// free-slip or no-slip), repeatable or comma-separated (wcsph) [default: --walls']
@@ -231,6 +231,49 @@ impl WaterArgs {
                     .find_map(|&(f, kind)| (f == face).then_some(kind))
             }),
         };
+        // A value out of its range is said at its flag (a case's were checked at their keys).
+        let alone = [
+            (
+                "--artificial-viscosity",
+                self.artificial_viscosity.map(|v| Settings {
+                    artificial_viscosity: v,
+                    ..default
+                }),
+            ),
+            (
+                "--laminar-viscosity",
+                self.laminar_viscosity.map(|v| Settings {
+                    laminar_viscosity: v,
+                    ..default
+                }),
+            ),
+            (
+                "--smoothing",
+                self.smoothing.map(|v| Settings {
+                    smoothing: v,
+                    ..default
+                }),
+            ),
+            (
+                "--sound-speed",
+                self.sound_speed.map(|v| Settings {
+                    sound_speed_factor: v,
+                    ..default
+                }),
+            ),
+            (
+                "--density-diffusion",
+                self.density_diffusion.map(|v| Settings {
+                    density_diffusion: v,
+                    ..default
+                }),
+            ),
+        ];
+        for (flag, one) in alone {
+            if let Some(Err(error)) = one.map(|one| one.check()) {
+                return Err(format!("{flag}: {error}"));
+            }
+        }
         settings
             .check()
             .map(|()| settings)
@@ -767,6 +810,21 @@ pub fn load(args: &SimulationArgs) -> Result<Loaded, Box<dyn Error>> {
                 ),
                 _ => UsageError(too_wide(error)).into(),
             })?;
+    }
+    // A model that keeps its fluid in cannot start with it out: its first step would be
+    // called a blow-up.
+    let outside = Vitals::of(&simulation).outside;
+    if outside > 0 && args.model().keeps_to_its_box() {
+        let particles = match outside {
+            1 => "1 particle starts".to_string(),
+            count => format!("{count} particles start"),
+        };
+        return Err(format!(
+            "{name}: {particles} more than h outside the box, which the {} model keeps its \
+             fluid in",
+            args.model().name()
+        )
+        .into());
     }
     Ok(Loaded {
         stem: stem.to_string_lossy().into_owned(),

@@ -87,6 +87,10 @@ impl SweepArgs {
             ))
             .into());
         }
+        // A count named twice would measure its point twice under one key.
+        if super::repeats(&self.iterations) {
+            return Err(UsageError("--iterations names each value once".into()).into());
+        }
         if same_file(&program, &self.output) {
             return Err(UsageError(format!(
                 "--output {} is the program measured, {}",

@@ -80,7 +80,7 @@ pub struct ValidateArgs {
     width: Option<f64>,
     /// Run until the experiment's dimensionless time T = t sqrt(2 g / a) reaches this (at
     /// most 1000) [default: 4].
-    #[arg(long, value_name = "T", allow_negative_numbers = true)]
+    #[arg(long, value_name = "T", allow_negative_numbers = true, value_parser = super::number)]
     until_t: Option<f64>,
     /// Run to this physical time in seconds instead (as --until everywhere else; at most
     /// 60).
@@ -228,6 +228,15 @@ const MOST_SECONDS: f64 = 60.0;
 /// The experiment's points compared in the summary: T up to this.
 const SUMMARY_T: f64 = 3.6;
 
+/// The dam break's charts: its fronts, their cost, and each model's convergence.
+const DAM_BREAK_CHARTS: [&str; 5] = [
+    "dam-break",
+    "dam-break-cost",
+    "dam-break-convergence-course",
+    "dam-break-convergence-fluidanimate",
+    "dam-break-convergence-wcsph",
+];
+
 /// One model at one resolution, run.
 struct Validated {
     model: Model,
@@ -326,6 +335,15 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
     if super::repeats(&dimensions) {
         return Err(UsageError("--dimensions names each number once".into()).into());
     }
+    // A run named twice would run twice and count as two resolutions.
+    for (flag, repeated) in [
+        ("--models", super::repeats(&models)),
+        ("--ppms", super::repeats(&args.ppms())),
+    ] {
+        if repeated {
+            return Err(UsageError(format!("{flag} names each value once")).into());
+        }
+    }
     let only_planar = dimensions == [2];
     if let Some(other) = models
         .iter()
@@ -368,6 +386,7 @@ pub fn exec(mut args: ValidateArgs, stdout: &mut impl Write) -> Result<(), Box<d
         }
     }
     let _folder = create_output_dir(&args.output_dir)?;
+    super::try_charts(&args.output_dir, &DAM_BREAK_CHARTS)?;
     let fronts_path = args.output_dir.join("dam-break.csv");
     let errors_path = args.output_dir.join("dam-break-errors.csv");
     let (fronts_file, errors_file) = (
@@ -627,9 +646,9 @@ fn convergence_chart(runs: &[Validated], model: Model, footer: &str) -> Option<P
     let resolutions = series.iter().any(|(_, errors)| errors.len() > 1);
     (resolutions && reached).then(|| PointChart {
         name: match model {
-            Model::Course => "dam-break-convergence-course",
-            Model::Fluidanimate => "dam-break-convergence-fluidanimate",
-            Model::Wcsph => "dam-break-convergence-wcsph",
+            Model::Course => DAM_BREAK_CHARTS[2],
+            Model::Fluidanimate => DAM_BREAK_CHARTS[3],
+            Model::Wcsph => DAM_BREAK_CHARTS[4],
         },
         title: format!(
             "Dam break, {}: front error at each experimental point (T <= {SUMMARY_T})",
@@ -679,7 +698,7 @@ fn cost_chart(runs: &[Validated], footer: &str) -> Option<PointChart> {
         }
     }
     (!series.is_empty()).then(|| PointChart {
-        name: "dam-break-cost",
+        name: DAM_BREAK_CHARTS[1],
         title: format!(
             "Dam break: mean front error (T <= {SUMMARY_T}) against cost, by resolution"
         ),
@@ -738,7 +757,7 @@ fn front_chart(runs: &[Validated], footer: &str) -> PointChart {
         );
     }
     PointChart {
-        name: "dam-break",
+        name: DAM_BREAK_CHARTS[0],
         title: "Dam break: surge front against the experiments".into(),
         x_label: "T = t sqrt(2g/a)".into(),
         x_log: false,
@@ -888,6 +907,15 @@ fn poiseuille(
     let mut args = SimulationArgs::of_case(path);
     args.water = water.clone();
     args.read_case(&mut None)?;
+    // None of its outputs may be the case: said before the runs, which come first.
+    super::try_charts(folder, &["poiseuille", "poiseuille-startup"])?;
+    for table in [
+        "poiseuille.csv",
+        "poiseuille-errors.csv",
+        "poiseuille-startup.csv",
+    ] {
+        crate::io::output::refuse_kept(&folder.join(table))?;
+    }
     let case = args.read.clone().expect("a case read");
     let mut channel =
         Channel::of_case(&case).map_err(|(span, message)| args.at_key(span, message))?;
@@ -1248,6 +1276,7 @@ fn still_water(
         return Err(args.at_key(until.span(), message));
     }
     let _folder = create_output_dir(folder)?;
+    super::try_charts(folder, &["still-water"])?;
     let readings_path = folder.join("still-water.csv");
     let checks_path = folder.join("still-water-checks.csv");
     let (readings_file, checks_file) = (
