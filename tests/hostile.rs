@@ -2747,3 +2747,65 @@ fn refusals_of_the_eleventh_hostile_pass() {
         assert!(!Path::new(&out).exists(), "{args:?}");
     }
 }
+
+#[test]
+fn refusals_of_the_twelfth_hostile_pass() {
+    // Issue 47, twelfth hostile pass: each of these wrote or measured and exited 0.
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    let small = input("small");
+    let small = small.to_str().unwrap();
+    // A side file that is a symbolic link to the output, not there yet: the diagnostics
+    // were written over the final state.
+    let (state, linked) = (at("o3.fld"), at("dg.csv"));
+    std::os::unix::fs::symlink("o3.fld", &linked).unwrap();
+    let output = run_lab(&[
+        "run",
+        small,
+        &state,
+        "--model",
+        "fluidanimate",
+        "--steps",
+        "3",
+        "--diagnostics",
+        &linked,
+    ]);
+    let said = format!(
+        "fluid-lab: error: --diagnostics {linked} is also the output {state}: give it a file \
+         of its own"
+    );
+    assert_refused(&output, 2, &said);
+    assert!(!Path::new(&state).exists());
+    // An ensemble member at another resolution (its statistics widened the range).
+    let mut bytes = std::fs::read(small).unwrap();
+    bytes[..4].copy_from_slice(&999f32.to_le_bytes());
+    let (member, other) = (at("m.fld"), at("ppm999.fld"));
+    std::fs::copy(small, &member).unwrap();
+    std::fs::write(&other, &bytes).unwrap();
+    let said = format!(
+        "fluid-lab: error: {other} is at 999 particles per metre where {small} is at 204: an \
+         ensemble is of runs of one input"
+    );
+    assert_refused(
+        &run_lab(&["chaos", "check", small, &member, &other]),
+        1,
+        &said,
+    );
+    // One input under two names, measured as two.
+    let alias = at("alias.fld");
+    std::os::unix::fs::symlink(small, &alias).unwrap();
+    let csv = at("sweep.csv");
+    let args = [
+        "sweep",
+        "--iterations",
+        "0",
+        "--output",
+        &csv,
+        "--",
+        small,
+        &alias,
+    ];
+    let said = format!("fluid-lab: error: {small} and {alias} are one file: give each input once");
+    assert_refused(&run_lab(&args), 2, &said);
+    assert!(!Path::new(&csv).exists());
+}

@@ -332,8 +332,9 @@ fn names_a_folder(path: &Path) -> bool {
 }
 
 /// The file that writing `path` writes: its symbolic links followed (at most 40, as
-/// Linux does), to a target that may not exist yet; `None` for a loop.
-fn resolve_links(path: &Path) -> Option<PathBuf> {
+/// Linux does), to a target that may not exist yet; `None` for a loop. Two outputs are
+/// one file where these are one.
+pub fn resolve_links(path: &Path) -> Option<PathBuf> {
     if let Ok(existing) = std::fs::canonicalize(path) {
         return Some(existing);
     }

@@ -126,22 +126,35 @@ fn check(args: CheckArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Error>>
             .into());
         }
     }
-    let statistics = |path: &PathBuf| -> Result<(usize, Statistics), Box<dyn Error>> {
+    let statistics = |path: &PathBuf| -> Result<(fld::Header, Statistics), Box<dyn Error>> {
         let (bytes, name) = (read(path)?, path.display().to_string());
-        let particles = (fld::validate(&bytes, &name).map_err(|error| error.naming(path)))?;
-        Ok((particles.particles, Statistics::of_file(&bytes, &name)?))
+        let header = (fld::validate(&bytes, &name).map_err(|error| error.naming(path)))?;
+        Ok((header, Statistics::of_file(&bytes, &name)?))
     };
-    let (count, candidate) = statistics(&args.candidate)?;
+    let (ours, candidate) = statistics(&args.candidate)?;
     let mut ensemble = Vec::new();
     for path in &args.ensemble {
-        let (particles, member) = statistics(path)?;
-        // An ensemble is of states of one scene: runs of one input and its copies.
+        let (theirs, member) = statistics(path)?;
+        // An ensemble is of states of one scene: runs of one input and its copies, of
+        // its particles at its resolution.
+        let (count, particles) = (ours.particles, theirs.particles);
         if particles != count {
             return Err(format!(
                 "{} holds {particles} particles where {} holds {count}: an ensemble is of \
                  runs of one input",
                 path.display(),
                 args.candidate.display()
+            )
+            .into());
+        }
+        if theirs.ppm != ours.ppm {
+            return Err(format!(
+                "{} is at {} particles per metre where {} is at {}: an ensemble is of runs \
+                 of one input",
+                path.display(),
+                theirs.ppm,
+                args.candidate.display(),
+                ours.ppm
             )
             .into());
         }

@@ -165,9 +165,11 @@ pub fn through_missing_folders(path: &Path) -> PathBuf {
     out
 }
 
-/// `path` with its folder resolved (symbolic links, `..`), or `None` if it has none.
+/// `path` with its symbolic links followed and its folder resolved (`..`), or `None` if
+/// it has none (or its links loop).
 fn resolved(path: &Path) -> Option<std::path::PathBuf> {
-    let path = &through_missing_folders(path);
+    // Through its symbolic links: a link to a file not there yet names that file.
+    let path = &through_missing_folders(&crate::io::output::resolve_links(path)?);
     let folder = match path.parent() {
         Some(folder) if !folder.as_os_str().is_empty() => folder,
         _ => Path::new("."),

@@ -87,6 +87,20 @@ impl SweepArgs {
             ))
             .into());
         }
+        // One file under two names (a link) would be measured as two inputs.
+        for (index, input) in self.inputs.iter().enumerate() {
+            if let Some(other) = self.inputs[..index]
+                .iter()
+                .find(|other| same_file(other, input))
+            {
+                return Err(UsageError(format!(
+                    "{} and {} are one file: give each input once",
+                    other.display(),
+                    input.display()
+                ))
+                .into());
+            }
+        }
         // A count named twice would measure its point twice under one key.
         if super::repeats(&self.iterations) {
             return Err(UsageError("--iterations names each value once".into()).into());
