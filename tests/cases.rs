@@ -1862,12 +1862,21 @@ fn a_resumed_run_keeps_its_gauges_readings_and_their_schedule() {
         all.extend(args.iter().map(std::ffi::OsStr::new));
         let output = run_lab(&all);
         assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+        output
+    };
+    // The lists built by a run, as its timing line counts them.
+    let builds = |output: &std::process::Output| -> u64 {
+        let line = stdout(output);
+        let field = line
+            .split_whitespace()
+            .find_map(|f| f.strip_prefix("list_builds="));
+        field.expect("a count of list builds").parse().unwrap()
     };
     std::fs::write(&path, case("whole")).unwrap();
-    run(&["--steps", "30"]);
+    let uninterrupted = builds(&run(&["--steps", "30"]));
     std::fs::write(&path, case("first")).unwrap();
     let ck = checkpoint.to_str().unwrap();
-    run(&[
+    let before = run(&[
         "--steps",
         "17",
         "--checkpoint-every",
@@ -1877,6 +1886,10 @@ fn a_resumed_run_keeps_its_gauges_readings_and_their_schedule() {
     ]);
     let output = run_lab(&["run", "--resume", ck, "--steps", "30"]);
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
+    // Each part counts its own builds (the thirteenth hostile pass: the resumed part
+    // counted the first's again).
+    assert!(builds(&before) > 0);
+    assert_eq!(builds(&before) + builds(&output), uninterrupted);
     let rows = |folder: &str| -> Vec<String> {
         let csv = std::fs::read_to_string(dir.path().join(folder).join("gauges.csv")).unwrap();
         csv.lines().map(String::from).collect()
@@ -1899,6 +1912,13 @@ fn a_resumed_run_keeps_its_gauges_readings_and_their_schedule() {
     assert_eq!(exit_code(&output), 0, "{}", stderr(&output));
     assert_eq!(stderr(&output), "");
     assert_eq!(rows("first"), whole);
+    assert!(
+        stdout(&output).contains(" steps=0 ")
+            && stdout(&output).contains(" ns_per_particle_step=0.000 "),
+        "{}",
+        stdout(&output)
+    );
+    assert_eq!(builds(&output), 0);
 }
 
 #[test]

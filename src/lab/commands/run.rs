@@ -265,7 +265,7 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
         }
         _ => None,
     };
-    let mut first = 1;
+    let (mut first, mut builds_before) = (1, 0);
     // A case's CRC is its text's (the bytes of its file, or those a checkpoint kept).
     let case_text = args.simulation.case_text.clone();
     let input_crc = match (
@@ -302,6 +302,9 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
                 .map_err(|error| format!("{}: {error}", path.display()))?;
         }
         simulation = Simulation::resume(checkpoint.state).map_err(|error| error.to_string())?;
+        // The timing line counts this run's part alone: its steps, seconds and list
+        // builds, not those before the checkpoint.
+        builds_before = simulation.skin().map_or(0, Skin::builds);
         if let Some(interval) = interval {
             gauges.resume_schedule(&simulation, interval);
         }
@@ -394,10 +397,13 @@ pub fn exec(mut args: RunArgs, stdout: &mut impl Write) -> Result<(), Box<dyn Er
     let particles = simulation.particles().len();
     let run = step + 1 - first;
     let seconds = seconds + gauge_seconds;
-    let per_particle_step = seconds / (run.max(1) as f64 * particles as f64);
+    let per_particle_step = match run {
+        0 => 0.0,
+        run => seconds / (run as f64 * particles as f64),
+    };
     let simulated = simulation.time() - start_time;
     let mut builds = simulation.skin().map_or(String::new(), |skin| {
-        format!(" list_builds={}", skin.builds())
+        format!(" list_builds={}", skin.builds() - builds_before)
     });
     if gauges_file.is_some() {
         builds.push_str(&format!(" gauge_seconds={gauge_seconds:.6}"));
