@@ -5,7 +5,6 @@
 use super::simulation_args::{self, parse_courants, Courants, SimulationArgs, MOST_STEPS_TO_GO};
 use crate::io::fld;
 use crate::io::gformat::format_g;
-use crate::io::input::read_regular;
 use crate::io::output::OutputFile;
 use crate::lab::accuracy::{
     self, Candidate, Convergence, Errors, Metric, Observed, Run, SceneId, Sweep,
@@ -254,10 +253,10 @@ impl AccuracyArgs {
                     model: self.model(),
                     kernel: Kernel::NATIVE,
                 };
-                let scene = fld::read(input).map_err(|error| error.naming(input))?;
+                // Read once: the scene and the CRC-32 of its bytes.
+                let bytes = fld::map_input(input)?;
+                let scene = fld::parse(&bytes, input).map_err(|error| error.naming(input))?;
                 let simulation = scene.into_simulation(method, &input.display().to_string())?;
-                let bytes = read_regular(input)
-                    .map_err(|error| format!("cannot read {}: {error}", input.display()))?;
                 (simulation, input, crc32fast::hash(&bytes))
             }
         };
